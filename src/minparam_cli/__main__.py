@@ -1,0 +1,3 @@
+from minparam_cli.cli.app import main
+
+raise SystemExit(main())

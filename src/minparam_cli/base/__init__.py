@@ -1,0 +1,1 @@
+"""Base parameter sets: the result record and the routes that produce it."""

@@ -1,0 +1,320 @@
+"""The one kinematic chain model every stage uses.
+
+Every joint j moves link j, and link j's frame is
+
+    F_j = F_parent(j) · Pre_j · Motion_j(q_j) · Post_j
+
+where Motion is a rotation about (revolute) or a translation along
+(prismatic) the unit ``axis_j``, expressed in the frame F_parent · Pre_j.
+
+* URDF joint: Pre = (lumped fixed transforms) · origin, Post = identity.
+* MDH row (Craig/Khalil, Rx(α)·Tx(a)·Rz(θ)·Tz(d)): Pre = Rx(α)Tx(a)Rz(θ0)Tz(d0), Post = I.
+* DH row (Rz(θ)·Tz(d)·Tx(a)·Rx(α)): revolute Pre = I, Post = Rz(θ0)Tz(d)Tx(a)Rx(α);
+  prismatic Pre = Rz(θ0), Post = Tz(d0)Tx(a)Rx(α).
+
+So a DH row is a special case of a URDF joint with a constant transform after
+the motion.  The chain is frozen; ``build_chain`` is the only builder.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from fractions import Fraction
+
+import numpy as np
+
+from minparam_cli.describe.records import GeomValue, RobotDescription
+from minparam_cli.params import ParamLayout
+
+REVOLUTE, PRISMATIC = "revolute", "prismatic"
+
+
+@dataclass(frozen=True, eq=False)
+class Chain:
+    name: str
+    source: str
+    convention: str
+    joint_names: tuple[str, ...]
+    link_names: tuple[str, ...]
+    types: tuple[str, ...]
+    parents: tuple[int, ...]
+    pre: np.ndarray  # (n, 4, 4)
+    axes: np.ndarray  # (n, 3) unit, in the frame F_parent·Pre
+    post: np.ndarray  # (n, 4, 4)
+    gravity: np.ndarray  # (3,) in the base frame, m/s^2
+    gravity_source: str
+    layout: ParamLayout
+    phi_nominal: np.ndarray | None = None  # standard inertial params (10 n) if every link has them
+    limits: tuple[tuple[float, float] | None, ...] = ()
+    tool: np.ndarray | None = None
+    # exact rational versions of pre, axes, post (nested tuples of Fraction) when available
+    exact: tuple | None = field(default=None, repr=False)
+    length_scale: float = 1.0
+
+    @property
+    def n(self) -> int:
+        return len(self.types)
+
+    @property
+    def revolute(self) -> np.ndarray:
+        return np.array([t == REVOLUTE for t in self.types])
+
+    def children(self, j: int) -> tuple[int, ...]:
+        return tuple(k for k, p in enumerate(self.parents) if p == j)
+
+    def subtree(self, j: int) -> tuple[int, ...]:
+        """Joints whose link is carried by joint j (j included), in chain order."""
+        out = [j]
+        for k in range(j + 1, self.n):
+            if self.parents[k] in out:
+                out.append(k)
+        return tuple(out)
+
+    def ancestors(self, j: int) -> tuple[int, ...]:
+        """Joints from the root to j (j included), root first."""
+        path = []
+        k = j
+        while k >= 0:
+            path.append(k)
+            k = self.parents[k]
+        return tuple(reversed(path))
+
+    def with_extras(self, extras: tuple[tuple[str, ...], ...]) -> "Chain":
+        from dataclasses import replace
+
+        return replace(self, layout=ParamLayout(self.n, extras))
+
+
+# --- elementary transforms, generic over float and Fraction entries ---------
+
+
+def _eye(one, zero):
+    return [[one if i == k else zero for k in range(4)] for i in range(4)]
+
+
+def _rot(axis: int, c, s, one, zero):
+    m = _eye(one, zero)
+    i, k = [(1, 2), (2, 0), (0, 1)][axis]
+    m[i][i], m[i][k], m[k][i], m[k][k] = c, -s, s, c
+    return m
+
+
+def _trans(v, one, zero):
+    m = _eye(one, zero)
+    for i in range(3):
+        m[i][3] = v[i]
+    return m
+
+
+def _mul(a, b, zero):
+    return [[sum((a[i][k] * b[k][j] for k in range(4)), zero) for j in range(4)] for i in range(4)]
+
+
+def _chain_mul(mats, one, zero):
+    out = _eye(one, zero)
+    for m in mats:
+        out = _mul(out, m, zero)
+    return out
+
+
+def exact_cos_sin(deg: Fraction) -> tuple[Fraction, Fraction] | None:
+    """cos and sin of an angle in degrees, when both are rational (multiples of 90 deg)."""
+    if deg.denominator != 1 or deg.numerator % 90:
+        return None
+    return [(Fraction(1), Fraction(0)), (Fraction(0), Fraction(1)), (Fraction(-1), Fraction(0)), (Fraction(0), Fraction(-1))][
+        (deg.numerator // 90) % 4
+    ]
+
+
+class _Num:
+    """Accessors turning GeomValues into float or exact numbers."""
+
+    def __init__(self, exact: bool, values: dict[str, float] | None):
+        self.exact = exact
+        self.values = values or {}
+        self.one = Fraction(1) if exact else 1.0
+        self.zero = Fraction(0) if exact else 0.0
+
+    def length(self, g: GeomValue):
+        if g.symbol in self.values:
+            return self.values[g.symbol]
+        if self.exact:
+            if g.exact is None:
+                raise _NotExact
+            return g.exact
+        return g.value
+
+    def cos_sin(self, g: GeomValue):
+        if g.symbol in self.values:
+            v = self.values[g.symbol]
+            return np.cos(v), np.sin(v)
+        if self.exact:
+            cs = exact_cos_sin(g.exact) if g.exact is not None else None
+            if cs is None:
+                raise _NotExact
+            return cs
+        return np.cos(g.value), np.sin(g.value)
+
+
+class _NotExact(Exception):
+    pass
+
+
+def _joint_matrices(desc: RobotDescription, num: _Num):
+    """(pre, axis, post) per joint in the arithmetic of ``num``."""
+    one, zero = num.one, num.zero
+    out = []
+    for jr in desc.joints:
+        if jr.dh is not None:
+            al_c, al_s = num.cos_sin(jr.dh["alpha"])
+            th_c, th_s = num.cos_sin(jr.dh["theta"])
+            a = num.length(jr.dh["a"])
+            d = num.length(jr.dh["d"])
+            Rx = _rot(0, al_c, al_s, one, zero)
+            Rz = _rot(2, th_c, th_s, one, zero)
+            Tx = _trans((a, zero, zero), one, zero)
+            Tz = _trans((zero, zero, d), one, zero)
+            axis = (zero, zero, one)
+            if desc.convention == "mdh":
+                pre, post = _chain_mul([Rx, Tx, Rz, Tz], one, zero), _eye(one, zero)
+            elif jr.type == REVOLUTE:
+                pre, post = _eye(one, zero), _chain_mul([Rz, Tz, Tx, Rx], one, zero)
+            else:
+                pre, post = Rz, _chain_mul([Tz, Tx, Rx], one, zero)
+        else:
+            o = jr.origin
+            xyz = [num.length(o[k]) for k in ("x", "y", "z")]
+            rc, rs = num.cos_sin(o["roll"])
+            pc, ps = num.cos_sin(o["pitch"])
+            yc, ys = num.cos_sin(o["yaw"])
+            origin = _chain_mul(
+                [_trans(xyz, one, zero), _rot(2, yc, ys, one, zero), _rot(1, pc, ps, one, zero), _rot(0, rc, rs, one, zero)],
+                one,
+                zero,
+            )
+            fixed = jr.pre_fixed
+            if fixed is not None:
+                if num.exact:
+                    raise _NotExact
+                origin = _mul([list(r) for r in fixed], origin, zero)
+            pre, post = origin, _eye(one, zero)
+            if num.exact:
+                ax = []
+                for c in jr.axis:
+                    if c not in (0.0, 1.0, -1.0):
+                        raise _NotExact
+                    ax.append(Fraction(int(c)))
+                axis = tuple(ax)
+            else:
+                axis = tuple(jr.axis)
+        out.append((pre, axis, post))
+    return out
+
+
+def _inertial_to_standard(inertial) -> np.ndarray:
+    """Mass, CoM, inertia about CoM -> Khalil's 10 standard parameters about the frame origin."""
+    m = inertial.mass
+    c = np.asarray(inertial.com, dtype=float)
+    ixx, ixy, ixz, iyy, iyz, izz = inertial.inertia
+    Ic = np.array([[ixx, ixy, ixz], [ixy, iyy, iyz], [ixz, iyz, izz]])
+    Io = Ic + m * (c @ c * np.eye(3) - np.outer(c, c))
+    return np.array([Io[0, 0], Io[0, 1], Io[0, 2], Io[1, 1], Io[1, 2], Io[2, 2], *(m * c), m])
+
+
+def build_chain(
+    desc: RobotDescription,
+    values: dict[str, float] | None = None,
+    extras: tuple[tuple[str, ...], ...] | None = None,
+) -> Chain:
+    """Turn any description into the frozen chain.
+
+    ``values`` overrides geometric values by symbol name (SI units), e.g. to
+    rebuild the robot at another geometry.  ``extras`` overrides the extras
+    declared in the file, per joint.
+    """
+    num = _Num(False, values)
+    mats = _joint_matrices(desc, num)
+    pre = np.array([np.array(p, dtype=float) for p, _, _ in mats])
+    axes = np.array([np.array(a, dtype=float) for _, a, _ in mats])
+    axes /= np.linalg.norm(axes, axis=1)[:, None]
+    post = np.array([np.array(p, dtype=float) for _, _, p in mats])
+    exact = None
+    if not values:
+        try:
+            emats = _joint_matrices(desc, _Num(True, None))
+            exact = tuple(
+                (tuple(tuple(r) for r in p), tuple(a), tuple(tuple(r) for r in q)) for p, a, q in emats
+            )
+        except _NotExact:
+            exact = None
+    if extras is None:
+        extras = tuple(j.extras for j in desc.joints)
+    phi = None
+    if all(j.inertial is not None for j in desc.joints):
+        phi = np.concatenate([_inertial_to_standard(j.inertial) for j in desc.joints])
+    lengths = [abs(x) for x in np.concatenate([pre[:, :3, 3].ravel(), post[:, :3, 3].ravel()]) if abs(x) > 0]
+    return Chain(
+        name=desc.name,
+        source=desc.source,
+        convention=desc.convention,
+        joint_names=tuple(j.name for j in desc.joints),
+        link_names=tuple(j.link_name for j in desc.joints),
+        types=tuple(j.type for j in desc.joints),
+        parents=tuple(j.parent for j in desc.joints),
+        pre=pre,
+        axes=axes,
+        post=post,
+        gravity=np.asarray(desc.gravity, dtype=float),
+        gravity_source=desc.gravity_source,
+        layout=ParamLayout(desc.dof, tuple(tuple(e) for e in extras)),
+        phi_nominal=phi,
+        limits=tuple(j.limits for j in desc.joints),
+        tool=None if desc.tool is None else np.asarray(desc.tool, dtype=float),
+        exact=exact,
+        length_scale=float(max(lengths)) if lengths else 1.0,
+    )
+
+
+def motion(kind: str, axis: np.ndarray, q: np.ndarray) -> np.ndarray:
+    """4x4 joint motion transforms for a batch of joint values q (N,) -> (N, 4, 4)."""
+    q = np.asarray(q, dtype=float)
+    N = q.shape[0]
+    T = np.zeros((N, 4, 4))
+    T[:, 3, 3] = 1.0
+    if kind == REVOLUTE:
+        T[:, :3, :3] = rotation_about(axis, q)
+    else:
+        T[:, :3, :3] = np.eye(3)
+        T[:, :3, 3] = q[:, None] * axis[None, :]
+    return T
+
+
+def rotation_about(axis: np.ndarray, q: np.ndarray) -> np.ndarray:
+    """Rodrigues' formula, batched: (N,) angles -> (N, 3, 3)."""
+    k = np.asarray(axis, dtype=float)
+    K = np.array([[0, -k[2], k[1]], [k[2], 0, -k[0]], [-k[1], k[0], 0]])
+    c, s = np.cos(q)[:, None, None], np.sin(q)[:, None, None]
+    return np.eye(3) + s * K + (1 - c) * (K @ K)
+
+
+def forward_kinematics(chain: Chain, q: np.ndarray):
+    """World poses of every link frame and joint axis for a batch of q.
+
+    q: (N, n).  Returns (T, z, o): T (N, n, 4, 4) link frames in the base frame,
+    z (N, n, 3) joint axes and o (N, n, 3) points on them, in the base frame.
+    """
+    q = np.atleast_2d(np.asarray(q, dtype=float))
+    N, n = q.shape
+    if n != chain.n:
+        raise ValueError(f"expected q with {chain.n} columns, got {n}")
+    T = np.empty((N, n, 4, 4))
+    z = np.empty((N, n, 3))
+    o = np.empty((N, n, 3))
+    base = np.broadcast_to(np.eye(4), (N, 4, 4))
+    for j in range(n):
+        P = base if chain.parents[j] < 0 else T[:, chain.parents[j]]
+        F = P @ chain.pre[j]
+        z[:, j] = F[:, :3, :3] @ chain.axes[j]
+        o[:, j] = F[:, :3, 3]
+        T[:, j] = F @ motion(chain.types[j], chain.axes[j], q[:, j]) @ chain.post[j]
+    return T, z, o

@@ -1,0 +1,1 @@
+"""Command-line interface: one typer module per command, joined in app.py."""

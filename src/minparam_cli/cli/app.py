@@ -1,0 +1,55 @@
+"""The ``minparam`` command: joins one typer module per command."""
+
+from __future__ import annotations
+
+import typer
+
+from minparam_cli import __version__
+
+app = typer.Typer(
+    name="minparam",
+    help="Base inertial parameters, identification and kinematics of robot arms from DH/MDH tables or URDF.",
+    no_args_is_help=True,
+    add_completion=False,
+    pretty_exceptions_enable=False,
+    context_settings={"help_option_names": ["-h", "--help"]},
+)
+
+
+def _version(value: bool):
+    if value:
+        print(f"minparam {__version__}")
+        raise typer.Exit(0)
+
+
+@app.callback()
+def _root(
+    version: bool = typer.Option(False, "--version", callback=_version, is_eager=True, help="Print the version and exit."),
+):
+    """minparam: base parameters, identification, singularities and platforms."""
+
+
+def _register() -> None:
+    from minparam_cli.cli import check, derive
+
+    app.command(name="derive", help=derive.HELP, epilog=derive.EPILOG)(derive.derive)
+    app.command(name="check", help=check.HELP, epilog=check.EPILOG)(check.check)
+    for optional in ("platform", "singular", "identify", "simulate"):
+        try:
+            module = __import__(f"minparam_cli.cli.{optional}", fromlist=["register"])
+        except ModuleNotFoundError as e:
+            if e.name != f"minparam_cli.cli.{optional}":
+                raise
+            continue
+        module.register(app)
+
+
+_register()
+
+
+def main() -> int:
+    try:
+        app(standalone_mode=True)
+    except SystemExit as e:
+        return int(e.code or 0) if not isinstance(e.code, str) else 1
+    return 0

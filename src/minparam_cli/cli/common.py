@@ -1,0 +1,135 @@
+"""What every command shares: error mapping, atomic output, progress on stderr."""
+
+from __future__ import annotations
+
+import functools
+import os
+import sys
+import tempfile
+import time
+from enum import Enum
+from pathlib import Path
+from typing import Callable
+
+import typer
+
+from minparam_cli.errors import MinparamError
+
+
+class Format(str, Enum):
+    table = "table"
+    markdown = "markdown"
+    latex = "latex"
+    json = "json"
+    jsonl = "jsonl"
+
+
+def error_line(message: str) -> None:
+    """Print one error line on stderr (never a traceback)."""
+    text = " ".join(str(message).split())
+    print(f"minparam: error: {text}", file=sys.stderr)
+
+
+def guarded(fn: Callable) -> Callable:
+    """Run a command body, mapping MinparamError to its exit code with one line on stderr.
+
+    Exit codes: 0 success, 1 failed computation, 2 bad input.  An unexpected
+    exception is reported in one line (exit 1); set MINPARAM_DEBUG=1 for the traceback.
+    """
+
+    @functools.wraps(fn)
+    def wrapper(*args, **kwargs):
+        try:
+            return fn(*args, **kwargs)
+        except typer.Exit:
+            raise
+        except MinparamError as e:
+            error_line(str(e))
+            raise typer.Exit(e.exit_code) from None
+        except KeyboardInterrupt:
+            error_line("interrupted")
+            raise typer.Exit(130) from None
+        except MemoryError:
+            error_line("out of memory; try fewer samples or --method qr")
+            raise typer.Exit(1) from None
+        except Exception as e:  # noqa: BLE001 - the CLI must never print a traceback
+            if os.environ.get("MINPARAM_DEBUG"):
+                raise
+            error_line(f"internal error: {type(e).__name__}: {e} (set MINPARAM_DEBUG=1 for details)")
+            raise typer.Exit(1) from None
+
+    return wrapper
+
+
+def write_output(text: str, output: Path | None) -> None:
+    """Write to stdout, or atomically to ``output`` (temporary file, then rename)."""
+    if output is None:
+        sys.stdout.write(text if text.endswith("\n") else text + "\n")
+        sys.stdout.flush()
+        return
+    output = Path(output)
+    directory = output.parent if str(output.parent) else Path(".")
+    if not directory.is_dir():
+        from minparam_cli.errors import InputError
+
+        raise InputError(f"{output}: output folder {directory} does not exist")
+    fd, tmp = tempfile.mkstemp(prefix=f".{output.name}.", suffix=".tmp", dir=directory)
+    try:
+        with os.fdopen(fd, "w", encoding="utf-8") as fh:
+            fh.write(text if text.endswith("\n") else text + "\n")
+        os.replace(tmp, output)
+    except BaseException:
+        try:
+            os.unlink(tmp)
+        except OSError:
+            pass
+        raise
+
+
+class Progress:
+    """A minimal progress bar on stderr.
+
+    Silent when ``quiet``, when stderr is not a terminal, or until ``delay``
+    seconds have passed (short runs print nothing).
+    """
+
+    def __init__(self, total: int, label: str, quiet: bool = False, delay: float = 1.0):
+        self.total = max(int(total), 1)
+        self.label = label
+        self.enabled = not quiet and sys.stderr.isatty()
+        self.start = time.perf_counter()
+        self.delay = delay
+        self.done = 0
+        self.shown = False
+
+    def __call__(self, done: int, total: int | None = None) -> None:
+        if total is not None:
+            self.total = max(int(total), 1)
+        self.done = done
+        if not self.enabled:
+            return
+        elapsed = time.perf_counter() - self.start
+        if elapsed < self.delay and done < self.total:
+            return
+        frac = min(done / self.total, 1.0)
+        width = 30
+        bar = "#" * int(frac * width) + "-" * (width - int(frac * width))
+        sys.stderr.write(f"\r{self.label} [{bar}] {done}/{self.total} {elapsed:5.1f}s")
+        sys.stderr.flush()
+        self.shown = True
+
+    def close(self) -> None:
+        if self.shown:
+            sys.stderr.write("\n")
+            sys.stderr.flush()
+
+
+def parse_floats(text: str, n: int | None, what: str) -> tuple[float, ...]:
+    """'0,0,-9.81' -> floats, with a BadParameter naming the option on failure."""
+    try:
+        vals = tuple(float(x) for x in text.replace(" ", "").split(",") if x != "")
+    except ValueError:
+        raise typer.BadParameter(f"expected comma-separated numbers, got {text!r}", param_hint=what) from None
+    if n is not None and len(vals) != n:
+        raise typer.BadParameter(f"expected {n} comma-separated numbers, got {len(vals)}", param_hint=what)
+    return vals

@@ -1,0 +1,90 @@
+"""Plain records produced by the loaders: units resolved to SI, symbols kept.
+
+A loader turns a file into a :class:`RobotDescription`; ``chain.build_chain``
+turns any description into the one kinematic chain every stage uses.  The
+records carry no behaviour beyond small conveniences.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from fractions import Fraction
+
+
+@dataclass(frozen=True)
+class GeomValue:
+    """One geometric value of a description.
+
+    ``value`` is in SI (m or rad).  ``exact`` is the same value as a Fraction
+    when the file gives it exactly: metres for lengths, *degrees* for angles
+    (so that 90 deg is exact).  ``symbol`` is the name the symbolic stage
+    prints; ``named`` says whether the file chose it.
+    """
+
+    value: float
+    symbol: str
+    is_angle: bool = False
+    exact: Fraction | None = None
+    named: bool = False
+
+
+@dataclass(frozen=True)
+class Inertial:
+    """Nominal inertial data of one link, in its link frame, SI units.
+
+    ``inertia`` is the tensor about the centre of mass as
+    (ixx, ixy, ixz, iyy, iyz, izz), tensor entries (ixy = -sum m x y).
+    """
+
+    mass: float
+    com: tuple[float, float, float]
+    inertia: tuple[float, float, float, float, float, float]
+
+
+@dataclass(frozen=True)
+class JointRecord:
+    """One actuated joint and the link it moves.
+
+    DH/MDH joints keep their four parameters in ``dh`` (keys alpha, a, d,
+    theta).  URDF joints keep their origin in ``origin`` (keys x, y, z, roll,
+    pitch, yaw) plus the lumped fixed transforms before it in ``pre_fixed``
+    (a 4x4 nested tuple) and the axis.
+    """
+
+    name: str
+    type: str  # "revolute" | "prismatic"
+    parent: int  # index of the parent joint, -1 for the base
+    link_name: str = ""
+    dh: dict[str, GeomValue] | None = None
+    origin: dict[str, GeomValue] | None = None
+    pre_fixed: tuple[tuple[float, ...], ...] | None = None
+    axis: tuple[float, float, float] = (0.0, 0.0, 1.0)
+    extras: tuple[str, ...] = ()
+    inertial: Inertial | None = None
+    limits: tuple[float, float] | None = None
+
+
+@dataclass(frozen=True)
+class RobotDescription:
+    name: str
+    source: str
+    convention: str  # "dh" | "mdh" | "urdf"
+    joints: tuple[JointRecord, ...]
+    gravity: tuple[float, float, float] = (0.0, 0.0, -9.81)
+    gravity_source: str = "default"  # "file" | "default" | "cli"
+    units: dict[str, str] = field(default_factory=lambda: {"length": "m", "angle": "rad"})
+    tool: tuple[float, float, float] | None = None
+
+    @property
+    def dof(self) -> int:
+        return len(self.joints)
+
+    def geometry(self) -> dict[str, GeomValue]:
+        """Every geometric value by symbol name, in joint order."""
+        out: dict[str, GeomValue] = {}
+        for j in self.joints:
+            for table in (j.dh, j.origin):
+                if table:
+                    for gv in table.values():
+                        out[gv.symbol] = gv
+        return out

@@ -1,0 +1,236 @@
+"""YAML DH/MDH robot tables -> RobotDescription.
+
+Schema (docs/yaml-schema.md has the full page)::
+
+    name: PUMA 560
+    convention: dh            # dh: Rz(theta) Tz(d) Tx(a) Rx(alpha); mdh: Rx(alpha) Tx(a) Rz(theta) Tz(d)
+    units: {length: mm, angle: deg}
+    gravity: [0, 0, -9.81]    # m/s^2, optional
+    friction: [coulomb, viscous]   # optional, whole robot
+    rotor_inertia: true            # optional, whole robot
+    tool: [0, 0, 0.1]              # optional tool point in the last link frame (length unit)
+    joints:
+      - {name: j1, type: revolute, alpha: -90, a: 0, d: 0, theta: 0}
+      - {type: revolute, alpha: 0, a: {symbol: a2, value: 431.8}, d: 150, theta: 0,
+         friction: [viscous], rotor_inertia: false, limits: [-160, 160],
+         inertial: {mass: 17.4, com: [-363.8, 6, 77.4], inertia: [0.13, 0, 0, 0.524, 0, 0.539]}}
+"""
+
+from __future__ import annotations
+
+import math
+import re
+from fractions import Fraction
+from pathlib import Path
+from typing import Any
+
+from minparam_cli.describe.records import GeomValue, Inertial, JointRecord, RobotDescription
+from minparam_cli.describe.safety import MAX_JOINTS, read_bounded
+from minparam_cli.errors import DescriptionError
+from minparam_cli.params import FRICTION_KINDS
+
+LENGTH_UNITS = {"m": Fraction(1), "mm": Fraction(1, 1000)}
+ANGLE_UNITS = ("deg", "rad")
+CONVENTIONS = ("dh", "mdh")
+JOINT_TYPES = ("revolute", "prismatic")
+TOP_KEYS = {"name", "convention", "units", "gravity", "friction", "rotor_inertia", "tool", "joints", "description"}
+JOINT_KEYS = {"name", "type", "alpha", "a", "d", "theta", "friction", "rotor_inertia", "limits", "inertial"}
+_PI_RE = re.compile(r"^\s*([+-]?(?:\d+(?:\.\d*)?|\.\d+)?)\s*\*?\s*pi\s*(?:/\s*(\d+(?:\.\d*)?))?\s*$")
+
+
+def load_yaml(path: Path) -> RobotDescription:
+    import yaml
+
+    src = str(path)
+    data = read_bounded(path)
+    try:
+        doc = yaml.safe_load(data)
+    except yaml.YAMLError as e:
+        mark = getattr(e, "problem_mark", None)
+        where = f" at line {mark.line + 1}" if mark is not None else ""
+        problem = getattr(e, "problem", None) or str(e).splitlines()[0]
+        raise DescriptionError(f"malformed YAML{where} ({problem})", src) from e
+    return description_from_mapping(doc, src)
+
+
+def description_from_mapping(doc: Any, src: str) -> RobotDescription:
+    """Validate a parsed YAML document and build the description record."""
+    if not isinstance(doc, dict):
+        raise DescriptionError("expected a mapping with 'name', 'convention' and 'joints'", src)
+    unknown = set(doc) - TOP_KEYS
+    if unknown:
+        raise DescriptionError(f"unknown key(s) {sorted(map(str, unknown))}", src)
+    for key in ("convention", "joints"):
+        if key not in doc:
+            raise DescriptionError(f"missing required field '{key}'", src)
+    name = str(doc.get("name") or Path(src).stem)
+    convention = doc["convention"]
+    if convention not in CONVENTIONS:
+        raise DescriptionError(f"unknown convention {convention!r}; expected 'dh' or 'mdh'", src, "convention")
+
+    units = doc.get("units") or {}
+    if not isinstance(units, dict):
+        raise DescriptionError("expected a mapping like {length: mm, angle: deg}", src, "units")
+    lu = units.get("length", "m")
+    au = units.get("angle", "rad")
+    if lu not in LENGTH_UNITS:
+        raise DescriptionError(f"unknown length unit {lu!r}; expected 'm' or 'mm'", src, "units.length")
+    if au not in ANGLE_UNITS:
+        raise DescriptionError(f"unknown angle unit {au!r}; expected 'deg' or 'rad'", src, "units.angle")
+    scale = LENGTH_UNITS[lu]
+
+    gravity = _vector(doc.get("gravity", [0.0, 0.0, -9.81]), src, "gravity")
+    robot_friction = _friction(doc.get("friction", []), src, "friction")
+    robot_rotor = _bool(doc.get("rotor_inertia", False), src, "rotor_inertia")
+    tool = None
+    if doc.get("tool") is not None:
+        tool = tuple(float(scale) * v for v in _vector(doc["tool"], src, "tool"))
+
+    joints_in = doc["joints"]
+    if not isinstance(joints_in, list) or not joints_in:
+        raise DescriptionError("expected a non-empty list of joints", src, "joints")
+    if len(joints_in) > MAX_JOINTS:
+        raise DescriptionError(f"{len(joints_in)} joints exceed the limit of {MAX_JOINTS}", src, "joints")
+
+    joints = []
+    for i, jd in enumerate(joints_in):
+        j = i + 1
+        where = f"joints[{j}]"
+        if not isinstance(jd, dict):
+            raise DescriptionError("expected a mapping with type, alpha, a, d, theta", src, where)
+        unknown = set(jd) - JOINT_KEYS
+        if unknown:
+            raise DescriptionError(f"unknown key(s) {sorted(map(str, unknown))}", src, where)
+        jtype = jd.get("type")
+        if jtype is None:
+            raise DescriptionError("missing required field 'type'", src, where)
+        if jtype not in JOINT_TYPES:
+            raise DescriptionError(f"unknown joint type {jtype!r}; expected revolute or prismatic", src, f"{where}.type")
+        dh = {}
+        for key in ("alpha", "a", "d", "theta"):
+            if key not in jd:
+                raise DescriptionError(f"missing required field '{key}'", src, where)
+            is_angle = key in ("alpha", "theta")
+            dh[key] = _geom(jd[key], key, j, is_angle, scale, au, src, f"{where}.{key}")
+        extras = set(robot_friction)
+        if "friction" in jd:
+            extras = set(_friction(jd["friction"], src, f"{where}.friction"))
+        rotor = _bool(jd.get("rotor_inertia", robot_rotor), src, f"{where}.rotor_inertia")
+        if rotor:
+            extras.add("rotor_inertia")
+        limits = None
+        if jd.get("limits") is not None:
+            lo, hi = _vector(jd["limits"], src, f"{where}.limits", n=2)
+            unit = (math.pi / 180 if au == "deg" else 1.0) if jtype == "revolute" else float(scale)
+            if not lo < hi:
+                raise DescriptionError(f"lower limit {lo} is not below upper limit {hi}", src, f"{where}.limits")
+            limits = (lo * unit, hi * unit)
+        inertial = _inertial(jd.get("inertial"), scale, src, f"{where}.inertial")
+        joints.append(
+            JointRecord(
+                name=str(jd.get("name", f"joint{j}")),
+                type=jtype,
+                parent=i - 1,
+                link_name=f"link{j}",
+                dh=dh,
+                extras=tuple(sorted(extras)),
+                inertial=inertial,
+                limits=limits,
+            )
+        )
+    return RobotDescription(
+        name=name,
+        source=src,
+        convention=convention,
+        joints=tuple(joints),
+        gravity=gravity,
+        gravity_source="file" if "gravity" in doc else "default",
+        units={"length": lu, "angle": au},
+        tool=tool,
+    )
+
+
+def _number(v: Any, src: str, where: str) -> float:
+    if isinstance(v, bool) or not isinstance(v, (int, float)):
+        raise DescriptionError(f"expected a number, got {v!r}", src, where)
+    if not math.isfinite(v):
+        raise DescriptionError(f"expected a finite number, got {v!r}", src, where)
+    return float(v)
+
+
+def _vector(v: Any, src: str, where: str, n: int = 3) -> tuple[float, ...]:
+    if not isinstance(v, (list, tuple)) or len(v) != n:
+        raise DescriptionError(f"expected a list of {n} numbers, got {v!r}", src, where)
+    return tuple(_number(x, src, where) for x in v)
+
+
+def _bool(v: Any, src: str, where: str) -> bool:
+    if not isinstance(v, bool):
+        raise DescriptionError(f"expected true or false, got {v!r}", src, where)
+    return v
+
+
+def _friction(v: Any, src: str, where: str) -> tuple[str, ...]:
+    if isinstance(v, str):
+        v = [s.strip() for s in v.split(",") if s.strip()]
+    if not isinstance(v, list):
+        raise DescriptionError(f"expected a list drawn from {list(FRICTION_KINDS)}", src, where)
+    for k in v:
+        if k not in FRICTION_KINDS:
+            raise DescriptionError(f"unknown friction kind {k!r}; expected any of {list(FRICTION_KINDS)}", src, where)
+    return tuple(v)
+
+
+def parse_angle(v: Any, unit: str, src: str, where: str) -> tuple[float, Fraction | None]:
+    """Angle -> (radians, exact degrees or None).  Accepts numbers and 'pi/2'-style strings."""
+    if isinstance(v, str):
+        m = _PI_RE.match(v)
+        if not m:
+            raise DescriptionError(f"expected a number or a multiple of pi like '-pi/2', got {v!r}", src, where)
+        coef = m.group(1)
+        num = Fraction(coef) if coef not in ("", "+", "-") else Fraction(-1 if coef == "-" else 1)
+        den = Fraction(m.group(2)) if m.group(2) else Fraction(1)
+        deg = num / den * 180
+        return float(deg) * math.pi / 180, deg
+    x = _number(v, src, where)
+    if unit == "deg":
+        return math.radians(x), Fraction(repr(x))
+    # radians given as a plain number: exact only when zero
+    return x, (Fraction(0) if x == 0 else None)
+
+
+def _geom(v: Any, key: str, j: int, is_angle: bool, scale: Fraction, au: str, src: str, where: str) -> GeomValue:
+    symbol = f"{key}{j}"
+    named = False
+    if isinstance(v, dict):
+        if set(v) - {"symbol", "value"} or "value" not in v:
+            raise DescriptionError("expected {symbol: NAME, value: NUMBER}", src, where)
+        if "symbol" in v:
+            symbol = str(v["symbol"])
+            if not re.match(r"^[A-Za-z_][A-Za-z0-9_]*$", symbol):
+                raise DescriptionError(f"symbol {symbol!r} is not a valid identifier", src, where)
+            named = True
+        v = v["value"]
+    if is_angle:
+        rad, deg = parse_angle(v, au, src, where)
+        return GeomValue(rad, symbol, True, deg, named)
+    x = _number(v, src, where)
+    exact = Fraction(repr(x)) * scale
+    return GeomValue(float(exact), symbol, False, exact, named)
+
+
+def _inertial(v: Any, scale: Fraction, src: str, where: str) -> Inertial | None:
+    if v is None:
+        return None
+    if not isinstance(v, dict):
+        raise DescriptionError("expected {mass, com, inertia}", src, where)
+    for key in ("mass", "com", "inertia"):
+        if key not in v:
+            raise DescriptionError(f"missing required field '{key}'", src, where)
+    mass = _number(v["mass"], src, f"{where}.mass")
+    if mass < 0:
+        raise DescriptionError(f"mass must be non-negative, got {mass}", src, f"{where}.mass")
+    com = tuple(float(scale) * c for c in _vector(v["com"], src, f"{where}.com"))
+    inertia = _vector(v["inertia"], src, f"{where}.inertia", n=6)
+    # inertia is given in kg*m^2 regardless of the length unit (documented)
+    return Inertial(mass, com, inertia)

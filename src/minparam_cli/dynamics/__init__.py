@@ -1,0 +1,1 @@
+"""Dynamics: the Newton–Euler regressor and Krutikov's projection matrix."""
