@@ -31,6 +31,12 @@ class DescriptionError(InputError):
         super().__init__(f"{prefix}: {message}" if prefix else message)
 
 
+class NotARobotError(DescriptionError):
+    """A valid file that describes something else (e.g. a parallel platform); batch runs skip it."""
+
+    skippable = True
+
+
 class DataError(InputError):
     """A measured-data file is malformed."""
 

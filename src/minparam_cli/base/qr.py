@@ -26,6 +26,17 @@ from minparam_cli.errors import ComputationError, InputError
 
 DEFAULT_SAMPLES = 100
 DEFAULT_SEED = 0
+# β is accurate to ~1e-13 relative; 12 significant digits drop only rounding noise (1 - 2e-16 -> 1)
+BETA_DIGITS = 12
+
+
+def _round_significant(x: np.ndarray, digits: int) -> np.ndarray:
+    out = np.zeros_like(x)
+    nz = x != 0
+    mag = np.floor(np.log10(np.abs(x[nz])))
+    scale = 10.0 ** (digits - 1 - mag)
+    out[nz] = np.round(x[nz] * scale) / scale
+    return out
 
 
 def stacked_regressor(chain: Chain, samples: int, rng: np.random.Generator) -> np.ndarray:
@@ -89,7 +100,7 @@ def derive_qr(chain: Chain, samples: int = DEFAULT_SAMPLES, seed: int = DEFAULT_
     beta_n, *_ = np.linalg.lstsq(Wn[:, kept], Wn[:, dropped], rcond=None)
     beta_n[np.abs(beta_n) < COEFFICIENT_CUTOFF] = 0.0
     scale_d = np.where(effect[dropped], norms[dropped], 0.0)
-    beta = beta_n / norms[kept][:, None] * scale_d[None, :]
+    beta = _round_significant(beta_n / norms[kept][:, None] * scale_d[None, :], BETA_DIGITS)
     K = regrouping_matrix(kept, beta, dropped, P)
 
     kept_r = r[kept]
@@ -104,6 +115,7 @@ def derive_qr(chain: Chain, samples: int = DEFAULT_SAMPLES, seed: int = DEFAULT_
         if rank_pivoted < len(diag)
         else [float(diag[-1] / diag[0]), None],
         "coefficient_cutoff": COEFFICIENT_CUTOFF,
+        "coefficient_digits": BETA_DIGITS,
         "rows": rows,
     }
     return BaseSet(

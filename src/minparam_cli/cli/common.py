@@ -41,8 +41,8 @@ def guarded(fn: Callable) -> Callable:
     def wrapper(*args, **kwargs):
         try:
             return fn(*args, **kwargs)
-        except typer.Exit:
-            raise
+        except (typer.Exit, typer.Abort, typer.TyperException):
+            raise  # click prints usage errors itself, with exit code 2
         except MinparamError as e:
             error_line(str(e))
             raise typer.Exit(e.exit_code) from None

@@ -26,14 +26,14 @@ from typing import Any
 
 from minparam_cli.describe.records import GeomValue, Inertial, JointRecord, RobotDescription
 from minparam_cli.describe.safety import MAX_JOINTS, read_bounded
-from minparam_cli.errors import DescriptionError
+from minparam_cli.errors import DescriptionError, NotARobotError
 from minparam_cli.params import FRICTION_KINDS
 
 LENGTH_UNITS = {"m": Fraction(1), "mm": Fraction(1, 1000)}
 ANGLE_UNITS = ("deg", "rad")
 CONVENTIONS = ("dh", "mdh")
 JOINT_TYPES = ("revolute", "prismatic")
-TOP_KEYS = {"name", "convention", "units", "gravity", "friction", "rotor_inertia", "tool", "joints", "description"}
+TOP_KEYS = {"kind", "name", "convention", "units", "gravity", "friction", "rotor_inertia", "tool", "joints", "description"}
 JOINT_KEYS = {"name", "type", "alpha", "a", "d", "theta", "friction", "rotor_inertia", "limits", "inertial"}
 _PI_RE = re.compile(r"^\s*([+-]?(?:\d+(?:\.\d*)?|\.\d+)?)\s*\*?\s*pi\s*(?:/\s*(\d+(?:\.\d*)?))?\s*$")
 
@@ -57,6 +57,10 @@ def description_from_mapping(doc: Any, src: str) -> RobotDescription:
     """Validate a parsed YAML document and build the description record."""
     if not isinstance(doc, dict):
         raise DescriptionError("expected a mapping with 'name', 'convention' and 'joints'", src)
+    if doc.get("kind", "robot") != "robot":
+        if doc.get("kind") == "platform":
+            raise NotARobotError("is a parallel-platform description; use 'minparam platform'", src)
+        raise DescriptionError(f"unknown kind {doc.get('kind')!r}; expected 'robot'", src, "kind")
     unknown = set(doc) - TOP_KEYS
     if unknown:
         raise DescriptionError(f"unknown key(s) {sorted(map(str, unknown))}", src)

@@ -1,0 +1,278 @@
+"""URDF -> RobotDescription (no meshes).
+
+* Parsed with yourdfpy for the structure (links, joints, types, axes, limits),
+  after a safe pre-parse with lxml that refuses DTDs and entities; the raw
+  attribute strings come from that same tree, so origins stay exact decimals
+  and missing inertial values are caught (yourdfpy would default ixx to 1.0).
+* revolute, continuous and prismatic joints are actuated; fixed joints are
+  lumped: the child link's inertia is added to the moving body it hangs on,
+  and joints further out get the fixed transform in front of their origin.
+* floating and planar joints, and mimic joints, are refused as not supported yet.
+* Trees are supported: joints are numbered depth-first from the root, in
+  document order, so a parent always comes before its children.
+"""
+
+from __future__ import annotations
+
+import io
+import logging
+import math
+import re
+from fractions import Fraction
+from pathlib import Path
+
+import numpy as np
+
+from minparam_cli.describe.records import GeomValue, Inertial, JointRecord, RobotDescription
+from minparam_cli.describe.safety import MAX_JOINTS, parse_xml_safely, read_bounded
+from minparam_cli.errors import DescriptionError, UnsupportedError
+
+ACTUATED = {"revolute": "revolute", "continuous": "revolute", "prismatic": "prismatic"}
+KNOWN_TYPES = set(ACTUATED) | {"fixed", "floating", "planar"}
+INERTIA_KEYS = ("ixx", "ixy", "ixz", "iyy", "iyz", "izz")
+
+
+def load_urdf(path: Path) -> RobotDescription:
+    src = str(path)
+    data = read_bounded(path)
+    root = parse_xml_safely(data, src)
+    if root.tag != "robot":
+        raise DescriptionError(f"root element is <{root.tag}>, expected <robot>", src)
+    links, joints = _read_elements(root, src)
+    _check_with_yourdfpy(data, src)
+    return _build(root.get("name") or path.stem, src, links, joints)
+
+
+def _floats(text: str | None, n: int, src: str, where: str, default: str | None = None) -> list[str]:
+    if text is None:
+        if default is None:
+            raise DescriptionError("missing required attribute", src, where)
+        text = default
+    parts = text.split()
+    if len(parts) != n:
+        raise DescriptionError(f"expected {n} numbers, got {text!r}", src, where)
+    for p in parts:
+        try:
+            x = float(p)
+        except ValueError:
+            raise DescriptionError(f"expected a number, got {p!r}", src, where) from None
+        if not math.isfinite(x):
+            raise DescriptionError(f"expected a finite number, got {p!r}", src, where)
+    return parts
+
+
+def _number_attr(el, attr: str, src: str, where: str) -> float:
+    v = el.get(attr)
+    if v is None:
+        raise DescriptionError(f"missing required attribute '{attr}'", src, where)
+    return float(_floats(v, 1, src, f"{where}@{attr}")[0])
+
+
+def _read_elements(root, src: str):
+    links: dict[str, dict] = {}
+    for el in root.findall("link"):
+        name = el.get("name")
+        if not name:
+            raise DescriptionError("a <link> has no name", src, "link")
+        if name in links:
+            raise DescriptionError(f"link '{name}' is defined twice", src, f"link[{name}]")
+        links[name] = {"inertial": _read_inertial(el.find("inertial"), src, f"link[{name}]/inertial")}
+    joints = []
+    names = set()
+    for el in root.findall("joint"):
+        name = el.get("name")
+        if not name:
+            raise DescriptionError("a <joint> has no name", src, "joint")
+        where = f"joint[{name}]"
+        if name in names:
+            raise DescriptionError(f"joint '{name}' is defined twice", src, where)
+        names.add(name)
+        jtype = el.get("type")
+        if jtype is None:
+            raise DescriptionError("missing required attribute 'type'", src, where)
+        if jtype not in KNOWN_TYPES:
+            raise DescriptionError(f"unknown joint type {jtype!r}", src, where)
+        if jtype in ("floating", "planar"):
+            raise UnsupportedError(f"{jtype} joints are not supported yet", src, where)
+        if el.find("mimic") is not None:
+            raise UnsupportedError("mimic joints are not supported yet", src, where)
+        parent, child = el.find("parent"), el.find("child")
+        if parent is None or not parent.get("link"):
+            raise DescriptionError("missing <parent link=...>", src, where)
+        if child is None or not child.get("link"):
+            raise DescriptionError("missing <child link=...>", src, where)
+        origin = el.find("origin")
+        xyz = _floats(origin.get("xyz") if origin is not None else None, 3, src, f"{where}/origin@xyz", "0 0 0")
+        rpy = _floats(origin.get("rpy") if origin is not None else None, 3, src, f"{where}/origin@rpy", "0 0 0")
+        axis_el = el.find("axis")
+        # URDF specification: the default axis is (1, 0, 0)
+        axis = [float(x) for x in _floats(axis_el.get("xyz") if axis_el is not None else None, 3, src, f"{where}/axis@xyz", "1 0 0")]
+        if jtype != "fixed" and np.linalg.norm(axis) == 0:
+            raise DescriptionError("joint axis is the zero vector", src, f"{where}/axis")
+        limits = None
+        lim = el.find("limit")
+        if jtype in ("revolute", "prismatic") and lim is not None and lim.get("lower") is not None and lim.get("upper") is not None:
+            lo, hi = _number_attr(lim, "lower", src, f"{where}/limit"), _number_attr(lim, "upper", src, f"{where}/limit")
+            if lo < hi:
+                limits = (lo, hi)
+        joints.append(
+            dict(name=name, type=jtype, parent=parent.get("link"), child=child.get("link"), xyz=xyz, rpy=rpy, axis=axis, limits=limits)
+        )
+    for j in joints:
+        for role in ("parent", "child"):
+            if j[role] not in links:
+                raise DescriptionError(f"{role} link '{j[role]}' is not defined", src, f"joint[{j['name']}]")
+    return links, joints
+
+
+def _read_inertial(el, src: str, where: str):
+    """(mass, xyz, rpy, inertia6) from <inertial>, checking every value is present."""
+    if el is None:
+        return None
+    mass_el = el.find("mass")
+    if mass_el is None:
+        raise DescriptionError("missing <mass>", src, where)
+    mass = _number_attr(mass_el, "value", src, f"{where}/mass")
+    if mass < 0:
+        raise DescriptionError(f"negative mass {mass}", src, f"{where}/mass")
+    inertia_el = el.find("inertia")
+    if inertia_el is None:
+        raise DescriptionError("missing <inertia>", src, where)
+    inertia = [_number_attr(inertia_el, k, src, f"{where}/inertia") for k in INERTIA_KEYS]
+    origin = el.find("origin")
+    xyz = [float(x) for x in _floats(origin.get("xyz") if origin is not None else None, 3, src, f"{where}/origin@xyz", "0 0 0")]
+    rpy = [float(x) for x in _floats(origin.get("rpy") if origin is not None else None, 3, src, f"{where}/origin@rpy", "0 0 0")]
+    return mass, xyz, rpy, inertia
+
+
+def _check_with_yourdfpy(data: bytes, src: str) -> None:
+    """Let yourdfpy parse the model too (structure only, no meshes, no scene graph)."""
+    import yourdfpy
+
+    logging.getLogger("yourdfpy").setLevel(logging.CRITICAL)
+    try:
+        yourdfpy.URDF.load(io.BytesIO(data), load_meshes=False, build_scene_graph=False, build_collision_scene_graph=False)
+    except Exception as e:  # yourdfpy raises assorted exceptions on malformed input
+        raise DescriptionError(f"yourdfpy could not parse the URDF ({type(e).__name__}: {e})", src) from e
+
+
+def _rpy_matrix(rpy) -> np.ndarray:
+    r, p, y = rpy
+    cr, sr, cp, sp, cy, sy = math.cos(r), math.sin(r), math.cos(p), math.sin(p), math.cos(y), math.sin(y)
+    Rz = np.array([[cy, -sy, 0], [sy, cy, 0], [0, 0, 1]])
+    Ry = np.array([[cp, 0, sp], [0, 1, 0], [-sp, 0, cp]])
+    Rx = np.array([[1, 0, 0], [0, cr, -sr], [0, sr, cr]])
+    return Rz @ Ry @ Rx
+
+
+def _origin_matrix(xyz, rpy) -> np.ndarray:
+    T = np.eye(4)
+    T[:3, :3] = _rpy_matrix([float(x) for x in rpy])
+    T[:3, 3] = [float(x) for x in xyz]
+    return T
+
+
+def _standard_in_body(inertial, X: np.ndarray) -> np.ndarray:
+    """Standard params (about the body frame origin, body axes) of a link whose frame is X in the body."""
+    mass, xyz, rpy, (ixx, ixy, ixz, iyy, iyz, izz) = inertial
+    Ic = np.array([[ixx, ixy, ixz], [ixy, iyy, iyz], [ixz, iyz, izz]])
+    Rl = X[:3, :3] @ _rpy_matrix(rpy)
+    c = X[:3, :3] @ np.asarray(xyz) + X[:3, 3]
+    Io = Rl @ Ic @ Rl.T + mass * (c @ c * np.eye(3) - np.outer(c, c))
+    return np.concatenate([[Io[0, 0], Io[0, 1], Io[0, 2], Io[1, 1], Io[1, 2], Io[2, 2]], mass * c, [mass]])
+
+
+def _to_inertial(phi: np.ndarray) -> Inertial:
+    m = phi[9]
+    c = phi[6:9] / m if m > 0 else np.zeros(3)
+    Io = np.array([[phi[0], phi[1], phi[2]], [phi[1], phi[3], phi[4]], [phi[2], phi[4], phi[5]]])
+    Ic = Io - m * (c @ c * np.eye(3) - np.outer(c, c))
+    return Inertial(float(m), tuple(float(x) for x in c), (Ic[0, 0], Ic[0, 1], Ic[0, 2], Ic[1, 1], Ic[1, 2], Ic[2, 2]))
+
+
+def _symbol_base(name: str) -> str:
+    s = re.sub(r"\W", "_", name)
+    s = re.sub(r"_joint$", "", s)
+    return s if re.match(r"^[A-Za-z_]", s) else f"j_{s}"
+
+
+def _build(name: str, src: str, links: dict, joints: list[dict]) -> RobotDescription:
+    children: dict[str, list[dict]] = {k: [] for k in links}
+    parent_of: dict[str, dict] = {}
+    for j in joints:
+        if j["child"] in parent_of:
+            raise DescriptionError(
+                f"link '{j['child']}' is the child of two joints ('{parent_of[j['child']]['name']}' and '{j['name']}'): kinematic loops are not supported",
+                src,
+                f"joint[{j['name']}]",
+            )
+        parent_of[j["child"]] = j
+        children[j["parent"]].append(j)
+    roots = [k for k in links if k not in parent_of]
+    if not roots:
+        raise DescriptionError("no root link: the joints form a loop", src)
+    if len(roots) > 1:
+        raise DescriptionError(f"{len(roots)} root links {roots[:4]}: expected one connected tree", src)
+    n_act = sum(j["type"] in ACTUATED for j in joints)
+    if n_act == 0:
+        raise DescriptionError("no revolute, continuous or prismatic joint", src)
+    if n_act > MAX_JOINTS:
+        raise DescriptionError(f"{n_act} actuated joints exceed the limit of {MAX_JOINTS}", src)
+
+    records: list[dict] = []
+    body_phi: list[np.ndarray | None] = []
+    # depth-first walk; state: (link, body index or -1 for the base, transform from body frame to link frame)
+    stack = [(roots[0], -1, np.eye(4))]
+    visited = 0
+    while stack:
+        link, body, X = stack.pop()
+        visited += 1
+        inertial = links[link]["inertial"]
+        if inertial is not None and body >= 0:
+            phi = _standard_in_body(inertial, X)
+            body_phi[body] = phi if body_phi[body] is None else body_phi[body] + phi
+        pushed = []
+        for j in children[link]:
+            Xo = X @ _origin_matrix(j["xyz"], j["rpy"])
+            if j["type"] == "fixed":
+                pushed.append((j["child"], body, Xo))
+                continue
+            idx = len(records)
+            base = _symbol_base(j["name"])
+            origin = {}
+            for k, s in zip(("x", "y", "z"), j["xyz"]):
+                origin[k] = GeomValue(float(s), f"{base}_{k}", False, Fraction(s))
+            for k, s in zip(("roll", "pitch", "yaw"), j["rpy"]):
+                v = float(s)
+                origin[k] = GeomValue(v, f"{base}_{k}", True, Fraction(0) if v == 0 else None)
+            axis = np.asarray(j["axis"], dtype=float)
+            records.append(
+                dict(
+                    name=j["name"],
+                    type=ACTUATED[j["type"]],
+                    parent=body,
+                    link_name=j["child"],
+                    origin=origin,
+                    pre_fixed=None if np.array_equal(X, np.eye(4)) else tuple(tuple(float(v) for v in r) for r in X),
+                    axis=tuple(float(v) for v in axis / np.linalg.norm(axis)),
+                    limits=j["limits"],
+                )
+            )
+            body_phi.append(None)
+            pushed.append((j["child"], idx, np.eye(4)))
+        stack.extend(reversed(pushed))
+    if visited != len(links):
+        raise DescriptionError("some links are not connected to the root", src)
+
+    out = []
+    for rec, phi in zip(records, body_phi):
+        out.append(JointRecord(**rec, inertial=None if phi is None else _to_inertial(phi)))
+    return RobotDescription(
+        name=name,
+        source=src,
+        convention="urdf",
+        joints=tuple(out),
+        gravity=(0.0, 0.0, -9.81),
+        gravity_source="default",
+        units={"length": "m", "angle": "rad"},
+    )

@@ -1,0 +1,90 @@
+"""Stage composition for one robot file: load -> chain -> base set -> report dict.
+
+Pure apart from reading the robot file itself; the CLI decides what to do
+with the result.  Used by ``derive`` for single files and by batch workers.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, replace
+from pathlib import Path
+from typing import Callable
+
+import numpy as np
+
+from minparam_cli.params import EXTRA_ORDER
+
+METHODS = ("qr", "projection")
+
+
+@dataclass(frozen=True)
+class DeriveOptions:
+    method: str = "qr"
+    friction: tuple[str, ...] = ()
+    rotor_inertia: bool = False
+    gravity: tuple[float, float, float] | None = None
+    samples: int = 100
+    seed: int = 0
+    symbolic: bool | None = None  # None: default for the file type
+
+
+def load_chain(path: str | Path, opts: DeriveOptions):
+    """Description and chain with the CLI's extras and gravity applied."""
+    from minparam_cli.chain import build_chain
+    from minparam_cli.describe import load_description
+
+    desc = load_description(path)
+    if opts.gravity is not None:
+        desc = replace(desc, gravity=tuple(opts.gravity), gravity_source="cli")
+    extras = []
+    for j in desc.joints:
+        ex = set(j.extras) | set(opts.friction)
+        if opts.rotor_inertia:
+            ex.add("rotor_inertia")
+        extras.append(tuple(k for k in EXTRA_ORDER if k in ex))
+    return desc, build_chain(desc, extras=tuple(extras))
+
+
+def derive_file(path: str | Path, opts: DeriveOptions, progress: Callable[[int, int], None] | None = None) -> dict:
+    """Report dict (the JSON contract) for one robot file."""
+    from minparam_cli.render.report import base_report
+
+    t0 = time.perf_counter()
+    desc, chain = load_chain(path, opts)
+    if opts.method == "projection":
+        from minparam_cli.base.projection import derive_projection
+
+        base = derive_projection(chain, progress=progress)
+    else:
+        from minparam_cli.base.qr import derive_qr
+
+        base = derive_qr(chain, samples=opts.samples, seed=opts.seed)
+    report = base_report(chain, base, 0.0)
+    want_symbolic = opts.symbolic if opts.symbolic is not None else False
+    if want_symbolic:
+        from minparam_cli.base.symbolic import add_symbolic
+
+        report = add_symbolic(report, desc, chain, base)
+    report["elapsed_s"] = round(time.perf_counter() - t0, 6)
+    return report
+
+
+def check_file(path: str | Path) -> dict:
+    """Validate a description; summary dict (robot, dof, convention, joints)."""
+    from minparam_cli.chain import build_chain
+    from minparam_cli.describe import load_description
+
+    desc = load_description(path)
+    chain = build_chain(desc)
+    return {
+        "robot": desc.name,
+        "source": str(path),
+        "dof": desc.dof,
+        "convention": desc.convention,
+        "types": "".join("R" if t == "revolute" else "P" for t in chain.types),
+        "branched": any(chain.parents[j] != j - 1 for j in range(chain.n)),
+        "exact": chain.exact is not None,
+        "inertial": chain.phi_nominal is not None,
+        "finite": bool(np.all(np.isfinite(chain.pre)) and np.all(np.isfinite(chain.post))),
+    }

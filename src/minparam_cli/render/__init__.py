@@ -1,0 +1,1 @@
+"""Renderers: pure functions from a result (a report dict) to text."""

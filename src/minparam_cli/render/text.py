@@ -1,0 +1,100 @@
+"""Terminal table, Markdown and LaTeX renderings of a derive report."""
+
+from __future__ import annotations
+
+import re
+
+from minparam_cli.params import split_name
+from minparam_cli.render.report import format_coefficient
+
+
+def _header_lines(r: dict) -> list[tuple[str, str]]:
+    g = ", ".join(f"{x:g}" for x in r["gravity"])
+    rows = [
+        ("robot", f"{r['robot']} ({r['source']})"),
+        ("method", r["method"] + (" (exact rational arithmetic)" if r.get("exact") else "")),
+        ("dof", f"{r['dof']} ({r['convention']})"),
+        ("gravity", f"({g}) m/s² [{r.get('gravity_source', 'file')}]"),
+        ("standard", str(r["n_standard"])),
+        ("base", str(r["n_base"])),
+    ]
+    if r.get("seed") is not None:
+        rows.append(("samples", f"{r['samples']} random states, seed {r['seed']}"))
+    m = r.get("rank_margin") or {}
+    if m.get("last_kept") is not None:
+        fd = m.get("first_dropped")
+        rows.append(("rank margin", f"last kept {m['last_kept']:.3g}, first dropped {fd:.3g} (relative)" if fd is not None else f"last kept {m['last_kept']:.3g}"))
+    elif m:
+        rows.append(("rank margin", m.get("criterion", "")))
+    return rows
+
+
+def render_table(r: dict) -> str:
+    from tabulate import tabulate
+
+    head = tabulate(_header_lines(r), tablefmt="plain")
+    rows = [(i + 1, b["name"], b["expression"]) for i, b in enumerate(r["base_parameters"])]
+    body = tabulate(rows, headers=["#", "base parameter", "= standard parameters"], tablefmt="simple")
+    out = [head, "", body]
+    if r["unidentifiable"]:
+        out += ["", f"no effect ({len(r['unidentifiable'])}): " + " ".join(r["unidentifiable"])]
+    out.append("")
+    out.append(f"units: SI (kg, m, kg·m, kg·m²); elapsed {r['elapsed_s']:.3f} s")
+    return "\n".join(out)
+
+
+def render_markdown(r: dict) -> str:
+    lines = [f"## {r['robot']}", ""]
+    for k, v in _header_lines(r):
+        lines.append(f"- **{k}**: {v}")
+    lines += ["", "| # | base parameter | expression |", "|---|---|---|"]
+    for i, b in enumerate(r["base_parameters"]):
+        lines.append(f"| {i + 1} | `{b['name']}` | `{b['expression']}` |")
+    if r["unidentifiable"]:
+        lines += ["", "No effect: " + ", ".join(f"`{n}`" for n in r["unidentifiable"])]
+    return "\n".join(lines) + "\n"
+
+
+def latex_name(name: str) -> str:
+    """'XXR2' -> '\\mathrm{XX}^{R}_{2}', 'Ia3' -> '\\mathrm{Ia}_{3}'."""
+    kind, link = split_name(name)
+    sup = ""
+    if kind.endswith("R") and kind not in ("R",):
+        plain = kind[:-1]
+        if plain in ("XX", "XY", "XZ", "YY", "YZ", "ZZ", "MX", "MY", "MZ", "M", "Ia", "Fc", "Fv", "OFF"):
+            kind, sup = plain, "^{R}"
+    return rf"\mathrm{{{kind}}}{sup}_{{{link}}}"
+
+
+def latex_terms(terms: dict[str, float]) -> str:
+    out = ""
+    for name, c in terms.items():
+        mag = abs(c)
+        body = latex_name(name) if format_coefficient(mag) == "1" else rf"{_latex_number(mag)}\,{latex_name(name)}"
+        if not out:
+            out = ("-" if c < 0 else "") + body
+        else:
+            out += (" - " if c < 0 else " + ") + body
+    return out
+
+
+def _latex_number(x: float) -> str:
+    s = format_coefficient(x)
+    m = re.match(r"^([0-9.]+)e([+-]\d+)$", s)
+    if m:
+        return rf"{m.group(1)}\cdot 10^{{{int(m.group(2))}}}"
+    return s
+
+
+def render_latex(r: dict) -> str:
+    g = ", ".join(f"{x:g}" for x in r["gravity"])
+    lines = [
+        f"% {r['robot']}: {r['n_base']} base parameters of {r['n_standard']} ({r['method']}), gravity ({g}) m/s^2, SI units",
+        r"\begin{align*}",
+    ]
+    items = r["base_parameters"]
+    for i, b in enumerate(items):
+        end = r" \\" if i < len(items) - 1 else ""
+        lines.append(f"  {latex_name(b['name'])} &= {latex_terms(b['terms'])}{end}")
+    lines.append(r"\end{align*}")
+    return "\n".join(lines) + "\n"
