@@ -196,6 +196,28 @@ def _symbol_base(name: str) -> str:
     return s if re.match(r"^[A-Za-z_]", s) else f"j_{s}"
 
 
+def _joint_record(j: dict, body_parent: np.ndarray, parent: int) -> dict:
+    """Record of actuated joint j hanging on body ``parent`` through the fixed transform ``body_parent``."""
+    base = _symbol_base(j["name"])
+    origin = {}
+    for k, s in zip(("x", "y", "z"), j["xyz"]):
+        origin[k] = GeomValue(float(s), f"{base}_{k}", False, Fraction(s))
+    for k, s in zip(("roll", "pitch", "yaw"), j["rpy"]):
+        v = float(s)
+        origin[k] = GeomValue(v, f"{base}_{k}", True, Fraction(0) if v == 0 else None)
+    axis = np.asarray(j["axis"], dtype=float)
+    return dict(
+        name=j["name"],
+        type=ACTUATED[j["type"]],
+        parent=parent,
+        link_name=j["child"],
+        origin=origin,
+        pre_fixed=None if np.array_equal(body_parent, np.eye(4)) else tuple(tuple(float(v) for v in r) for r in body_parent),
+        axis=tuple(float(v) for v in axis / np.linalg.norm(axis)),
+        limits=j["limits"],
+    )
+
+
 def _build(name: str, src: str, links: dict, joints: list[dict]) -> RobotDescription:
     children: dict[str, list[dict]] = {k: [] for k in links}
     parent_of: dict[str, dict] = {}
@@ -221,12 +243,19 @@ def _build(name: str, src: str, links: dict, joints: list[dict]) -> RobotDescrip
 
     records: list[dict] = []
     body_phi: list[np.ndarray | None] = []
-    # depth-first walk; state: (link, body index or -1 for the base, transform from body frame to link frame)
-    stack = [(roots[0], -1, np.eye(4))]
+    # depth-first walk in document order; state: (link, body index or -1 for the base,
+    # transform from the body frame to the link frame, actuated joint entering the link)
+    stack: list[tuple] = [(roots[0], -1, np.eye(4), None)]
     visited = 0
     while stack:
-        link, body, X = stack.pop()
+        link, body, X, entering = stack.pop()
         visited += 1
+        if entering is not None:
+            j, Xj = entering
+            body = len(records)
+            records.append(_joint_record(j, body_parent=X, parent=int(Xj)))
+            body_phi.append(None)
+            X = np.eye(4)
         inertial = links[link]["inertial"]
         if inertial is not None and body >= 0:
             phi = _standard_in_body(inertial, X)
@@ -235,31 +264,10 @@ def _build(name: str, src: str, links: dict, joints: list[dict]) -> RobotDescrip
         for j in children[link]:
             Xo = X @ _origin_matrix(j["xyz"], j["rpy"])
             if j["type"] == "fixed":
-                pushed.append((j["child"], body, Xo))
-                continue
-            idx = len(records)
-            base = _symbol_base(j["name"])
-            origin = {}
-            for k, s in zip(("x", "y", "z"), j["xyz"]):
-                origin[k] = GeomValue(float(s), f"{base}_{k}", False, Fraction(s))
-            for k, s in zip(("roll", "pitch", "yaw"), j["rpy"]):
-                v = float(s)
-                origin[k] = GeomValue(v, f"{base}_{k}", True, Fraction(0) if v == 0 else None)
-            axis = np.asarray(j["axis"], dtype=float)
-            records.append(
-                dict(
-                    name=j["name"],
-                    type=ACTUATED[j["type"]],
-                    parent=body,
-                    link_name=j["child"],
-                    origin=origin,
-                    pre_fixed=None if np.array_equal(X, np.eye(4)) else tuple(tuple(float(v) for v in r) for r in X),
-                    axis=tuple(float(v) for v in axis / np.linalg.norm(axis)),
-                    limits=j["limits"],
-                )
-            )
-            body_phi.append(None)
-            pushed.append((j["child"], idx, np.eye(4)))
+                pushed.append((j["child"], body, Xo, None))
+            else:
+                # X (not Xo): the joint's own origin stays symbolic in the record
+                pushed.append((j["child"], body, X, (j, body)))
         stack.extend(reversed(pushed))
     if visited != len(links):
         raise DescriptionError("some links are not connected to the root", src)
