@@ -35,3 +35,9 @@ ROBOT_IDS = [p.name for p in ROBOT_FILES]
 @pytest.fixture(params=ROBOT_FILES, ids=ROBOT_IDS)
 def robot_path(request) -> Path:
     return request.param
+
+
+@pytest.fixture(autouse=True)
+def _run_from_repository_root(monkeypatch):
+    """Tests name robot files relative to the repository root."""
+    monkeypatch.chdir(ROOT)

@@ -4,13 +4,15 @@
 2. Normalise the columns (dependence does not change under column scaling).
 3. Keep rule (Gautier & Khalil 1990): scan the columns in the standard order
    (link 1..n, XX..M within a link, then the extras) and keep a column unless
-   it is a combination of the columns already kept.  This is QR in the scan
-   order: |R_ii| of column i is the norm of its part orthogonal to the columns
-   before it (computed by Gram–Schmidt with re-orthogonalisation).
-4. The rank is confirmed independently by pivoted (Businger–Golub) QR; both
-   use numpy's ``matrix_rank`` cut, max|R_ii| · max(M, N) · eps.
-5. β solves W_kept β = W_dropped (paper 003: β = R1⁻¹ R2), so that
-   W φ = W_kept (φ_kept + β φ_dropped).
+   it is a combination of the columns already kept.  This is Householder QR
+   in the scan order, without pivoting: |R_ii| is the norm of column i's part
+   orthogonal to the columns before it.  (Paper 003 pivots the QR; pivoting
+   picks the kept set by size, not by the documented order, so the order is
+   fixed here and the pivot's job, the rank, is done by the singular values.)
+4. The count is confirmed independently by the singular values; both cut at
+   numpy's ``matrix_rank`` tolerance, max · max(M, N) · eps.
+5. A second QR of the kept columns, W_kept = Q1 R1, gives β = R1⁻¹ Q1ᵀ W_dropped
+   (paper 003: β = R1⁻¹ R2), so that W φ = W_kept (φ_kept + β φ_dropped).
 """
 
 from __future__ import annotations
@@ -45,23 +47,9 @@ def stacked_regressor(chain: Chain, samples: int, rng: np.random.Generator) -> n
     return Y.reshape(-1, Y.shape[-1])
 
 
-def ordered_scan(Wn: np.ndarray, tol: float):
-    """Keep-rule scan on unit-norm columns.  Returns (kept, residual norm of every column)."""
-    rows, P = Wn.shape
-    Q = np.zeros((rows, P))
-    r = np.zeros(P)
-    kept = []
-    for i in range(P):
-        v = Wn[:, i].copy()
-        if kept:
-            Qk = Q[:, : len(kept)]
-            v -= Qk @ (Qk.T @ v)
-            v -= Qk @ (Qk.T @ v)  # second pass: classical Gram–Schmidt needs it (Giraud et al. 2005)
-        r[i] = np.linalg.norm(v)
-        if r[i] > tol:
-            Q[:, len(kept)] = v / r[i]
-            kept.append(i)
-    return kept, r
+def ordered_residuals(Wn: np.ndarray) -> np.ndarray:
+    """|R_ii| of a QR factorisation without pivoting: column i's part orthogonal to the columns before it."""
+    return np.abs(np.diagonal(np.linalg.qr(Wn, mode="r")))
 
 
 def derive_qr(chain: Chain, samples: int = DEFAULT_SAMPLES, seed: int = DEFAULT_SEED) -> BaseSet:
@@ -69,55 +57,13 @@ def derive_qr(chain: Chain, samples: int = DEFAULT_SAMPLES, seed: int = DEFAULT_
     if samples < 1:
         raise InputError(f"--samples must be positive, got {samples}")
     t0 = time.perf_counter()
-    rng = np.random.default_rng(seed)
-    W = stacked_regressor(chain, samples, rng)
-    rows, P = W.shape
+    rows, P = samples * chain.n, chain.layout.size
     if rows < P:
         raise InputError(
             f"{samples} samples give {rows} equations for {P} parameters; use at least {-(-P // chain.n)} samples"
         )
-    norms = np.linalg.norm(W, axis=0)
-    eps = np.finfo(float).eps
-    zero_tol = norms.max() * max(rows, P) * eps
-    effect = norms > zero_tol
-    Wn = np.zeros_like(W)
-    Wn[:, effect] = W[:, effect] / norms[effect]
-    tol = max(rows, P) * eps  # columns have unit norm, so max |R_ii| <= 1
-    kept, r = ordered_scan(Wn, tol)
-    unident = [i for i in range(P) if not effect[i]]
-
-    from scipy.linalg import qr
-
-    Rp = qr(Wn[:, effect], mode="r", pivoting=True)[0]
-    diag = np.abs(np.diag(Rp))
-    rank_pivoted = int(np.sum(diag > diag[0] * max(rows, P) * eps))
-    if rank_pivoted != len(kept):
-        raise ComputationError(
-            f"{chain.source}: ordered scan keeps {len(kept)} columns but pivoted QR finds rank {rank_pivoted}; "
-            "the rank decision is too close to call (try more --samples or another --seed)"
-        )
-    dropped = [i for i in range(P) if i not in set(kept)]
-    beta_n, *_ = np.linalg.lstsq(Wn[:, kept], Wn[:, dropped], rcond=None)
-    beta_n[np.abs(beta_n) < COEFFICIENT_CUTOFF] = 0.0
-    scale_d = np.where(effect[dropped], norms[dropped], 0.0)
-    beta = _round_significant(beta_n / norms[kept][:, None] * scale_d[None, :], BETA_DIGITS)
-    K = regrouping_matrix(kept, beta, dropped, P)
-
-    kept_r = r[kept]
-    dropped_r = r[[i for i in dropped if effect[i]]]
-    margin = {
-        "criterion": "|R_ii| of unit-norm columns in scan order; cut at max(M,N)*eps",
-        "tolerance": tol,
-        "last_kept": float(kept_r.min()) if len(kept_r) else None,
-        "first_dropped": float(dropped_r.max()) if len(dropped_r) else None,
-        "pivoted_qr_rank": rank_pivoted,
-        "pivoted_qr_gap": [float(diag[rank_pivoted - 1] / diag[0]), float(diag[rank_pivoted] / diag[0])]
-        if rank_pivoted < len(diag)
-        else [float(diag[-1] / diag[0]), None],
-        "coefficient_cutoff": COEFFICIENT_CUTOFF,
-        "coefficient_digits": BETA_DIGITS,
-        "rows": rows,
-    }
+    W = stacked_regressor(chain, samples, np.random.default_rng(seed))
+    kept, K, unident, margin = base_from_regressor(W, chain.source)
     return BaseSet(
         standard_names=chain.layout.names,
         kept=tuple(kept),
@@ -130,3 +76,52 @@ def derive_qr(chain: Chain, samples: int = DEFAULT_SAMPLES, seed: int = DEFAULT_
         samples=samples,
         elapsed_s=time.perf_counter() - t0,
     )
+
+
+def base_from_regressor(W: np.ndarray, source: str = ""):
+    """Kept columns, regrouping matrix K, no-effect columns and rank margin of a stacked regressor."""
+    rows, P = W.shape
+    norms = np.linalg.norm(W, axis=0)
+    eps = np.finfo(float).eps
+    zero_tol = norms.max() * max(rows, P) * eps
+    effect = norms > zero_tol
+    Wn = np.zeros_like(W)
+    Wn[:, effect] = W[:, effect] / norms[effect]
+    tol = max(rows, P) * eps  # columns have unit norm, so max |R_ii| <= 1
+    cols = np.flatnonzero(effect)
+    r = np.zeros(P)
+    r[cols] = ordered_residuals(Wn[:, cols])
+    kept = [int(i) for i in cols if r[i] > tol]
+    unident = [i for i in range(P) if not effect[i]]
+
+    # independent confirmation of the count: numerical rank by singular values (numpy's matrix_rank cut)
+    sv = np.linalg.svd(Wn[:, cols], compute_uv=False)
+    rank_svd = int(np.sum(sv > sv[0] * max(rows, P) * eps))
+    if rank_svd != len(kept):
+        raise ComputationError(
+            f"{source}: the ordered QR keeps {len(kept)} columns but the singular values give rank {rank_svd}; "
+            "the rank decision is too close to call (try more --samples or another --seed)"
+        )
+    dropped = [i for i in range(P) if i not in set(kept)]
+    # paper 003: a second QR of the kept columns, beta = R1^-1 Q1^T W_dropped
+    Q1, R1 = np.linalg.qr(Wn[:, kept])
+    beta_n = np.linalg.solve(R1, Q1.T @ Wn[:, dropped])
+    beta_n[np.abs(beta_n) < COEFFICIENT_CUTOFF] = 0.0
+    scale_d = np.where(effect[dropped], norms[dropped], 0.0)
+    beta = _round_significant(beta_n / norms[kept][:, None] * scale_d[None, :], BETA_DIGITS)
+    K = regrouping_matrix(kept, beta, dropped, P)
+
+    kept_r = r[kept]
+    dropped_r = r[[i for i in dropped if effect[i]]]
+    margin = {
+        "criterion": "|R_ii| of unit-norm columns, QR in scan order; cut at max(M,N)*eps",
+        "tolerance": tol,
+        "last_kept": float(kept_r.min()) if len(kept_r) else None,
+        "first_dropped": float(dropped_r.max()) if len(dropped_r) else None,
+        "svd_rank": rank_svd,
+        "svd_gap": [float(sv[rank_svd - 1] / sv[0]), float(sv[rank_svd] / sv[0]) if rank_svd < len(sv) else None],
+        "coefficient_cutoff": COEFFICIENT_CUTOFF,
+        "coefficient_digits": BETA_DIGITS,
+        "rows": rows,
+    }
+    return kept, K, unident, margin

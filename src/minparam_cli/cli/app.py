@@ -2,9 +2,17 @@
 
 from __future__ import annotations
 
-import typer
+import os
 
-from minparam_cli import __version__
+# Single-threaded BLAS unless the user says otherwise: every matrix here is small
+# (hundreds of rows), where OpenBLAS threads cost more than they save and
+# stall badly on a busy machine.  Must be set before numpy is imported.
+for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
+    os.environ.setdefault(_var, "1")
+
+import typer  # noqa: E402
+
+from minparam_cli import __version__  # noqa: E402
 
 app = typer.Typer(
     name="minparam",

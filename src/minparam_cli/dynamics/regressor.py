@@ -29,6 +29,13 @@ import numpy as np
 from minparam_cli.chain import REVOLUTE, Chain, forward_kinematics
 
 
+def cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Row-wise cross product of (..., 3) arrays (np.cross is slow on small batches)."""
+    a0, a1, a2 = a[..., 0], a[..., 1], a[..., 2]
+    b0, b1, b2 = b[..., 0], b[..., 1], b[..., 2]
+    return np.stack([a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0], axis=-1)
+
+
 def _skew(v: np.ndarray) -> np.ndarray:
     """(N, 3) -> (N, 3, 3) cross-product matrices."""
     S = np.zeros(v.shape[:-1] + (3, 3))
@@ -66,7 +73,7 @@ def joint_screws(chain: Chain, z: np.ndarray, o: np.ndarray) -> np.ndarray:
     for k, kind in enumerate(chain.types):
         if kind == REVOLUTE:
             S[:, k, :3] = z[:, k]
-            S[:, k, 3:] = np.cross(o[:, k], z[:, k])
+            S[:, k, 3:] = cross(o[:, k], z[:, k])
         else:
             S[:, k, 3:] = z[:, k]
     return S
@@ -75,7 +82,7 @@ def joint_screws(chain: Chain, z: np.ndarray, o: np.ndarray) -> np.ndarray:
 def _cross_motion(V: np.ndarray, S: np.ndarray) -> np.ndarray:
     w, v = V[..., :3], V[..., 3:]
     ws, vs = S[..., :3], S[..., 3:]
-    return np.concatenate([np.cross(w, ws), np.cross(w, vs) + np.cross(v, ws)], axis=-1)
+    return np.concatenate([cross(w, ws), cross(w, vs) + cross(v, ws)], axis=-1)
 
 
 def regressor(chain: Chain, q, qd, qdd, include_extras: bool = True) -> np.ndarray:
@@ -106,16 +113,16 @@ def regressor(chain: Chain, q, qd, qdd, include_extras: bool = True) -> np.ndarr
         pos = T[:, j, :3, 3]
         Rt = np.swapaxes(R, 1, 2)
         w, dw = V[:, j, :3], A[:, j, :3]
-        v_origin = V[:, j, 3:] + np.cross(w, pos)
-        a_origin = A[:, j, 3:] + np.cross(dw, pos)
-        w_l = np.einsum("nij,nj->ni", Rt, w)
-        dw_l = np.einsum("nij,nj->ni", Rt, dw)
-        v_l = np.einsum("nij,nj->ni", Rt, v_origin)
-        acc_l = np.einsum("nij,nj->ni", Rt, a_origin) + np.cross(w_l, v_l)
+        v_origin = V[:, j, 3:] + cross(w, pos)
+        a_origin = A[:, j, 3:] + cross(dw, pos)
+        # express (w, dw, v, a) in link coordinates with one batched product
+        local = np.matmul(Rt, np.stack([w, dw, v_origin, a_origin], axis=-1))
+        w_l, dw_l, v_l = local[..., 0], local[..., 1], local[..., 2]
+        acc_l = local[..., 3] + cross(w_l, v_l)
         K = link_wrench_regressor(w_l, dw_l, acc_l)
         # to the base frame, moments about the base origin
         F_w = R @ K[:, 3:6]
-        N_w = R @ K[:, 0:3] + np.cross(pos[:, :, None], F_w, axis=1)
+        N_w = R @ K[:, 0:3] + _skew(pos) @ F_w
         W = np.concatenate([N_w, F_w], axis=1)  # (N, 6, 10)
         cols = slice(10 * j, 10 * j + 10)
         for k in chain.ancestors(j):

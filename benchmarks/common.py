@@ -1,0 +1,46 @@
+"""Helpers for the benchmark scripts: whole-process timing with peak RSS, in-process timing."""
+
+from __future__ import annotations
+
+import os
+import resource
+import statistics
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def run_process(cmd: list[str], repeats: int = 7) -> tuple[float, float]:
+    """Median wall time (s) and max peak RSS (MB) of a whole process, over ``repeats`` runs."""
+    times, peaks = [], []
+    for _ in range(repeats):
+        t0 = time.perf_counter()
+        p = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, cwd=ROOT)
+        _, status, usage = os.wait4(p.pid, 0)
+        times.append(time.perf_counter() - t0)
+        peaks.append(usage.ru_maxrss / 1024)
+        if os.waitstatus_to_exitcode(status) != 0:
+            raise SystemExit(f"command failed: {' '.join(cmd)}")
+    return statistics.median(times), max(peaks)
+
+
+def best_of(fn, repeats: int = 7) -> float:
+    """Median in-process time (s) of fn()."""
+    out = []
+    for _ in range(repeats):
+        t0 = time.perf_counter()
+        fn()
+        out.append(time.perf_counter() - t0)
+    return statistics.median(out)
+
+
+def peak_rss_mb() -> float:
+    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
+
+
+def minparam_cmd() -> list[str]:
+    exe = Path(sys.executable).with_name("minparam")
+    return [str(exe)] if exe.exists() else [sys.executable, "-m", "minparam_cli"]
