@@ -11,6 +11,7 @@ from enum import Enum
 from pathlib import Path
 from typing import Callable
 
+import click
 import typer
 
 from minparam_cli.errors import MinparamError
@@ -41,7 +42,7 @@ def guarded(fn: Callable) -> Callable:
     def wrapper(*args, **kwargs):
         try:
             return fn(*args, **kwargs)
-        except (typer.Exit, typer.Abort, typer.TyperException):
+        except (typer.Exit, typer.Abort, click.ClickException):
             raise  # click prints usage errors itself, with exit code 2
         except MinparamError as e:
             error_line(str(e))
