@@ -5,6 +5,7 @@ from __future__ import annotations
 import re
 
 from minparam_cli.params import split_name
+from minparam_cli.render.columns import columns
 from minparam_cli.render.report import format_coefficient
 
 
@@ -30,11 +31,9 @@ def _header_lines(r: dict) -> list[tuple[str, str]]:
 
 
 def render_table(r: dict) -> str:
-    from tabulate import tabulate
-
-    head = tabulate(_header_lines(r), tablefmt="plain")
+    head = columns(_header_lines(r))
     rows = [(i + 1, b["name"], b["expression"]) for i, b in enumerate(r["base_parameters"])]
-    body = tabulate(rows, headers=["#", "base parameter", "= standard parameters"], tablefmt="simple")
+    body = columns(rows, ("#", "base parameter", "= standard parameters"), right=(0,))
     out = [head, "", body]
     if r["unidentifiable"]:
         out += ["", f"no effect ({len(r['unidentifiable'])}): " + " ".join(r["unidentifiable"])]
