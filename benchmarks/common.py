@@ -3,6 +3,9 @@
 from __future__ import annotations
 
 import os
+
+for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
+    os.environ.setdefault(_var, "1")  # as the CLI does (cli/app.py)
 import resource
 import statistics
 import subprocess

@@ -47,11 +47,6 @@ def stacked_regressor(chain: Chain, samples: int, rng: np.random.Generator) -> n
     return Y.reshape(-1, Y.shape[-1])
 
 
-def ordered_residuals(Wn: np.ndarray) -> np.ndarray:
-    """|R_ii| of a QR factorisation without pivoting: column i's part orthogonal to the columns before it."""
-    return np.abs(np.diagonal(np.linalg.qr(Wn, mode="r")))
-
-
 def derive_qr(chain: Chain, samples: int = DEFAULT_SAMPLES, seed: int = DEFAULT_SEED) -> BaseSet:
     """Base parameter set of ``chain`` by the random-sample QR route."""
     if samples < 1:
@@ -89,23 +84,33 @@ def base_from_regressor(W: np.ndarray, source: str = ""):
     Wn[:, effect] = W[:, effect] / norms[effect]
     tol = max(rows, P) * eps  # columns have unit norm, so max |R_ii| <= 1
     cols = np.flatnonzero(effect)
+    # one Householder QR in scan order: Wn[:, cols] = Q R, Q orthogonal, so R carries
+    # every column norm, singular value and least-squares solution of Wn[:, cols]
+    R = np.linalg.qr(Wn[:, cols], mode="r")
     r = np.zeros(P)
-    r[cols] = ordered_residuals(Wn[:, cols])
+    r[cols] = np.abs(np.diagonal(R))
     kept = [int(i) for i in cols if r[i] > tol]
     unident = [i for i in range(P) if not effect[i]]
 
     # independent confirmation of the count: numerical rank by singular values (numpy's matrix_rank cut)
-    sv = np.linalg.svd(Wn[:, cols], compute_uv=False)
+    sv = np.linalg.svd(R, compute_uv=False)
     rank_svd = int(np.sum(sv > sv[0] * max(rows, P) * eps))
     if rank_svd != len(kept):
         raise ComputationError(
             f"{source}: the ordered QR keeps {len(kept)} columns but the singular values give rank {rank_svd}; "
             "the rank decision is too close to call (try more --samples or another --seed)"
         )
-    dropped = [i for i in range(P) if i not in set(kept)]
-    # paper 003: a second QR of the kept columns, beta = R1^-1 Q1^T W_dropped
-    Q1, R1 = np.linalg.qr(Wn[:, kept])
-    beta_n = np.linalg.solve(R1, Q1.T @ Wn[:, dropped])
+    kept_set = set(kept)
+    dropped = [i for i in range(P) if i not in kept_set]
+    # paper 003: a second QR of the kept columns, R[:, kept] = Q1 R1, beta = R1^-1 Q1^T R[:, dropped]
+    position = {c: k for k, c in enumerate(cols)}
+    Rk = R[:, [position[c] for c in kept]]
+    Rd = np.zeros((R.shape[0], len(dropped)))
+    for k, c in enumerate(dropped):
+        if c in position:
+            Rd[:, k] = R[:, position[c]]
+    Q1, R1 = np.linalg.qr(Rk)
+    beta_n = np.linalg.solve(R1, Q1.T @ Rd)
     beta_n[np.abs(beta_n) < COEFFICIENT_CUTOFF] = 0.0
     scale_d = np.where(effect[dropped], norms[dropped], 0.0)
     beta = _round_significant(beta_n / norms[kept][:, None] * scale_d[None, :], BETA_DIGITS)

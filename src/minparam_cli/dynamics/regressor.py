@@ -108,25 +108,26 @@ def regressor(chain: Chain, q, qd, qdd, include_extras: bool = True) -> np.ndarr
     layout = chain.layout
     P = layout.size if include_extras else layout.n_inertial
     Y = np.zeros((N, n, P))
+    # every link at once: (w, dw, v, a) of the frame origins in link coordinates
+    R = T[:, :, :3, :3]
+    pos = T[:, :, :3, 3]
+    w, dw = V[..., :3], A[..., :3]
+    v_origin = V[..., 3:] + cross(w, pos)
+    a_origin = A[..., 3:] + cross(dw, pos)
+    local = np.matmul(np.swapaxes(R, -1, -2), np.stack([w, dw, v_origin, a_origin], axis=-1))
+    w_l, dw_l, v_l = local[..., 0], local[..., 1], local[..., 2]
+    acc_l = local[..., 3] + cross(w_l, v_l)
+    K = link_wrench_regressor(w_l.reshape(-1, 3), dw_l.reshape(-1, 3), acc_l.reshape(-1, 3)).reshape(N, n, 6, 10)
+    # to the base frame, moments about the base origin
+    F_w = R @ K[:, :, 3:6]
+    N_w = R @ K[:, :, 0:3] + _skew(pos) @ F_w
+    W = np.concatenate([N_w, F_w], axis=2)  # (N, n, 6, 10)
+    # joint k carries link j when k is an ancestor of j: tau_k = S_k . W_j
+    carries = np.zeros((n, n))
     for j in range(n):
-        R = T[:, j, :3, :3]
-        pos = T[:, j, :3, 3]
-        Rt = np.swapaxes(R, 1, 2)
-        w, dw = V[:, j, :3], A[:, j, :3]
-        v_origin = V[:, j, 3:] + cross(w, pos)
-        a_origin = A[:, j, 3:] + cross(dw, pos)
-        # express (w, dw, v, a) in link coordinates with one batched product
-        local = np.matmul(Rt, np.stack([w, dw, v_origin, a_origin], axis=-1))
-        w_l, dw_l, v_l = local[..., 0], local[..., 1], local[..., 2]
-        acc_l = local[..., 3] + cross(w_l, v_l)
-        K = link_wrench_regressor(w_l, dw_l, acc_l)
-        # to the base frame, moments about the base origin
-        F_w = R @ K[:, 3:6]
-        N_w = R @ K[:, 0:3] + _skew(pos) @ F_w
-        W = np.concatenate([N_w, F_w], axis=1)  # (N, 6, 10)
-        cols = slice(10 * j, 10 * j + 10)
-        for k in chain.ancestors(j):
-            Y[:, k, cols] = np.einsum("ni,nic->nc", S[:, k], W)
+        carries[list(chain.ancestors(j)), j] = 1.0
+    Wt = W.transpose(0, 2, 1, 3).reshape(N, 6, 10 * n)
+    Y[:, :, : 10 * n] = (S @ Wt) * np.repeat(carries, 10, axis=1)[None]
     if include_extras:
         for c, (k, kind) in enumerate(layout.extra_columns):
             col = layout.n_inertial + c
