@@ -32,14 +32,22 @@ def _header_lines(r: dict) -> list[tuple[str, str]]:
 
 def render_table(r: dict) -> str:
     head = columns(_header_lines(r))
-    rows = [(i + 1, b["name"], b["expression"]) for i, b in enumerate(r["base_parameters"])]
+    rows = [(i + 1, b["name"], b.get("symbolic_text") or b["expression"]) for i, b in enumerate(r["base_parameters"])]
     body = columns(rows, ("#", "base parameter", "= standard parameters"), right=(0,))
     out = [head, "", body]
     if r["unidentifiable"]:
         out += ["", f"no effect ({len(r['unidentifiable'])}): " + " ".join(r["unidentifiable"])]
+    out += _symbolic_footer(r)
     out.append("")
     out.append(f"units: SI (kg, m, kg·m, kg·m²); elapsed {r['elapsed_s']:.3f} s")
     return "\n".join(out)
+
+
+def _symbolic_footer(r: dict) -> list[str]:
+    out = [f"note: {n}" for n in r.get("symbolic_notes", [])]
+    if r.get("symbols"):
+        out.append("symbols (SI): " + ", ".join(f"{k} = {v:g}" for k, v in r["symbols"].items()))
+    return ([""] + out) if out else []
 
 
 def render_markdown(r: dict) -> str:
@@ -48,9 +56,10 @@ def render_markdown(r: dict) -> str:
         lines.append(f"- **{k}**: {v}")
     lines += ["", "| # | base parameter | expression |", "|---|---|---|"]
     for i, b in enumerate(r["base_parameters"]):
-        lines.append(f"| {i + 1} | `{b['name']}` | `{b['expression']}` |")
+        lines.append(f"| {i + 1} | `{b['name']}` | `{b.get('symbolic_text') or b['expression']}` |")
     if r["unidentifiable"]:
         lines += ["", "No effect: " + ", ".join(f"`{n}`" for n in r["unidentifiable"])]
+    lines += [f"- {ln}" for ln in _symbolic_footer(r) if ln]
     return "\n".join(lines) + "\n"
 
 
@@ -94,6 +103,7 @@ def render_latex(r: dict) -> str:
     items = r["base_parameters"]
     for i, b in enumerate(items):
         end = r" \\" if i < len(items) - 1 else ""
-        lines.append(f"  {latex_name(b['name'])} &= {latex_terms(b['terms'])}{end}")
+        rhs = b.get("symbolic_latex") or latex_terms(b["terms"])
+        lines.append(f"  {latex_name(b['name'])} &= {rhs}{end}")
     lines.append(r"\end{align*}")
     return "\n".join(lines) + "\n"

@@ -1,0 +1,159 @@
+"""Symbolic regrouping coefficients as sympy expressions and report fields.
+
+Turns the fits of ``base/symbolic.py`` into, per base parameter,
+
+* ``symbolic``: a string ``sympy.sympify`` parses back, e.g.
+  ``XX2 - YY2 - a3**2*(M3 + M4 + M5 + M6)``;
+* ``symbolic_text``: the same for the terminal, ``XX2 - YY2 - a3²·(M3 + M4 + M5 + M6)``;
+* ``symbolic_latex``: the right-hand side in LaTeX;
+
+plus the top-level ``symbols`` (file values, SI), ``generic_n_base``,
+``symbolic_notes``, ``symbolic_verification`` and ``symbolic_latex`` (an
+align* environment of the symbolic set).  sympy is imported lazily.
+"""
+
+from __future__ import annotations
+
+import re
+
+GREEK = {
+    "alpha", "beta", "gamma", "delta", "epsilon", "theta", "phi", "psi", "rho", "sigma", "tau", "omega", "eta", "mu", "nu", "xi", "zeta", "kappa", "lambda", "chi",
+}
+SUPERSCRIPTS = str.maketrans("0123456789", "⁰¹²³⁴⁵⁶⁷⁸⁹")
+
+
+def symbol_latex(name: str) -> str:
+    """'a3' -> 'a_{3}', 'theta2' -> '\\theta_{2}', 'shoulder_lift_y' -> '\\mathrm{shoulder\\_lift\\_y}'."""
+    m = re.match(r"^([A-Za-z]+)(\d+)$", name)
+    if m:
+        head = "\\" + m.group(1) if m.group(1) in GREEK else (m.group(1) if len(m.group(1)) == 1 else rf"\mathrm{{{m.group(1)}}}")
+        return f"{head}_{{{m.group(2)}}}"
+    if len(name) == 1:
+        return name
+    return r"\mathrm{" + name.replace("_", r"\_") + "}"
+
+
+def coefficient_expr(fit, symbols):
+    """The sympy polynomial of one fitted coefficient."""
+    import sympy as sp
+
+    total = sp.Integer(0)
+    for mono, frac in fit.terms:
+        term = sp.Rational(frac.numerator, frac.denominator)
+        for k, e in zip(fit.length_vars, mono.length_exps):
+            term *= sp.Symbol(symbols[k].name) ** e
+        for k, code in zip(fit.angle_vars, mono.angle_codes):
+            th = sp.Symbol(symbols[k].name)
+            c, s = sp.cos(th), sp.sin(th)
+            term *= (sp.Integer(1), c, s, c * c, c * s)[code]
+        total += term
+    return sp.expand(total)
+
+
+def _compact(expr):
+    import sympy as sp
+
+    candidates = [sp.factor(expr), expr]  # ties go to the factored form
+    if expr.has(sp.sin, sp.cos):
+        t = sp.trigsimp(expr)
+        candidates += [sp.factor(t), t]
+    return min(candidates, key=lambda e: len(str(e)))
+
+
+def _text(s: str) -> str:
+    s = re.sub(r"\*\*(\d+)", lambda m: m.group(1).translate(SUPERSCRIPTS), s)
+    return s.replace("*", "·")
+
+
+def base_parameter_expressions(result) -> list[dict]:
+    """One dict per base parameter of the generic set: name and its three symbolic forms."""
+    import sympy as sp
+
+    from minparam_cli.render.text import latex_name
+
+    generic, fits, symbols = result["generic"], result["fits"], result["symbols"]
+    names = generic.standard_names
+    dependent = generic.dependent
+    latex_symbols = {sp.Symbol(s.name): symbol_latex(s.name) for s in symbols}
+    out = []
+    for i, bname in enumerate(generic.base_names):
+        groups: dict = {}
+        for jj, col in enumerate(dependent):
+            fit = fits.get((i, jj))
+            if fit is None or not fit.terms:
+                continue
+            groups.setdefault(coefficient_expr(fit, symbols), []).append(names[col])
+        head = names[generic.kept[i]]
+        plain, text, tex = [head], [head], [latex_name(head)]
+        for coef, params in groups.items():
+            c = _compact(coef)
+            neg = c.could_extract_minus_sign()
+            c = -c if neg else c
+            sign = " - " if neg else " + "
+            body = params[0] if len(params) == 1 else "(" + " + ".join(params) + ")"
+            body_tex = latex_name(params[0]) if len(params) == 1 else r"\left(" + " + ".join(latex_name(p) for p in params) + r"\right)"
+            if c == 1:
+                for p in params:
+                    plain.append(sign + p)
+                    text.append(sign + p)
+                    tex.append(sign + latex_name(p))
+                continue
+            cs = str(c)
+            ctex = sp.latex(c, symbol_names=latex_symbols)
+            if isinstance(c, sp.Add):
+                cs, ctex = f"({cs})", rf"\left({ctex}\right)"
+            plain.append(f"{sign}{cs}*{body}")
+            text.append(f"{sign}{_text(cs)}·{body}")
+            tex.append(rf"{sign}{ctex}\,{body_tex}")
+        out.append({"name": bname, "symbolic": "".join(plain), "symbolic_text": "".join(text), "symbolic_latex": "".join(tex)})
+    return out
+
+
+def latex_block(items: list[dict], comment: str) -> str:
+    from minparam_cli.render.text import latex_name
+
+    lines = [f"% {comment}", r"\begin{align*}"]
+    for i, b in enumerate(items):
+        end = r" \\" if i < len(items) - 1 else ""
+        lines.append(f"  {latex_name(b['name'])} &= {b['symbolic_latex']}{end}")
+    lines.append(r"\end{align*}")
+    return "\n".join(lines) + "\n"
+
+
+def symbolic_fields(report: dict, result: dict) -> dict:
+    """A copy of ``report`` with the symbolic fields of ``result`` added."""
+    report = dict(report)
+    generic = result["generic"]
+    ver = dict(result["verification"])
+    notes = []
+    for name, v in result["adjusted"].items():
+        notes.append(f"{name} is given as {v[0]!r} rad, taken as exactly {v[1]:d} deg (a right angle, not a symbol)")
+    report["symbols"] = {s.name: s.value for s in result["symbols"]}
+    report["generic_n_base"] = generic.n_base
+    ver["elapsed_s"] = round(result["elapsed_s"], 6)
+    report["symbolic_verification"] = ver
+    if not ver["passed"]:
+        notes.append(
+            f"symbolic coefficients failed verification against numeric beta (max relative error "
+            f"{ver['max_rel_error_fresh']:.3g} at fresh geometries); not printed"
+        )
+        report["symbolic_notes"] = notes
+        return report
+    items = base_parameter_expressions(result)
+    if result["special"]:
+        notes.append(
+            f"special geometry: the file's values give {report['n_base']} base parameters, generic values of the same "
+            f"symbols give {generic.n_base}; 'symbolic_generic' is the generic set, 'base_parameters' the file's (numeric)"
+        )
+        for cond in result["conditions"]:
+            notes.append(f"the rank drops when {cond}")
+        if not result["conditions"]:
+            notes.append("no single value or x = ±y relation of the file's symbols explains the drop alone")
+        report["symbolic_generic"] = items
+        which = "generic set (not the file's: see notes)"
+    else:
+        report["base_parameters"] = [dict(b, **{k: v for k, v in s.items() if k != "name"}) for b, s in zip(report["base_parameters"], items)]
+        which = "symbolic regrouping"
+    report["symbolic_notes"] = notes
+    report["symbolic_latex"] = latex_block(items, f"{report['robot']}: {which}, {generic.n_base} base parameters")
+    return report
