@@ -1,0 +1,1 @@
+"""Kinematics beside the dynamics pipeline: screws and singular positions, parallel platforms."""
