@@ -7,9 +7,11 @@ import os
 for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
     os.environ.setdefault(_var, "1")  # as the CLI does (cli/app.py)
 import resource
+import shutil
 import statistics
 import subprocess
 import sys
+import tempfile
 import time
 from pathlib import Path
 
@@ -17,16 +19,23 @@ ROOT = Path(__file__).resolve().parents[1]
 
 
 def run_process(cmd: list[str], repeats: int = 7) -> tuple[float, float]:
-    """Median wall time (s) and max peak RSS (MB) of a whole process, over ``repeats`` runs."""
+    """Median wall time (s) and max peak RSS (MB) of a whole process, over ``repeats`` runs.
+
+    Peak RSS comes from GNU time when present: os.wait4's ru_maxrss would include
+    the memory of this (forked) benchmark process itself.
+    """
+    gnu_time = shutil.which("time") if os.path.exists("/usr/bin/time") else None
     times, peaks = [], []
     for _ in range(repeats):
-        t0 = time.perf_counter()
-        p = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, cwd=ROOT)
-        _, status, usage = os.wait4(p.pid, 0)
-        times.append(time.perf_counter() - t0)
-        peaks.append(usage.ru_maxrss / 1024)
-        if os.waitstatus_to_exitcode(status) != 0:
-            raise SystemExit(f"command failed: {' '.join(cmd)}")
+        with tempfile.NamedTemporaryFile("r") as rss:
+            full = ["/usr/bin/time", "-f", "%M", "-o", rss.name, *cmd] if gnu_time else cmd
+            t0 = time.perf_counter()
+            p = subprocess.run(full, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, cwd=ROOT)
+            times.append(time.perf_counter() - t0)
+            if p.returncode != 0:
+                raise SystemExit(f"command failed: {' '.join(cmd)}")
+            text = rss.read().strip().splitlines()
+            peaks.append(float(text[-1]) / 1024 if gnu_time and text else float("nan"))
     return statistics.median(times), max(peaks)
 
 

@@ -24,14 +24,13 @@ octahedron.  Lengths keep the file's unit; angles are stored in radians.
 
 from __future__ import annotations
 
-import functools
 import math
 import re
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from minparam_cli.describe.safety import read_bounded
+from minparam_cli.describe.safety import read_yaml
 from minparam_cli.errors import DescriptionError
 
 LENGTH_UNITS = ("mm", "cm", "m")
@@ -79,47 +78,16 @@ class PlatformDescription:
 
 def is_platform_file(path: Path) -> bool:
     """Cheap test used by batch runs: does the YAML file say ``kind: platform``?"""
-    import yaml
-
     try:
-        doc = yaml.safe_load(read_bounded(Path(path)))
-    except Exception:  # noqa: BLE001 - any unreadable file is simply "not a platform"
+        doc = read_yaml(Path(path))
+    except DescriptionError:  # any unreadable file is simply "not a platform"
         return False
     return isinstance(doc, dict) and doc.get("kind") == "platform"
 
 
 def load_platform(path: Path) -> PlatformDescription:
     """Read and validate a platform YAML file."""
-    import yaml
-
-    src = str(path)
-    data = read_bounded(Path(path))
-    try:
-        doc = yaml.load(data, Loader=_unique_key_loader())  # noqa: S506 - a SafeLoader subclass
-    except yaml.YAMLError as e:
-        mark = getattr(e, "problem_mark", None)
-        where = f" at line {mark.line + 1}" if mark is not None else ""
-        problem = getattr(e, "problem", None) or str(e).splitlines()[0]
-        raise DescriptionError(f"malformed YAML{where} ({problem})", src) from e
-    return platform_from_mapping(doc, src)
-
-
-@functools.lru_cache(maxsize=1)
-def _unique_key_loader():
-    """A yaml.SafeLoader that refuses a key repeated in one mapping (plain safe_load keeps the last)."""
-    import yaml
-
-    class UniqueKeyLoader(yaml.SafeLoader):
-        def construct_mapping(self, node, deep=False):
-            seen = set()
-            for key_node, _ in node.value:
-                key = self.construct_object(key_node, deep=deep)
-                if key in seen:
-                    raise yaml.constructor.ConstructorError(None, None, f"duplicate key {key!r}", key_node.start_mark)
-                seen.add(key)
-            return super().construct_mapping(node, deep=deep)
-
-    return UniqueKeyLoader
+    return platform_from_mapping(read_yaml(Path(path)), str(path))
 
 
 def platform_from_mapping(doc: Any, src: str) -> PlatformDescription:

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import functools
 from pathlib import Path
 
 from minparam_cli.errors import DescriptionError
@@ -46,3 +47,36 @@ def parse_xml_safely(data: bytes, source: str):
     if doc.internalDTD is not None or doc.externalDTD is not None or doc.doctype:
         raise DescriptionError("DOCTYPE and entity declarations are not allowed in a URDF", source)
     return root
+
+
+@functools.lru_cache(maxsize=1)
+def _unique_key_loader():
+    """A yaml.SafeLoader that refuses a key repeated in one mapping (plain safe_load keeps the last)."""
+    import yaml
+
+    class UniqueKeyLoader(yaml.SafeLoader):
+        def construct_mapping(self, node, deep=False):
+            seen = set()
+            for key_node, _ in node.value:
+                key = self.construct_object(key_node, deep=deep)
+                if key in seen:
+                    raise yaml.constructor.ConstructorError(None, None, f"duplicate key {key!r}", key_node.start_mark)
+                seen.add(key)
+            return super().construct_mapping(node, deep=deep)
+
+    return UniqueKeyLoader
+
+
+def read_yaml(path: Path):
+    """Parse a YAML file safely: bounded size, SafeLoader (no Python objects), no repeated keys."""
+    import yaml
+
+    src = str(path)
+    data = read_bounded(Path(path))
+    try:
+        return yaml.load(data, Loader=_unique_key_loader())  # noqa: S506 - a SafeLoader subclass
+    except yaml.YAMLError as e:
+        mark = getattr(e, "problem_mark", None)
+        where = f" at line {mark.line + 1}" if mark is not None else ""
+        problem = getattr(e, "problem", None) or str(e).splitlines()[0]
+        raise DescriptionError(f"malformed YAML{where} ({problem})", src) from e

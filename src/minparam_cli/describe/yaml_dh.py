@@ -25,7 +25,7 @@ from pathlib import Path
 from typing import Any
 
 from minparam_cli.describe.records import GeomValue, Inertial, JointRecord, RobotDescription
-from minparam_cli.describe.safety import MAX_JOINTS, read_bounded
+from minparam_cli.describe.safety import MAX_JOINTS, read_yaml
 from minparam_cli.errors import DescriptionError, NotARobotError
 from minparam_cli.params import FRICTION_KINDS
 
@@ -39,18 +39,7 @@ _PI_RE = re.compile(r"^\s*([+-]?(?:\d+(?:\.\d*)?|\.\d+)?)\s*\*?\s*pi\s*(?:/\s*(\
 
 
 def load_yaml(path: Path) -> RobotDescription:
-    import yaml
-
-    src = str(path)
-    data = read_bounded(path)
-    try:
-        doc = yaml.safe_load(data)
-    except yaml.YAMLError as e:
-        mark = getattr(e, "problem_mark", None)
-        where = f" at line {mark.line + 1}" if mark is not None else ""
-        problem = getattr(e, "problem", None) or str(e).splitlines()[0]
-        raise DescriptionError(f"malformed YAML{where} ({problem})", src) from e
-    return description_from_mapping(doc, src)
+    return description_from_mapping(read_yaml(path), str(path))
 
 
 def description_from_mapping(doc: Any, src: str) -> RobotDescription:
