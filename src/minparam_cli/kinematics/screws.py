@@ -1,0 +1,388 @@
+"""Joint screws, singular positions and the nearest feasible twist (Glazunov 1985, paper 004).
+
+Notation of the paper.  Joint i has the unit screw E_i with Plücker
+coordinates (x_i, y_i, z_i; l_i, m_i, n_i) in the base frame: the unit axis
+direction and its moment about the base origin (revolute joint), or
+(0, 0, 0; direction) (prismatic joint).  The tool twist is the sum of the
+joint screws times the joint rates (eq. 1), i.e. six linear equations whose
+6 × n coefficient matrix is the paper's matrix (3):
+
+    (dφ ; dS + r_c × dφ) = Σ E_i dφ_i                              (eq. 2)
+
+dφ is the angular velocity, dS the velocity of the tool point O_c at r_c,
+so dS + r_c × dφ is the velocity of the body point at the base origin.
+
+Decisions (every tolerance is relative and reported):
+
+* Singular position: the matrix is normalised (linear rows taken at O_c and
+  divided by the chain's length scale L; prismatic columns multiplied by L)
+  and its singular values divided by the largest.  The configuration is
+  singular when σ_k/σ_1 ≤ ε with k = min(6, n), ε = ``DEFAULT_EPSILON``
+  unless given.  The numerical rank is the number of σ_i/σ_1 > ε.
+* Dependent joints: the paper's column-deletion test (joint i belongs when
+  deleting its column leaves the rank unchanged).  Dependent groups: the
+  minimal sets of k ≤ 6 screws lying in a (k-1)-system, found by testing
+  column subsets against the same cut.  Their union equals the deletion set
+  for n ≤ 6; the right null space (joint-rate combinations that give no
+  tool motion) is reported with them, which covers rank drops above one.
+* Held joints: n - rank joints of the dependent set are held at zero rate
+  (the paper holds dφ6 = 0); the kept columns are a basis of the screw
+  system.  The reciprocal screws H are computed from the kept columns, as
+  the paper computes H from the five remaining screws, so the projected
+  twist is reproduced exactly by the kept joints.
+
+The matrix itself lives in ``plucker``, the control step (projection, joint
+rates, the seeded nearest check) in ``nearest_twist``; both are re-exported
+here.  Indices are 0-based here; renderers number joints from 1.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from itertools import combinations
+
+import numpy as np
+
+from minparam_cli.chain import Chain
+from minparam_cli.errors import ComputationError, InputError
+from minparam_cli.kinematics.nearest_twist import (
+    NearestCheck,
+    TwistSolution,
+    check_nearest,
+    paper_projection,
+    reciprocal_product,
+    solve_twist,
+    twist_distances,
+)
+from minparam_cli.kinematics.plucker import (
+    SCREW_CONVENTION,
+    TWIST_CONVENTION,
+    ZERO_COMPONENT,
+    column_scale,
+    normalised_matrices,
+    plucker_matrices,
+    relative_sigma,
+    require_serial,
+    rows_at_point,
+)
+
+DEFAULT_EPSILON = 1e-3
+"""Relative cut on σ_min/σ_max of the normalised screw matrix."""
+
+DEFAULT_DAMPING = 0.05
+"""Damping of the damped-least-squares comparison, relative to σ_max."""
+
+TIE_RTOL = 1e-9
+"""Conditioning scores equal to this relative tolerance are a tie; the later joint is held."""
+
+
+# --- result records -------------------------------------------------------------
+
+
+@dataclass(frozen=True, eq=False)
+class RankTest:
+    """The local test: relative singular values, rank and the margin of the decision."""
+
+    singular_values: np.ndarray  # σ_i / σ_max, descending, min(6, n) of them
+    sigma_max: float  # of the normalised matrix (dimensionless per unit rate)
+    epsilon: float
+    rank: int
+    full_rank: int  # min(6, n)
+    det: float | None  # det of matrix (3) in SI units, six joints only
+
+    @property
+    def sigma_min(self) -> float:
+        return float(self.singular_values[self.full_rank - 1])
+
+    @property
+    def singular(self) -> bool:
+        return self.rank < self.full_rank
+
+    @property
+    def cut_ratio(self) -> float | None:
+        """σ_rank / σ_rank+1 across the cut (how clear the rank decision was); None when not singular."""
+        if not self.singular:
+            return None
+        below = float(self.singular_values[self.rank])
+        return float("inf") if below == 0 else float(self.singular_values[self.rank - 1]) / below
+
+
+@dataclass(frozen=True, eq=False)
+class ReciprocalScrew:
+    """A unit screw reciprocal to every kept joint screw (|h| = 1, or |h0| = 1 for a couple)."""
+
+    plucker: np.ndarray  # (h; h0) with h0 about the base origin
+    moment_at_tool: np.ndarray  # h0 about O_c
+    kind: str  # "screw" | "force" (zero pitch) | "couple" (h = 0)
+    pitch: float  # inf for a couple, metres otherwise
+    axis_point: np.ndarray | None  # point of the axis nearest the base origin (None for a couple)
+
+
+@dataclass(frozen=True, eq=False)
+class SingularReport:
+    """Everything the local analysis finds at one configuration."""
+
+    robot: str
+    source: str
+    joint_names: tuple[str, ...]
+    types: tuple[str, ...]
+    q: np.ndarray  # rad / m
+    tool_point: np.ndarray  # O_c in the base frame, m
+    length_scale: float  # L, m
+    plucker: np.ndarray  # (6, n) matrix (3), moments about the base origin
+    test: RankTest
+    deletion_ranks: tuple[int, ...]  # rank of the matrix with column i deleted
+    dependent_joints: tuple[int, ...]
+    groups: tuple[tuple[int, ...], ...]
+    null_space: np.ndarray  # (n, n - rank) joint-rate combinations giving no tool motion
+    held_joints: tuple[int, ...]
+    reciprocal: tuple[ReciprocalScrew, ...]
+    twist: TwistSolution | None
+    notes: tuple[str, ...]
+
+    @property
+    def singular(self) -> bool:
+        return self.test.singular
+
+
+# --- numerical helpers ---------------------------------------------------------------
+
+
+def _rank(M: np.ndarray, cut: float) -> int:
+    if M.shape[1] == 0:
+        return 0
+    return int(np.sum(np.linalg.svd(M, compute_uv=False) > cut))
+
+
+def _sigma_k(M: np.ndarray, k: int) -> float:
+    """k-th largest singular value (1-based), 0 when there are fewer."""
+    s = np.linalg.svd(M, compute_uv=False)
+    return float(s[k - 1]) if 0 < k <= s.size else 0.0
+
+
+def dependent_groups(Jn: np.ndarray, cut: float, max_size: int = 6) -> tuple[tuple[int, ...], ...]:
+    """Minimal sets of k ≤ max_size columns with rank k - 1 (the paper's k screws in a (k-1)-system)."""
+    n = Jn.shape[1]
+    found: list[tuple[int, ...]] = []
+    for k in range(1, min(max_size, n) + 1):
+        for S in combinations(range(n), k):
+            if any(set(g) <= set(S) for g in found):
+                continue
+            if _sigma_k(Jn[:, S], k) <= cut:
+                found.append(S)
+    return tuple(found)
+
+
+def deletion_test(Jn: np.ndarray, cut: float, rank: int) -> tuple[tuple[int, ...], tuple[int, ...]]:
+    """The paper's test: the rank after deleting each column, and the columns whose deletion keeps it."""
+    n = Jn.shape[1]
+    ranks = tuple(_rank(np.delete(Jn, i, axis=1), cut) for i in range(n))
+    return ranks, tuple(i for i in range(n) if ranks[i] == rank)
+
+
+def choose_held(Jn: np.ndarray, candidates: tuple[int, ...], rank: int, cut: float) -> tuple[int, ...]:
+    """Hold n - rank joints from ``candidates`` so that the kept columns are the best-conditioned basis.
+
+    Greedy: each step holds the candidate whose removal leaves the largest σ_rank; on a tie
+    (``TIE_RTOL``) the later joint is held, as the paper holds dφ6.
+    """
+    kept = list(range(Jn.shape[1]))
+    held: list[int] = []
+    while len(kept) > rank:
+        scores = {}
+        for c in candidates:
+            if c in kept:
+                score = _sigma_k(Jn[:, [k for k in kept if k != c]], rank)
+                if score > cut:
+                    scores[c] = score
+        if not scores:
+            raise ComputationError("no joint of the dependent group can be held without losing rank")
+        top = max(scores.values())
+        best = max(c for c, v in scores.items() if v >= top * (1 - TIE_RTOL))
+        kept.remove(best)
+        held.append(best)
+    return tuple(sorted(held))
+
+
+def reciprocal_screws(
+    chain: Chain, Jn_kept: np.ndarray, c: np.ndarray, L: float
+) -> tuple[ReciprocalScrew, ...]:
+    """Screws reciprocal to the kept columns: the left null space of the normalised matrix.
+
+    For u with uᵀ·Jn = 0, the wrench (h0_c; h) = (u_w; u_v / L) annihilates every feasible
+    twist at O_c: h0_c·w + h·v_c = 0.  About the base origin h0 = h0_c + r_c × h.
+    """
+    r = Jn_kept.shape[1]
+    if r >= 6:
+        return ()
+    U, _, _ = np.linalg.svd(Jn_kept, full_matrices=True) if r else (np.eye(6), None, None)
+    out = []
+    for k in range(r, 6):
+        u = U[:, k]
+        uw, uv = u[:3].copy(), u[3:].copy()
+        if np.linalg.norm(uw) <= ZERO_COMPONENT:
+            uw[:] = 0.0
+        if np.linalg.norm(uv) <= ZERO_COMPONENT:
+            h = np.zeros(3)
+            h0c = uw / np.linalg.norm(uw)
+            kind, pitch, point = "couple", float("inf"), None
+            h0 = h0c.copy()
+        else:
+            h = uv / L
+            h0c = uw
+            scale = np.linalg.norm(h)
+            h, h0c = h / scale, h0c / scale
+            h0 = h0c + np.cross(c, h)
+            pitch = float(h @ h0)
+            point = np.cross(h, h0)
+            kind = "force" if abs(pitch) <= ZERO_COMPONENT * L else "screw"
+        lead = np.concatenate([h, h0]) if kind != "couple" else h0
+        sign = np.sign(lead[np.argmax(np.abs(lead))]) or 1.0
+        out.append(
+            ReciprocalScrew(
+                plucker=sign * np.concatenate([h, h0]) + 0.0,
+                moment_at_tool=sign * h0c + 0.0,
+                kind=kind,
+                pitch=pitch,
+                axis_point=point,
+            )
+        )
+    return tuple(out)
+
+
+# --- the analysis -----------------------------------------------------------------------
+
+
+def analyse(
+    chain: Chain,
+    q,
+    twist=None,
+    epsilon: float = DEFAULT_EPSILON,
+    hold: tuple[int, ...] | None = None,
+    damping: float = DEFAULT_DAMPING,
+) -> SingularReport:
+    """Glazunov's local test and control step at one configuration q (rad / m).
+
+    ``twist`` (6,) is the requested (w; v at O_c).  ``hold`` (0-based) overrides
+    the held joints; they must be n - rank joints of the dependent set.
+    """
+    require_serial(chain)
+    if not 0 < epsilon < 1:
+        raise InputError(f"epsilon must lie in (0, 1), got {epsilon}")
+    if not damping >= 0:
+        raise InputError(f"damping must be non-negative, got {damping}")
+    q = np.asarray(q, dtype=float).reshape(-1)
+    n = chain.n
+    if q.size != n:
+        raise InputError(f"expected {n} joint values for {chain.name}, got {q.size}")
+    if not np.all(np.isfinite(q)):
+        raise InputError("joint values must be finite")
+    L = float(chain.length_scale)
+    J0, c = plucker_matrices(chain, q[None])
+    J0, c = J0[0], c[0]
+    Jn = normalised_matrices(chain, J0, c, L)
+    k_full = min(6, n)
+    U, s, Vt = np.linalg.svd(Jn)
+    smax = float(s[0])
+    if smax == 0:
+        raise ComputationError("every joint screw vanishes; nothing to analyse")
+    rel = s[:k_full] / smax
+    cut = epsilon * smax
+    rank = int(np.sum(s > cut))
+    det = float(np.linalg.det(J0)) if n == 6 else None
+    test = RankTest(singular_values=rel, sigma_max=smax, epsilon=epsilon, rank=rank, full_rank=k_full, det=det)
+    notes: list[str] = []
+
+    groups = dependent_groups(Jn, cut)
+    ranks, deleted = deletion_test(Jn, cut, rank)
+    if n <= 6:
+        dependent = deleted
+        if set(dependent) != {j for g in groups for j in g}:
+            notes.append("the column-deletion test and the minimal groups disagree near the cut; both reported")
+    else:
+        dependent = tuple(sorted({j for g in groups for j in g}))
+    if test.singular and k_full - rank > 1:
+        notes.append(
+            f"rank drops by {k_full - rank}: the dependent set may join several groups; "
+            "the null space gives the joint-rate combinations"
+        )
+    if n > 6 and groups and not test.singular:
+        notes.append("a group of screws is dependent, but the redundant arm keeps full rank")
+    cs = column_scale(chain, L)
+    null = (Vt[rank:].T * cs[:, None]) if rank < n else np.zeros((n, 0))
+
+    # held joints and the kept basis
+    if hold is not None:
+        held = tuple(sorted(set(hold)))
+        if any(not 0 <= h < n for h in held):
+            raise InputError(f"held joints must be numbered 1..{n}")
+        if not test.singular:
+            raise InputError("--hold applies only at a singular position; this configuration has full rank")
+        if len(held) != n - rank:
+            raise InputError(f"hold exactly {n - rank} joint(s) at rank {rank}, got {len(held)}")
+        kept = [j for j in range(n) if j not in held]
+        if _rank(Jn[:, kept], cut) < rank:
+            names = ", ".join(str(j + 1) for j in dependent)
+            raise InputError(f"holding joint(s) {', '.join(str(h + 1) for h in held)} loses rank; hold joints from {{{names}}}")
+    elif test.singular:
+        held = choose_held(Jn, dependent if n <= 6 else tuple(range(n)), rank, cut)
+    else:
+        held = ()
+    kept = [j for j in range(n) if j not in held]
+    use_basis = test.singular or n <= 6
+    screws = reciprocal_screws(chain, Jn[:, kept], c, L) if use_basis else ()
+
+    solution = None
+    if twist is not None:
+        T = np.asarray(twist, dtype=float).reshape(-1)
+        if T.size != 6 or not np.all(np.isfinite(T)):
+            raise InputError("the twist needs six finite numbers wx,wy,wz,vx,vy,vz")
+        solution = solve_twist(chain, J0, Jn, c, L, U, s, Vt, rank, kept, use_basis, screws, T, damping)
+
+    return SingularReport(
+        robot=chain.name,
+        source=chain.source,
+        joint_names=chain.joint_names,
+        types=chain.types,
+        q=q,
+        tool_point=c,
+        length_scale=L,
+        plucker=J0,
+        test=test,
+        deletion_ranks=ranks,
+        dependent_joints=tuple(dependent),
+        groups=groups,
+        null_space=null,
+        held_joints=held,
+        reciprocal=screws,
+        twist=solution,
+        notes=tuple(notes),
+    )
+
+
+__all__ = [
+    "DEFAULT_DAMPING",
+    "DEFAULT_EPSILON",
+    "NearestCheck",
+    "RankTest",
+    "ReciprocalScrew",
+    "SCREW_CONVENTION",
+    "SingularReport",
+    "TWIST_CONVENTION",
+    "TwistSolution",
+    "analyse",
+    "check_nearest",
+    "choose_held",
+    "column_scale",
+    "deletion_test",
+    "dependent_groups",
+    "normalised_matrices",
+    "paper_projection",
+    "plucker_matrices",
+    "reciprocal_product",
+    "reciprocal_screws",
+    "relative_sigma",
+    "require_serial",
+    "rows_at_point",
+    "twist_distances",
+]

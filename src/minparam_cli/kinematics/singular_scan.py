@@ -1,0 +1,472 @@
+"""The global problem of Glazunov (1985): sweep the joints that move the axes relative to each other.
+
+Only joints 2 … n-1 change the relative position of the joint axes of a
+serial arm (joint 1 moves the whole chain rigidly, joint n moves no axis), so
+the singular set is a set in the space of those joints.  ``scan`` evaluates
+the relative smallest singular value σ_min/σ_max (the local test of
+``screws``) on a grid, keeps the grid nodes at or below ε as the paper does,
+and, because a grid rarely lands on the singular set, also locates the
+crossings between neighbouring nodes:
+
+* six joints: the determinant of matrix (3) changes sign across the set;
+  each sign change is refined by the Illinois variant of regula falsi;
+* other n: σ_min/σ_max has a V-shaped dip at the set; a grid node that is a
+  local minimum deep enough to hide a zero is refined by golden-section search.
+
+Refined points are kept when σ_min/σ_max ≤ ε there, then sorted by their
+dependent joints (the paper's column-deletion test).  ``sigma_map`` gives the
+same quantity on a fine grid over two joints, for a plot.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Callable
+
+import numpy as np
+
+from minparam_cli.chain import REVOLUTE, Chain, motion
+from minparam_cli.errors import InputError
+from minparam_cli.kinematics.screws import (
+    DEFAULT_EPSILON,
+    dependent_groups,
+    normalised_matrices,
+    plucker_matrices,
+    require_serial,
+)
+
+DEFAULT_STEP_DEG = 15.0
+MAX_NODES = 3_000_000
+MAX_POINTS_KEPT = 200_000
+REFINE_ITERATIONS = 60
+DISTINCT_VALUES = 4  # a swept joint taking at most this many values over a set is reported as constant
+
+
+@dataclass(frozen=True, eq=False)
+class ScanAxis:
+    joint: int  # 0-based
+    values: np.ndarray  # rad or m
+    periodic: bool
+
+    @property
+    def step(self) -> float:
+        return float(self.values[1] - self.values[0]) if self.values.size > 1 else 0.0
+
+
+@dataclass(frozen=True, eq=False)
+class SingularSet:
+    """The found singular points that share one set of dependent joints."""
+
+    dependent_joints: tuple[int, ...]
+    groups: tuple[tuple[int, ...], ...]
+    rank: int
+    count: int
+    example: np.ndarray  # a configuration (rad / m)
+    constant: dict  # swept joint -> tuple of the few values it takes over the set
+    ranges: dict  # swept joint -> (min, max) when it takes more values
+
+    @property
+    def consistent(self) -> bool:
+        """The minimal groups at the example join to the deletion-test set (False near the cut)."""
+        return {j for g in self.groups for j in g} == set(self.dependent_joints)
+
+
+@dataclass(frozen=True, eq=False)
+class ScanResult:
+    robot: str
+    source: str
+    axes: tuple[ScanAxis, ...]
+    q_fixed: np.ndarray
+    epsilon: float
+    nodes: int
+    node_hits: int  # grid nodes with σ_min/σ_max ≤ ε
+    crossings: int  # refined crossings accepted
+    sigma_grid_min: float
+    points: np.ndarray  # (M, n) singular configurations found
+    sigma: np.ndarray  # (M,) σ_min/σ_max at them
+    point_set: np.ndarray  # (M,) index into ``sets``
+    sets: tuple[SingularSet, ...]
+    notes: tuple[str, ...]
+
+
+@dataclass(frozen=True, eq=False)
+class SigmaMap:
+    robot: str
+    joints: tuple[int, int]
+    x: np.ndarray
+    y: np.ndarray
+    sigma: np.ndarray  # (len(y), len(x)) σ_min/σ_max
+    det: np.ndarray | None  # det of matrix (3), six joints only
+    q_fixed: np.ndarray
+    epsilon: float
+
+
+# --- grids -------------------------------------------------------------------------
+
+
+def joint_range(chain: Chain, j: int) -> tuple[float, float, bool]:
+    """Sweep range of joint j: (lo, hi, periodic).
+
+    Revolute: its limits clipped to one turn, or a full periodic turn without
+    limits.  Prismatic: its limits, which the file must give.
+    """
+    lim = chain.limits[j] if j < len(chain.limits) else None
+    if chain.types[j] == REVOLUTE:
+        if lim is None or lim[1] - lim[0] >= 2 * np.pi - 1e-9:
+            return -np.pi, np.pi, True
+        return float(lim[0]), float(lim[1]), False
+    if lim is None:
+        raise InputError(
+            f"joint {j + 1} ({chain.joint_names[j]}) is prismatic and has no limits; add limits to sweep it",
+            chain.source,
+        )
+    return float(lim[0]), float(lim[1]), False
+
+
+def axis_values(chain: Chain, j: int, step: float) -> ScanAxis:
+    """Grid of one joint: ``step`` (rad) for revolute joints; prismatic joints get as many points as a turn."""
+    lo, hi, periodic = joint_range(chain, j)
+    per_turn = max(int(round(2 * np.pi / step)), 4)
+    if chain.types[j] != REVOLUTE:
+        return ScanAxis(j, np.linspace(lo, hi, per_turn + 1), False)
+    if periodic:
+        return ScanAxis(j, -np.pi + 2 * np.pi * np.arange(per_turn) / per_turn, True)
+    count = max(int(np.ceil((hi - lo) / step - 1e-9)) + 1, 2)
+    return ScanAxis(j, np.linspace(lo, hi, count), False)
+
+
+def swept_joints(chain: Chain) -> tuple[int, ...]:
+    """Joints 2 … n-1 (0-based 1 … n-2): the only ones that move the axes relative to each other."""
+    return tuple(range(1, chain.n - 1))
+
+
+def grid_plucker(chain: Chain, values: list[np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
+    """Matrix (3) and O_c over a Cartesian grid (C order over the joints), link by link.
+
+    Each link frame is computed once per combination of the joints before it,
+    so the cost is set by the last joints only.
+    """
+    n = chain.n
+    F = np.eye(4)[None]
+    Z, O = [], []
+    for j in range(n):
+        A = F @ chain.pre[j]
+        Z.append(A[:, :3, :3] @ chain.axes[j])
+        O.append(A[:, :3, 3])
+        M = motion(chain.types[j], chain.axes[j], np.asarray(values[j], float)) @ chain.post[j]
+        F = (A[:, None] @ M[None]).reshape(-1, 4, 4)
+    N = F.shape[0]
+    tool = np.zeros(3) if chain.tool is None else np.asarray(chain.tool, float)
+    c = F[:, :3, :3] @ tool + F[:, :3, 3]
+    J = np.zeros((N, 6, n))
+    for j in range(n):
+        rep = N // Z[j].shape[0]
+        z = np.repeat(Z[j], rep, axis=0)
+        if chain.types[j] == REVOLUTE:
+            J[:, :3, j] = z
+            J[:, 3:, j] = np.cross(np.repeat(O[j], rep, axis=0), z)
+        else:
+            J[:, 3:, j] = z
+    return J, c
+
+
+def _sigma_det(chain: Chain, J0: np.ndarray, c: np.ndarray):
+    Jn = normalised_matrices(chain, J0, c, chain.length_scale)
+    s = np.linalg.svd(Jn, compute_uv=False)
+    k = min(6, chain.n)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        rel = np.where(s[:, 0] > 0, s[:, k - 1] / s[:, 0], 0.0)
+    det = np.linalg.det(J0) if chain.n == 6 else None
+    return rel, det, Jn, s
+
+
+def _evaluate(chain: Chain, Q: np.ndarray):
+    J0, c = plucker_matrices(chain, Q)
+    return _sigma_det(chain, J0, c)
+
+
+# --- the scan --------------------------------------------------------------------------
+
+
+def scan(
+    chain: Chain,
+    q_fixed,
+    step: float = np.radians(DEFAULT_STEP_DEG),
+    epsilon: float = DEFAULT_EPSILON,
+    progress: Callable[[int, int], None] | None = None,
+) -> ScanResult:
+    """Sweep joints 2 … n-1 on a grid (others held at ``q_fixed``) and collect the singular set."""
+    require_serial(chain)
+    if not step > 0:
+        raise InputError(f"the scan step must be positive, got {step}")
+    if not 0 < epsilon < 1:
+        raise InputError(f"epsilon must lie in (0, 1), got {epsilon}")
+    n = chain.n
+    q_fixed = np.asarray(q_fixed, dtype=float).reshape(-1)
+    if q_fixed.size != n:
+        raise InputError(f"expected {n} joint values, got {q_fixed.size}")
+    notes: list[str] = []
+    swept = swept_joints(chain)
+    axes = tuple(axis_values(chain, j, step) for j in swept)
+    values = [np.array([q_fixed[j]]) for j in range(n)]
+    for ax in axes:
+        values[ax.joint] = ax.values
+    shape = tuple(ax.values.size for ax in axes)
+    nodes = int(np.prod(shape)) if shape else 1
+    if nodes > MAX_NODES:
+        raise InputError(f"the grid has {nodes} nodes (limit {MAX_NODES}); use a larger step")
+    if not swept:
+        notes.append("no joint changes the relative position of the axes: the test does not depend on q")
+
+    # sigma (and det) on the grid, chunked over the first swept joint
+    sig = np.empty(nodes)
+    det = np.empty(nodes) if n == 6 else None
+    chunks = shape[0] if shape else 1
+    per = nodes // chunks
+    for k in range(chunks):
+        vals = list(values)
+        if axes:
+            vals[axes[0].joint] = axes[0].values[k : k + 1]
+        J0, c = grid_plucker(chain, vals)
+        rel, d, _, _ = _sigma_det(chain, J0, c)
+        sig[k * per : (k + 1) * per] = rel
+        if det is not None:
+            det[k * per : (k + 1) * per] = d
+        if progress:
+            progress(k + 1, chunks + 1)
+    sig_g = sig.reshape(shape) if shape else sig
+    det_g = det.reshape(shape) if (det is not None and shape) else det
+    hit_g = sig_g <= epsilon
+
+    def node_q(index_tuple_arrays):
+        Q = np.tile(q_fixed, (index_tuple_arrays[0].size if axes else 1, 1))
+        for a, ax in enumerate(axes):
+            Q[:, ax.joint] = ax.values[index_tuple_arrays[a]]
+        return Q
+
+    hits = np.nonzero(hit_g) if axes else (np.array([0]) if sig[0] <= epsilon else np.array([], int),)
+    points = [node_q(hits)] if axes else ([q_fixed[None]] if sig[0] <= epsilon else [])
+
+    # crossings between neighbouring nodes along each swept axis
+    crossings = 0
+    for a, ax in enumerate(axes):
+        lo_idx, hi_x, lo_x = _candidates(sig_g, det_g, hit_g, a, ax, epsilon)
+        if lo_idx[0].size == 0:
+            continue
+        Q_lo = node_q(lo_idx)
+        refined = _refine(chain, Q_lo, ax.joint, lo_x, hi_x, use_det=det is not None)
+        rel, _, _, _ = _evaluate(chain, refined) if refined.shape[0] else (np.empty(0), None, None, None)
+        keep = refined[rel <= epsilon]
+        crossings += keep.shape[0]
+        points.append(keep)
+        if progress:
+            progress(chunks, chunks + 1)
+    P = np.concatenate(points, axis=0) if points else np.zeros((0, n))
+    if P.shape[0] > MAX_POINTS_KEPT:
+        notes.append(f"{P.shape[0]} singular points found; the first {MAX_POINTS_KEPT} are kept")
+        P = P[:MAX_POINTS_KEPT]
+    if n != 6 and axes:
+        notes.append(
+            "without a determinant the crossings are found from dips of σ_min/σ_max; "
+            "a singular set of codimension above one is met only where the grid lands on it"
+        )
+    sets, which, sigma_pts = _classify(chain, P, axes, epsilon)
+    if progress:
+        progress(chunks + 1, chunks + 1)
+    return ScanResult(
+        robot=chain.name,
+        source=chain.source,
+        axes=axes,
+        q_fixed=q_fixed,
+        epsilon=epsilon,
+        nodes=nodes,
+        node_hits=int(np.count_nonzero(hit_g)),
+        crossings=crossings,
+        sigma_grid_min=float(sig.min()),
+        points=P,
+        sigma=sigma_pts,
+        point_set=which,
+        sets=sets,
+        notes=tuple(notes),
+    )
+
+
+def _candidates(sig_g, det_g, hit_g, a, ax: ScanAxis, epsilon):
+    """Brackets along axis a: (indices of the lower node, upper value, lower value)."""
+    m = sig_g.shape[a]
+    if m < 2:
+        return (np.array([], int),), None, None
+    nxt = np.roll(sig_g, -1, axis=a)
+    hit_next = np.roll(hit_g, -1, axis=a)
+    valid = np.ones(sig_g.shape, bool)
+    if not ax.periodic:
+        sl = [slice(None)] * sig_g.ndim
+        sl[a] = m - 1
+        valid[tuple(sl)] = False
+    valid &= ~hit_g & ~hit_next
+    step = 2 * np.pi / m if ax.periodic else ax.step
+    if det_g is not None:
+        cand = valid & (det_g * np.roll(det_g, -1, axis=a) < 0)
+        idx = np.nonzero(cand)
+        lo_x = ax.values[idx[a]]
+        return idx, lo_x + step, lo_x
+    # V-shaped dips: a local minimum at least as deep as its own value
+    prv = np.roll(sig_g, 1, axis=a)
+    if not ax.periodic:
+        sl = [slice(None)] * sig_g.ndim
+        sl[a] = 0
+        prv = prv.copy()
+        prv[tuple(sl)] = np.inf
+        sl[a] = m - 1
+        nxt = nxt.copy()
+        nxt[tuple(sl)] = np.inf
+    deep = np.maximum(np.where(np.isfinite(prv), prv, -np.inf), np.where(np.isfinite(nxt), nxt, -np.inf)) - sig_g
+    cand = (sig_g <= prv) & (sig_g <= nxt) & ~hit_g & (sig_g <= deep)
+    idx = np.nonzero(cand)
+    centre = ax.values[idx[a]]
+    lo_x = centre - step
+    hi_x = centre + step
+    if not ax.periodic:
+        lo_x = np.maximum(lo_x, ax.values[0])
+        hi_x = np.minimum(hi_x, ax.values[-1])
+    return idx, hi_x, lo_x
+
+
+def _refine(chain: Chain, Q_lo: np.ndarray, joint: int, lo: np.ndarray, hi: np.ndarray, use_det: bool) -> np.ndarray:
+    """Locate the singular point inside each bracket [lo, hi] of ``joint``, all brackets at once."""
+    Q = Q_lo.copy()
+    a, b = lo.astype(float).copy(), hi.astype(float).copy()
+
+    def f(x):
+        Q[:, joint] = x
+        if use_det:
+            return np.linalg.det(plucker_matrices(chain, Q)[0])
+        return _evaluate(chain, Q)[0]
+
+    if use_det:  # Illinois variant of regula falsi on the sign change of det
+        fa, fb = f(a), f(b)
+        side = np.zeros(a.size, int)
+        x = 0.5 * (a + b)
+        for _ in range(REFINE_ITERATIONS):
+            x_old = x
+            x = (a * fb - b * fa) / (fb - fa)
+            x = np.where(np.isfinite(x), x, 0.5 * (a + b))
+            fx = f(x)
+            same_b = fx * fb > 0
+            a, b = np.where(same_b, a, x), np.where(same_b, x, b)
+            fa_new, fb_new = np.where(same_b, fa, fx), np.where(same_b, fx, fb)
+            fa = np.where(same_b & (side == -1), fa_new / 2, fa_new)
+            fb = np.where(~same_b & (side == 1), fb_new / 2, fb_new)
+            side = np.where(same_b, -1, 1)
+            if np.all(np.abs(x - x_old) <= 1e-14 * (1 + np.abs(x))):
+                break
+        Q[:, joint] = x
+        return Q
+    g = (np.sqrt(5) - 1) / 2  # golden section on the V-shaped σ_min/σ_max
+    x1, x2 = b - g * (b - a), a + g * (b - a)
+    f1, f2 = f(x1), f(x2)
+    for _ in range(REFINE_ITERATIONS):
+        left = f1 < f2  # the minimum lies in [a, x2]
+        a, b = np.where(left, a, x1), np.where(left, x2, b)
+        n1 = np.where(left, b - g * (b - a), x2)
+        n2 = np.where(left, x1, a + g * (b - a))
+        fn = f(np.where(left, n1, n2))
+        f1, f2 = np.where(left, fn, f2), np.where(left, f1, fn)
+        x1, x2 = n1, n2
+    Q[:, joint] = 0.5 * (a + b)
+    return Q
+
+
+def _classify(chain: Chain, P: np.ndarray, axes, epsilon):
+    """Sort the singular points by their dependent joints (column-deletion test, batched)."""
+    n = chain.n
+    if P.shape[0] == 0:
+        return (), np.zeros(0, int), np.zeros(0)
+    rel, _, Jn, s = _evaluate(chain, P)
+    cut = epsilon * s[:, 0]
+    rank = np.sum(s > cut[:, None], axis=1)
+    if n <= 6:
+        key = np.zeros(P.shape[0], np.int64)
+        for i in range(n):
+            si = np.linalg.svd(np.delete(Jn, i, axis=2), compute_uv=False)
+            ri = np.sum(si > cut[:, None], axis=1)
+            key |= (ri == rank).astype(np.int64) << i
+    else:
+        key = np.zeros(P.shape[0], np.int64)
+    key = key * 16 + rank
+    uniq, which = np.unique(key, return_inverse=True)
+    sets = []
+    for u_i, u in enumerate(uniq):
+        members = np.nonzero(which == u_i)[0]
+        ex = P[members[0]]
+        Jex = Jn[members[0]]
+        groups = dependent_groups(Jex, epsilon * float(s[members[0], 0]))
+        if n <= 6:
+            dep = tuple(i for i in range(n) if (int(u) // 16) >> i & 1)
+        else:
+            dep = tuple(sorted({j for g in groups for j in g}))
+        constant, ranges = {}, {}
+        for ax in axes:
+            vals = P[members, ax.joint]
+            distinct = _distinct(vals, ax)
+            if distinct.size <= DISTINCT_VALUES:
+                constant[ax.joint] = tuple(float(v) for v in distinct)
+            else:
+                ranges[ax.joint] = (float(vals.min()), float(vals.max()))
+        sets.append(SingularSet(dep, groups, int(u % 16), int(members.size), ex, constant, ranges))
+    order = sorted(range(len(sets)), key=lambda i: -sets[i].count)
+    remap = np.empty(len(sets), int)
+    remap[order] = np.arange(len(sets))
+    return tuple(sets[i] for i in order), remap[which], rel
+
+
+def _distinct(vals: np.ndarray, ax: ScanAxis) -> np.ndarray:
+    """Distinct values up to a thousandth of the grid step (angles wrapped to (-π, π])."""
+    v = np.asarray(vals, float)
+    if ax.periodic:
+        v = np.angle(np.exp(1j * v))
+        v = np.where(v <= -np.pi + 1e-12, np.pi, v)
+    tol = 1e-3 * (ax.step or 1.0)
+    v = np.sort(v)
+    out = [v[0]]
+    for x in v[1:]:
+        if x - out[-1] > tol:
+            out.append(x)
+    return np.array(out)
+
+
+# --- the map --------------------------------------------------------------------------------
+
+
+def sigma_map(chain: Chain, q_fixed, joints: tuple[int, int], points: int = 181, epsilon: float = DEFAULT_EPSILON) -> SigmaMap:
+    """σ_min/σ_max (and det for six joints) over two joints, the others held at ``q_fixed``."""
+    require_serial(chain)
+    n = chain.n
+    i, j = joints
+    if i == j or not (0 <= i < n and 0 <= j < n):
+        raise InputError(f"the map needs two different joints numbered 1..{n}, got {i + 1},{j + 1}")
+    if points < 2:
+        raise InputError("the map needs at least two points per axis")
+    q_fixed = np.asarray(q_fixed, dtype=float).reshape(-1)
+    if q_fixed.size != n:
+        raise InputError(f"expected {n} joint values, got {q_fixed.size}")
+    axes = []
+    for k in (i, j):
+        lo, hi, _ = joint_range(chain, k)
+        axes.append(np.linspace(lo, hi, points))
+    x, y = axes
+    Q = np.tile(q_fixed, (points * points, 1))
+    Y, X = np.meshgrid(y, x, indexing="ij")
+    Q[:, i] = X.ravel()
+    Q[:, j] = Y.ravel()
+    rel, det, _, _ = _evaluate(chain, Q)
+    return SigmaMap(
+        robot=chain.name,
+        joints=(i, j),
+        x=x,
+        y=y,
+        sigma=rel.reshape(points, points),
+        det=None if det is None else det.reshape(points, points),
+        q_fixed=q_fixed,
+        epsilon=epsilon,
+    )
