@@ -14,7 +14,7 @@ from typing import Callable
 import click
 import typer
 
-from minparam_cli.errors import MinparamError
+from minparam_cli.errors import ComputationError, InputError, MinparamError
 
 
 class Format(str, Enum):
@@ -62,32 +62,46 @@ def guarded(fn: Callable) -> Callable:
     return wrapper
 
 
+def atomic_write(path: Path, write: Callable[[str], None], suffix: str = ".tmp") -> None:
+    """Create ``path`` all at once: ``write`` fills a temporary file in the same folder,
+    which is then renamed over ``path``.  A failure leaves no file behind."""
+    path = Path(path)
+    directory = path.parent if str(path.parent) else Path(".")
+    if not directory.is_dir():
+        raise InputError(f"{path}: output folder {directory} does not exist")
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=suffix, dir=directory)
+    os.close(fd)
+    try:
+        write(tmp)
+        umask = os.umask(0)
+        os.umask(umask)
+        os.chmod(tmp, 0o666 & ~umask)  # mkstemp makes 0600; give the file the usual permissions
+        os.replace(tmp, path)
+    except OSError as e:
+        raise ComputationError(f"{path}: cannot write ({e.strerror})") from None
+    finally:
+        if os.path.exists(tmp):
+            os.unlink(tmp)
+
+
 def write_output(text: str, output: Path | None) -> None:
-    """Write to stdout, or atomically to ``output`` (temporary file, then rename)."""
+    """Write to stdout, or atomically to ``output``."""
+    text = text if text.endswith("\n") else text + "\n"
     if output is None:
-        sys.stdout.write(text if text.endswith("\n") else text + "\n")
+        sys.stdout.write(text)
         sys.stdout.flush()
         return
-    output = Path(output)
-    directory = output.parent if str(output.parent) else Path(".")
-    if not directory.is_dir():
-        from minparam_cli.errors import InputError
+    atomic_write(Path(output), lambda tmp: Path(tmp).write_text(text, encoding="utf-8"))
 
-        raise InputError(f"{output}: output folder {directory} does not exist")
-    fd, tmp = tempfile.mkstemp(prefix=f".{output.name}.", suffix=".tmp", dir=directory)
-    umask = os.umask(0)
-    os.umask(umask)
-    os.fchmod(fd, 0o666 & ~umask)  # mkstemp makes 0600; give the file the usual permissions
+
+def save_png(fig, path: Path, dpi: int = 110) -> None:
+    """Save a matplotlib figure atomically as PNG, then close it."""
+    import matplotlib.pyplot as plt
+
     try:
-        with os.fdopen(fd, "w", encoding="utf-8") as fh:
-            fh.write(text if text.endswith("\n") else text + "\n")
-        os.replace(tmp, output)
-    except BaseException:
-        try:
-            os.unlink(tmp)
-        except OSError:
-            pass
-        raise
+        atomic_write(Path(path), lambda tmp: fig.savefig(tmp, format="png", dpi=dpi), suffix=".png")
+    finally:
+        plt.close(fig)
 
 
 class Progress:

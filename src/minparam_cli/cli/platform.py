@@ -3,9 +3,7 @@
 from __future__ import annotations
 
 import json
-import os
 import sys
-import tempfile
 import time
 from enum import Enum
 from pathlib import Path
@@ -13,7 +11,7 @@ from typing import Optional
 
 import typer
 
-from minparam_cli.cli.common import Progress, guarded, parse_floats, write_output
+from minparam_cli.cli.common import Progress, guarded, parse_floats, save_png, write_output
 from minparam_cli.errors import ComputationError, DescriptionError, InputError
 
 HELP = "Kinematics of parallel platforms: hexapods and the dodekapod (Dang 2013). Inverse, forward (every assembly mode), workspace."
@@ -279,28 +277,8 @@ def _workspace(file, samples, orientation, seed, plot, fmt, output, quiet):
     d = rep.workspace_dict(model, result, time.perf_counter() - t0)
     text = _render(d, fmt, rep.workspace_table)
     if plot is not None:
-        _save_png(workspace_figure(model, result, desc.length_unit), Path(plot))
+        save_png(workspace_figure(model, result, desc.length_unit), Path(plot))
     write_output(text, output)
-
-
-def _save_png(fig, path: Path) -> None:
-    """Save a figure atomically: a temporary file in the same folder, then a rename."""
-    folder = path.parent if str(path.parent) else Path(".")
-    if not folder.is_dir():
-        raise InputError(f"{path}: output folder {folder} does not exist")
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".png", dir=folder)
-    os.close(fd)
-    try:
-        fig.savefig(tmp, format="png", dpi=110)
-        umask = os.umask(0)
-        os.umask(umask)
-        os.chmod(tmp, 0o666 & ~umask)  # mkstemp makes 0600; give the file the usual permissions
-        os.replace(tmp, path)
-    except OSError as e:
-        raise ComputationError(f"{path}: cannot write the plot ({e.strerror})") from None
-    finally:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
 
 
 def register(app: typer.Typer) -> None:

@@ -8,15 +8,13 @@ from __future__ import annotations
 
 import json
 import math
-import os
-import tempfile
 from enum import Enum
 from pathlib import Path
 
 import numpy as np
 import typer
 
-from minparam_cli.cli.common import Progress, guarded, parse_floats, write_output
+from minparam_cli.cli.common import Progress, guarded, parse_floats, save_png, write_output
 from minparam_cli.errors import ComputationError, InputError
 from minparam_cli.kinematics.screws import DEFAULT_DAMPING, DEFAULT_EPSILON
 from minparam_cli.kinematics.singular_scan import DEFAULT_STEP_DEG
@@ -563,27 +561,6 @@ def render_map(smap, chain, angle: str, marker=None):
     fig.text(0.01, 0.01, "white: det = 0   red dashed: sigma_min/sigma_max = epsilon", fontsize=7)
     fig.tight_layout()
     return fig
-
-
-def save_png(fig, path: Path) -> None:
-    """Save a figure atomically (temporary file in the same folder, then rename), with the usual permissions."""
-    path = Path(path)
-    directory = path.parent if str(path.parent) else Path(".")
-    if not directory.is_dir():
-        raise InputError(f"{path}: output folder {directory} does not exist")
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=directory)
-    os.close(fd)
-    try:
-        fig.savefig(tmp, format="png")
-        umask = os.umask(0)
-        os.umask(umask)
-        os.chmod(tmp, 0o666 & ~umask)  # mkstemp makes 0600
-        os.replace(tmp, path)
-    except OSError as e:
-        raise ComputationError(f"{path}: cannot write the plot ({e.strerror})") from None
-    finally:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
 
 
 __all__ = ["EPILOG", "HELP", "local_json", "local_table", "register", "render_map", "save_png", "scan_json", "scan_table",
