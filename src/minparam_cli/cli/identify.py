@@ -1,0 +1,145 @@
+"""`minparam identify`: fit the base parameters to measured data and trace the residual to missing effects."""
+
+from __future__ import annotations
+
+import json
+from enum import Enum
+from pathlib import Path
+from typing import Optional
+
+import typer
+
+from minparam_cli.cli.common import Progress, guarded, parse_floats, save_png, write_output
+
+HELP = (
+    "Identify the base parameters from measured joint data (CSV with a header row, or .npz), find what the "
+    "residual says the model lacks (friction, rotor inertia, springs, cogging, offsets, ...), add it, and "
+    "report the held-out error before and after."
+)
+EPILOG = """\b
+Examples:
+  minparam simulate robots/puma560_mdh.yaml --effects coulomb,viscous --noise 0.05 -o sim.csv
+  minparam identify robots/puma560_mdh.yaml sim.csv
+  minparam identify robots/panda.yaml ../shared/data/panda-gaz2019/panda_exciting_traj_1.csv --plot figs/
+  minparam identify robots/panda.yaml train.csv --validate test.csv --format json -o report.json
+  minparam identify robots/ur5.yaml log.csv --columns q=pos,dq=vel,tau=effort --cutoff 8
+
+\b
+Data: columns t, q1..qn, dq1..dqn, optional ddq1..ddqn, tau1..taun (rad, m, N·m, N).
+Missing dq or ddq come from a zero-phase Butterworth low-pass (--cutoff, default 5 Hz)
+and differentiation, then decimation.  NaN rows, non-increasing times and repeated
+(sample-and-hold) rows are dropped and counted.
+
+Exit codes: 0 success, 1 failed computation, 2 bad input.
+"""
+
+
+class Fmt(str, Enum):
+    table = "table"
+    json = "json"
+
+
+def _columns(text: str) -> dict[str, str]:
+    out = {}
+    for item in filter(None, (x.strip() for x in text.split(","))):
+        if "=" not in item:
+            raise typer.BadParameter(f"expected KEY=NAME items, got {item!r}", param_hint="--columns")
+        k, v = (x.strip() for x in item.split("=", 1))
+        if k not in ("t", "q", "dq", "ddq", "tau") or not v:
+            raise typer.BadParameter(f"keys are t, q, dq, ddq, tau; got {item!r}", param_hint="--columns")
+        out[k] = v
+    return out
+
+
+def identify(
+    robot: Path = typer.Argument(..., help="Robot description (YAML DH/MDH or URDF).", show_default=False),
+    data: Path = typer.Argument(..., help="Measured data: CSV with a header row, or .npz.", show_default=False),
+    validate: Optional[Path] = typer.Option(None, "--validate", help="Held-out data in a second file (else the last --holdout of the time)."),
+    holdout: float = typer.Option(0.3, "--holdout", help="Fraction of the time span held out, at the end."),
+    columns: str = typer.Option("", "--columns", help="Column names: t=time,q=pos,dq=vel,ddq=acc,tau=effort (q, dq, ddq, tau are prefixes)."),
+    cutoff: float = typer.Option(5.0, "--cutoff", help="Low-pass cut-off (Hz) when velocities or accelerations are derived."),
+    force_filter: bool = typer.Option(False, "--filter", help="Filter and differentiate even when dq and ddq are given."),
+    rate: Optional[float] = typer.Option(None, "--rate", help="Sampling rate (Hz) to resample to; default: the median step."),
+    decimate: Optional[int] = typer.Option(None, "--decimate", min=1, help="Keep one sample in K (default: about 10x the cut-off)."),
+    friction: str = typer.Option("", "--friction", help="Declare friction in the model: any of coulomb,viscous,offset."),
+    rotor_inertia: bool = typer.Option(False, "--rotor-inertia", help="Declare rotor inertia in the model."),
+    gravity: Optional[str] = typer.Option(None, "--gravity", help="Gravity X,Y,Z in m/s² (overrides the file)."),
+    effects: str = typer.Option("", "--effects", help="Restrict the diagnosis to these effect ids (default: the whole library)."),
+    no_diagnose: bool = typer.Option(False, "--no-diagnose", help="Fit the declared model only."),
+    min_gain: float = typer.Option(0.02, "--min-gain", help="Smallest share of the held-out residual energy an effect must remove."),
+    ols: bool = typer.Option(False, "--ols", help="Ordinary least squares instead of Gautier's per-joint weighting."),
+    fmt: Fmt = typer.Option(Fmt.table, "--format", "-f", help="Output format."),
+    output: Optional[Path] = typer.Option(None, "--output", "-o", help="Write the report to this file (atomically)."),
+    plot: Optional[Path] = typer.Option(None, "--plot", help="Folder for PNG figures (residual vs velocity, measured vs predicted)."),
+    seed: int = typer.Option(0, "--seed", help="Seed of the base-set computation (reported)."),
+    quiet: bool = typer.Option(False, "--quiet", "-q", help="No progress bar."),
+):
+    _identify(robot, data, validate, holdout, columns, cutoff, force_filter, rate, decimate, friction, rotor_inertia,
+              gravity, effects, no_diagnose, min_gain, ols, fmt, output, plot, seed, quiet)
+
+
+@guarded
+def _identify(robot, data, validate, holdout, columns, cutoff, force_filter, rate, decimate, friction, rotor_inertia,
+              gravity, effects, no_diagnose, min_gain, ols, fmt, output, plot, seed, quiet):
+    from minparam_cli.identify.data import DataOptions
+    from minparam_cli.identify.diagnose import DiagnosisOptions
+    from minparam_cli.identify.effects import EFFECT_IDS
+    from minparam_cli.identify.stage import IdentifyOptions, identify as run
+    from minparam_cli.params import FRICTION_KINDS
+    from minparam_cli.pipeline import DeriveOptions, load_chain
+
+    kinds = tuple(k.strip() for k in friction.split(",") if k.strip())
+    for k in kinds:
+        if k not in FRICTION_KINDS:
+            raise typer.BadParameter(f"unknown friction kind {k!r}", param_hint="--friction")
+    ids = tuple(k.strip() for k in effects.split(",") if k.strip()) or EFFECT_IDS
+    for k in ids:
+        if k not in EFFECT_IDS:
+            raise typer.BadParameter(f"unknown effect {k!r}; expected any of {','.join(EFFECT_IDS)}", param_hint="--effects")
+    if not 0 < holdout < 1:
+        raise typer.BadParameter("must be between 0 and 1", param_hint="--holdout")
+    if cutoff <= 0:
+        raise typer.BadParameter("must be positive", param_hint="--cutoff")
+    if rate is not None and rate <= 0:
+        raise typer.BadParameter("must be positive", param_hint="--rate")
+    if not 0 <= min_gain < 1:
+        raise typer.BadParameter("must be in [0, 1)", param_hint="--min-gain")
+    if plot is not None and not plot.is_dir():
+        raise typer.BadParameter(f"{plot} is not a folder", param_hint="--plot")
+    g = parse_floats(gravity, 3, "--gravity") if gravity is not None else None
+    _, chain = load_chain(robot, DeriveOptions(friction=kinds, rotor_inertia=rotor_inertia, gravity=g))
+    opts = IdentifyOptions(
+        data=DataOptions(columns=_columns(columns), cutoff_hz=cutoff, force_filter=force_filter,
+                         decimate=decimate, step_s=(1.0 / rate if rate else None)),
+        holdout=holdout,
+        validate=str(validate) if validate else None,
+        weighted=not ols,
+        diagnose=not no_diagnose,
+        diagnosis=DiagnosisOptions(effects=ids, min_gain=min_gain),
+        seed=seed,
+    )
+    bar = Progress(1, "diagnosis", quiet)
+    try:
+        report, art = run(chain, data, opts, progress=bar)
+    finally:
+        bar.close()
+    if plot is not None and art.hold is not None and art.models:
+        from minparam_cli.render.identify_plots import measured_vs_predicted, residual_vs_velocity
+
+        for k in range(1, len(art.models)):
+            fig = residual_vs_velocity(art.hold, art.models[k - 1], art.models[k], f"{chain.name}: step {k}, {art.models[k][0]}")
+            save_png(fig, plot / f"residual_vs_velocity_step{k}.png")
+        if len(art.models) == 1:
+            save_png(residual_vs_velocity(art.hold, art.models[0], art.models[0], f"{chain.name}: rigid-body residual"), plot / "residual_vs_velocity_step0.png")
+        save_png(measured_vs_predicted(art.hold, art.models[-1], f"{chain.name}: held-out torque"), plot / "measured_vs_predicted.png")
+    if fmt == Fmt.json:
+        text = json.dumps(report, indent=2, ensure_ascii=False)
+    else:
+        from minparam_cli.render.identify_text import render_identify
+
+        text = render_identify(report)
+    write_output(text, output)
+
+
+def register(app: typer.Typer) -> None:
+    app.command(name="identify", help=HELP, epilog=EPILOG)(identify)

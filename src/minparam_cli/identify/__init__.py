@@ -1,0 +1,1 @@
+"""Identification from measured joint data: loading, fitting, diagnosis, simulation."""

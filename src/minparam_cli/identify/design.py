@@ -1,0 +1,88 @@
+"""The design matrix of an identification: base regressor columns plus effect columns."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from minparam_cli.chain import Chain
+from minparam_cli.dynamics.regressor import regressor
+from minparam_cli.identify.data import Block
+from minparam_cli.identify.effects import EFFECTS, Signals
+
+
+@dataclass(frozen=True)
+class Term:
+    """One effect on a set of joints (0-based), with its grid parameter if any."""
+
+    effect: str
+    joints: tuple[int, ...]
+    hyper: float | None = None
+
+    def label(self) -> str:
+        j = ",".join(str(k + 1) for k in self.joints)
+        h = f", {EFFECTS[self.effect].grid_name}={self.hyper:g}" if self.hyper is not None else ""
+        return f"{self.effect} (joint{'s' if len(self.joints) > 1 else ''} {j}{h})"
+
+    def width(self) -> int:
+        return len(self.joints) * len(EFFECTS[self.effect].column_names)
+
+    def names(self) -> list[str]:
+        out = []
+        for j in self.joints:
+            out += EFFECTS[self.effect].names(j, self.hyper)
+        return out
+
+
+def term_columns(term: Term, s: Signals, n: int) -> np.ndarray:
+    """(N, n, width) extra columns of one term: joint j's columns act on joint j only."""
+    e = EFFECTS[term.effect]
+    m = len(e.column_names)
+    out = np.zeros((len(s.t), n, m * len(term.joints)))
+    for i, j in enumerate(term.joints):
+        out[:, j, i * m : (i + 1) * m] = e.columns(s, j, term.hyper)
+    return out
+
+
+@dataclass(frozen=True)
+class Design:
+    chain: Chain  # with the declared extras in its layout
+    kept: tuple[int, ...]  # base columns of the chain's full regressor
+    base_names: tuple[str, ...]
+    terms: tuple[Term, ...] = ()
+    theta_model: np.ndarray | None = None  # base-parameter values giving the rigid model torque (load effects)
+
+    @property
+    def names(self) -> tuple[str, ...]:
+        out = list(self.base_names)
+        for t in self.terms:
+            out += t.names()
+        return tuple(out)
+
+    @property
+    def p(self) -> int:
+        return len(self.kept) + sum(t.width() for t in self.terms)
+
+    def with_term(self, term: Term) -> "Design":
+        from dataclasses import replace
+
+        return replace(self, terms=self.terms + (term,))
+
+    def base_columns(self, b: Block) -> np.ndarray:
+        Y = regressor(self.chain, b.q, b.dq, b.ddq)
+        return Y[:, :, list(self.kept)]
+
+    def signals(self, b: Block, Xb: np.ndarray | None = None) -> Signals:
+        tau_model = None
+        if self.theta_model is not None:
+            Xb = self.base_columns(b) if Xb is None else Xb
+            tau_model = Xb @ self.theta_model[: len(self.kept)]
+        return Signals(b.t, b.q, b.dq, b.ddq, tau_model)
+
+    def columns(self, b: Block) -> np.ndarray:
+        Xb = self.base_columns(b)
+        if not self.terms:
+            return Xb
+        s = self.signals(b, Xb)
+        return np.concatenate([Xb] + [term_columns(t, s, self.chain.n) for t in self.terms], axis=2)

@@ -1,0 +1,188 @@
+"""Stepwise diagnosis: trace the residual to effects the model lacks.
+
+At every step, with Gautier's per-joint weights from the current fit:
+
+1. factor the current weighted design, X = Q R, residual r0;
+2. for every candidate term E (an effect of the library on one joint or on all
+   joints, and every grid value of its nonlinear parameter), its new part
+   E⊥ = E − Q Qᵀ E, the refit g = argmin ‖r0 − E⊥ g‖ and the updated model
+   parameters θ' = θ − R⁻¹ Qᵀ E g (exact least squares for [X E], without
+   refactoring);
+3. score each candidate on the held-out data: ΔBIC = N_h ln(RSS_h1/RSS_h0)
+   + m ln N_h (m = the rank of E⊥, so columns already in the model cost
+   nothing and gain nothing), with the training F-test beside it;
+4. add the best candidate if ΔBIC < −10 (very strong evidence, Kass & Raftery
+   1995) and it removes at least ``min_gain`` of the held-out residual energy;
+   otherwise stop.
+
+Columns that are combinations of the model's (rotor inertia of a joint whose
+axis is fixed in the base, for instance) have E⊥ = 0: they regroup with the
+base parameters and are never reported as effects.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from minparam_cli.identify.data import Block
+from minparam_cli.identify.design import Design, Term, term_columns
+from minparam_cli.identify.effects import EFFECT_IDS, EFFECTS
+
+BIC_THRESHOLD = -10.0
+DEFAULT_MIN_GAIN = 0.02
+MAX_STEPS = 25
+PER_JOINT_ONLY = {"cogging"}
+DECLARED = {"coulomb": "coulomb", "viscous": "viscous", "offset": "offset", "rotor_inertia": "rotor_inertia"}
+
+
+@dataclass(frozen=True)
+class DiagnosisOptions:
+    effects: tuple[str, ...] = EFFECT_IDS
+    min_gain: float = DEFAULT_MIN_GAIN
+    bic_threshold: float = BIC_THRESHOLD
+    max_steps: int = MAX_STEPS
+
+
+@dataclass
+class Step:
+    term: Term | None
+    statistic: dict
+    errors: dict  # held-out, unweighted: rms_per_joint, rms_total, relative_error
+    design: Design | None = None
+    theta: np.ndarray | None = None
+
+
+@dataclass
+class Diagnosis:
+    steps: list[Step] = field(default_factory=list)
+    design: Design | None = None
+    candidates_per_step: int = 0
+    stop_reason: str = ""
+
+
+def _flat(X: np.ndarray) -> np.ndarray:
+    return X.reshape(-1, X.shape[-1])
+
+
+def _holdout_errors(yh: np.ndarray, pred: np.ndarray) -> dict:
+    r = yh - pred
+    rss = np.sum(r**2, axis=0)
+    return {
+        "rms_per_joint": [float(x) for x in np.sqrt(rss / len(yh))],
+        "rms_total": float(np.sqrt(rss.sum() / r.size)),
+        "relative_error": float(np.sqrt(rss.sum() / np.sum(yh**2))),
+    }
+
+
+def candidates(design: Design, allowed: tuple[str, ...]) -> list[Term]:
+    n = design.chain.n
+    present = {(t.effect, j) for t in design.terms for j in t.joints}
+    for j, extras in enumerate(design.chain.layout.extras):
+        for e in extras:
+            present.add((DECLARED.get(e, e), j))
+    out = []
+    for eid in allowed:
+        e = EFFECTS[eid]
+        if e.needs_model and design.theta_model is None:
+            continue
+        groups = [(j,) for j in range(n)]
+        if eid not in PER_JOINT_ONLY and n > 1:
+            groups.insert(0, tuple(range(n)))
+        for g in groups:
+            free = tuple(j for j in g if (eid, j) not in present)
+            if len(free) != len(g):
+                continue
+            for h in e.grid or (None,):
+                out.append(Term(eid, g, h))
+    return out
+
+
+def diagnose(design: Design, train: Block, hold: Block, opts: DiagnosisOptions, progress=None) -> Diagnosis:
+    """Add effects one at a time while the held-out data say they are real."""
+    n = design.chain.n
+    X = design.columns(train)
+    Xh = design.columns(hold)
+    y, yh = train.tau, hold.tau
+    s_train, s_hold = design.signals(train), design.signals(hold)
+    out = Diagnosis(design=design)
+
+    def fit(Xc):
+        theta, *_ = np.linalg.lstsq(_flat(Xc), y.reshape(-1), rcond=None)
+        res = y - Xc @ theta
+        sigma = np.sqrt(np.sum(res**2, axis=0) / max(len(y) - Xc.shape[-1] / n, 1))
+        return np.where(sigma > 0, sigma, 1.0)
+
+    for step in range(opts.max_steps + 1):
+        sigma = fit(X)
+        Xw = _flat(X / sigma[None, :, None])
+        yw = (y / sigma).reshape(-1)
+        Q, R = np.linalg.qr(Xw)
+        theta = np.linalg.lstsq(R, Q.T @ yw, rcond=None)[0]
+        r0 = yw - Xw @ theta
+        rss0 = float(r0 @ r0)
+        Xhw = _flat(Xh / sigma[None, :, None])
+        yhw = (yh / sigma).reshape(-1)
+        rh0 = yhw - Xhw @ theta
+        rssh0 = float(rh0 @ rh0)
+        if step == 0:
+            out.steps.append(Step(None, {"rss_train_weighted": rss0, "rss_holdout_weighted": rssh0}, _holdout_errors(yh, Xh @ theta), out.design, theta))
+        if step == opts.max_steps:
+            break
+        Nh, N = len(yhw), len(yw)
+        best = None
+        cands = candidates(out.design, opts.effects)
+        out.candidates_per_step = max(out.candidates_per_step, len(cands))
+        for i, term in enumerate(cands):
+            E = term_columns(term, s_train, n)
+            Ew = _flat(E / sigma[None, :, None])
+            QtE = Q.T @ Ew
+            Ep = Ew - Q @ QtE
+            norms = np.linalg.norm(Ew, axis=0)
+            if not np.any(norms > 0):
+                continue
+            sv = np.linalg.svd(Ep, compute_uv=False)
+            m = int(np.sum(sv > max(norms.max(), 1e-300) * 1e-7))
+            if m == 0:
+                continue  # already in the span of the model: it regroups
+            g = np.linalg.lstsq(Ep, r0, rcond=1e-7)[0]
+            rss1 = float(np.sum((r0 - Ep @ g) ** 2))
+            theta_new = theta - np.linalg.lstsq(R, QtE @ g, rcond=None)[0]
+            Eh = _flat(term_columns(term, s_hold, n) / sigma[None, :, None])
+            rh1 = yhw - Xhw @ theta_new - Eh @ g
+            rssh1 = float(rh1 @ rh1)
+            if rssh1 <= 0 or rssh0 <= 0:
+                continue
+            dbic = Nh * np.log(rssh1 / rssh0) + m * np.log(Nh)
+            if best is None or dbic < best[0]:
+                F = ((rss0 - rss1) / m) / (rss1 / max(N - Xw.shape[1] - m, 1)) if rss1 > 0 else np.inf
+                best = (dbic, term, m, F, rss1, rssh1)
+            if progress:
+                progress(i + 1, len(cands))
+        if best is None:
+            break
+        dbic, term, m, F, rss1, rssh1 = best
+        gain = 1 - rssh1 / rssh0
+        if not (dbic < opts.bic_threshold and gain >= opts.min_gain):
+            out.stop_reason = (
+                f"best remaining candidate {term.label()}: ΔBIC {dbic:.1f}, "
+                f"removes {100 * gain:.2f} % of the held-out residual energy (needs ΔBIC < {opts.bic_threshold:g} "
+                f"and {100 * opts.min_gain:g} %)"
+            )
+            break
+        from scipy.stats import f as f_dist
+
+        p_value = float(f_dist.sf(F, m, max(N - Xw.shape[1] - m, 1))) if np.isfinite(F) else 0.0
+        out.design = out.design.with_term(term)
+        X = np.concatenate([X, term_columns(term, s_train, n)], axis=2)
+        Xh = np.concatenate([Xh, term_columns(term, s_hold, n)], axis=2)
+        sig = fit(X)
+        theta_all, *_ = np.linalg.lstsq(_flat(X / sig[None, :, None]), (y / sig).reshape(-1), rcond=None)
+        stat = {"delta_bic_holdout": float(dbic), "holdout_gain": float(gain), "F": float(F), "p_value": p_value, "rank": m}
+        out.steps.append(Step(term, stat, _holdout_errors(yh, Xh @ theta_all), out.design, theta_all))
+    else:
+        out.stop_reason = f"stopped after {opts.max_steps} steps"
+    if not out.stop_reason:
+        out.stop_reason = "no candidate left"
+    return out

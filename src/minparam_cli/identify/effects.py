@@ -1,0 +1,101 @@
+"""The effect library: torque terms a rigid-body model lacks, as extra regressor columns.
+
+Each effect has an id (the JSON ids are exactly these), a one-line physical
+explanation, and a function giving its extra columns for one joint.  Effects
+with a nonlinear parameter (Stribeck velocity, cogging order) are searched on
+a grid.  The same functions inject effects in ``simulate``, so the diagnosis
+and the test bed cannot disagree on what an effect is.
+
+Columns for joint j live in row j only (the torque of joint j), except that
+``gain`` and ``load_coulomb`` read the model torque of that joint.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Callable
+
+import numpy as np
+
+
+@dataclass(frozen=True)
+class Signals:
+    """What effect columns may depend on, for N samples of n joints (SI units)."""
+
+    t: np.ndarray  # (N,)
+    q: np.ndarray  # (N, n)
+    dq: np.ndarray
+    ddq: np.ndarray
+    tau_model: np.ndarray | None = None  # rigid-body model torque, for load-dependent effects
+
+
+@dataclass(frozen=True)
+class Effect:
+    id: str
+    explanation: str
+    column_names: tuple[str, ...]
+    grid: tuple[float, ...] = ()  # values of the nonlinear parameter, if any
+    grid_name: str = ""
+    needs_model: bool = False
+    build: Callable = None  # (signals, joint, hyper) -> (N, m)
+
+    def columns(self, s: Signals, joint: int, hyper: float | None = None) -> np.ndarray:
+        return np.asarray(self.build(s, joint, hyper), dtype=float).reshape(len(s.t), -1)
+
+    def names(self, joint: int, hyper: float | None = None) -> list[str]:
+        tag = f"[{self.grid_name}={hyper:g}]" if self.grid else ""
+        return [f"{c}{joint + 1}{tag}" for c in self.column_names]
+
+
+SMOOTH_VELOCITY = 0.01  # rad/s: width of the smooth sign, tanh(qd / 0.01)
+STRIBECK_GRID = (0.005, 0.01, 0.02, 0.05, 0.1, 0.2, 0.5)
+COGGING_GRID = tuple(float(k) for k in range(2, 61))
+
+
+def _sign(v):
+    return np.sign(v)
+
+
+EFFECTS: dict[str, Effect] = {
+    e.id: e
+    for e in (
+        Effect("coulomb", "dry friction of constant size against the motion: Fc·sign(q̇)", ("Fc",),
+               build=lambda s, j, h: _sign(s.dq[:, j])),
+        Effect("viscous", "friction proportional to velocity (lubricant, motor back-EMF): Fv·q̇", ("Fv",),
+               build=lambda s, j, h: s.dq[:, j]),
+        Effect("offset", "a constant torque: sensor or current offset, unmodelled static load", ("OFF",),
+               build=lambda s, j, h: np.ones_like(s.t)),
+        Effect("rotor_inertia", "motor and gear inertia seen at the joint: Ia·q̈", ("Ia",),
+               build=lambda s, j, h: s.ddq[:, j]),
+        Effect("stribeck", "friction that drops from breakaway to Coulomb level at low speed: Fs·exp(-(q̇/vs)²)·sign(q̇)",
+               ("Fs",), STRIBECK_GRID, "vs",
+               build=lambda s, j, h: np.exp(-((s.dq[:, j] / h) ** 2)) * _sign(s.dq[:, j])),
+        Effect("asymmetric_coulomb", "dry friction of different size in the two directions", ("Fcp", "Fcn"),
+               build=lambda s, j, h: np.stack([(s.dq[:, j] > 0).astype(float), -(s.dq[:, j] < 0).astype(float)], axis=1)),
+        Effect("spring", "a position-dependent torque: spring, cable or gravity compensator, or a gravity model error",
+               ("Kq", "Ks", "Kc"),
+               build=lambda s, j, h: np.stack([s.q[:, j], np.sin(s.q[:, j]), np.cos(s.q[:, j])], axis=1)),
+        Effect("cogging", "a torque ripple periodic in the joint angle (motor cogging, gear tooth meshing)", ("Cs", "Cc"),
+               COGGING_GRID, "k",
+               build=lambda s, j, h: np.stack([np.sin(h * s.q[:, j]), np.cos(h * s.q[:, j])], axis=1)),
+        Effect("load_coulomb", "gear friction that grows with the load the joint carries: sign(q̇)·|τ_model|", ("Fl",),
+               needs_model=True, build=lambda s, j, h: _sign(s.dq[:, j]) * np.abs(s.tau_model[:, j])),
+        Effect("gain", "a drive gain or torque-constant error: the measured torque is the model torque scaled", ("G",),
+               needs_model=True, build=lambda s, j, h: s.tau_model[:, j]),
+        Effect("drift", "a slow linear drift of the torque signal (temperature, sensor drift)", ("D",),
+               build=lambda s, j, h: s.t - s.t[0]),
+    )
+}
+
+EFFECT_IDS = tuple(EFFECTS)
+
+
+def smooth_coulomb(dq: np.ndarray, width: float = SMOOTH_VELOCITY) -> np.ndarray:
+    """The optional smooth Coulomb term tanh(q̇/width)."""
+    return np.tanh(dq / width)
+
+
+def effect_torque(effect_id: str, s: Signals, joint: int, coefficients, hyper: float | None = None) -> np.ndarray:
+    """Torque (N,) that ``effect_id`` with these coefficients adds on ``joint``."""
+    cols = EFFECTS[effect_id].columns(s, joint, hyper)
+    return cols @ np.asarray(coefficients, dtype=float).reshape(-1)
