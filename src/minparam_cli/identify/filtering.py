@@ -122,7 +122,7 @@ class Processor:
         from scipy.signal import sosfiltfilt
 
         n = (data.shape[1] - 1) // (3 if self.has_dq else 2)
-        padlen = min(3 * (2 * len(self.sos) + 1), len(data) - 1)
+        padlen = min(2 * self.trim, len(data) - 1)  # odd extension over two cut-off periods
         f = sosfiltfilt(self.sos, data[:, 1:], axis=0, padlen=padlen)
         q = f[:, :n]
         if self.has_dq:

@@ -1,0 +1,241 @@
+"""``minparam simulate``: synthetic measured joint data for testing ``identify``.
+
+Parses the options, calls the pure stage ``identify.simulate.simulate``,
+renders CSV or npz and the truth record, writes them atomically, maps errors.
+"""
+
+from __future__ import annotations
+
+import io
+import json
+import os
+import sys
+import tempfile
+from enum import Enum
+from pathlib import Path
+from typing import Optional
+
+import numpy as np
+import typer
+
+from minparam_cli.cli.common import guarded, write_output
+from minparam_cli.errors import InputError
+
+HELP = (
+    "Synthetic measured data for identification: a random Fourier excitation (Swevers et al. 1997) inside the "
+    "joint limits, torques from the file's inertial values (or random physically consistent ones), injected "
+    "effects and Gaussian noise; writes t, q, dq, ddq, tau (SI units) as CSV or .npz, and the truth as JSON."
+)
+
+EPILOG = """\b
+Examples:
+  minparam simulate robots/puma560_mdh.yaml --effects coulomb,viscous --noise 0.05 -o data.csv --truth truth.json
+  minparam simulate robots/planar2r.yaml --effects spring@2,cogging@1:k=12,stribeck:vs=0.05 --seed 3 -o data.npz
+  minparam simulate robots/panda.yaml --effects coulomb@1-3:amp=0.5,gain:g=0.05 --duration 60 --no-ddq -o panda.csv
+  minparam simulate robots/puma560_mdh.yaml --random-inertia --harmonics 3 --base-frequency 0.05 -o slow.csv
+
+\b
+Effect items: ID[@JOINTS][:key=value...], comma-separated.
+  ID      coulomb viscous offset rotor_inertia stribeck asymmetric_coulomb
+          spring cogging load_coulomb gain drift
+  JOINTS  2, 1-3 or 1+4-5 (numbered from 1; default: every joint)
+  keys    amp=A  RMS of the injected torque in N·m or N (default: --strength
+                 times the RMS of that joint's rigid-body torque)
+          g=G    gain error for 'gain' (adds G·tau_rigid; default --strength)
+          vs=V   Stribeck velocity, rad/s (default 0.05; on identify's grid)
+          k=K    cogging periods per revolution (default 12; integer 2..60)
+
+\b
+Columns: t, q1..qn, dq1..dqn, ddq1..ddqn, tau1..taun in s, rad or m, rad/s or
+m/s, rad/s² or m/s², N·m or N.  Without -o the CSV goes to stdout.
+
+Exit codes: 0 success, 1 failed computation, 2 bad input.
+"""
+
+
+class TrajectoryKind(str, Enum):
+    fourier = "fourier"
+
+
+def simulate(
+    robot: Path = typer.Argument(..., exists=True, dir_okay=False, help="Robot file (YAML DH/MDH or URDF).", show_default=False),
+    trajectory: TrajectoryKind = typer.Option(TrajectoryKind.fourier, "--trajectory", help="Excitation: a finite Fourier series."),
+    effects: str = typer.Option("", "--effects", "-e", help="Effects to inject, e.g. coulomb,viscous,spring@2,cogging@3:k=12 (see below)."),
+    strength: float = typer.Option(0.1, "--strength", help="Default effect size, as a fraction of each joint's rigid-body RMS torque."),
+    noise: float = typer.Option(0.0, "--noise", help="Std of Gaussian noise added to every torque, N·m (N for prismatic joints)."),
+    noise_q: float = typer.Option(0.0, "--noise-q", help="Std of Gaussian noise added to every q, rad (m for prismatic joints)."),
+    seed: int = typer.Option(0, "--seed", help="Seed of the one random generator (written to the truth record)."),
+    duration: float = typer.Option(20.0, "--duration", help="Length of the record, s."),
+    rate: float = typer.Option(200.0, "--rate", help="Sampling rate, Hz."),
+    harmonics: int = typer.Option(5, "--harmonics", help="Harmonics of the Fourier series."),
+    base_frequency: float = typer.Option(0.1, "--base-frequency", help="Fundamental frequency of the Fourier series, Hz."),
+    random_inertia: bool = typer.Option(False, "--random-inertia", help="Use random physically consistent inertial parameters instead of the file's."),
+    no_ddq: bool = typer.Option(False, "--no-ddq", help="Leave out the ddq columns (identify then differentiates dq)."),
+    output: Optional[Path] = typer.Option(None, "--output", "-o", help="Write here (atomically): .csv or .npz. Default: CSV on stdout."),
+    truth: Optional[Path] = typer.Option(None, "--truth", help="Also write the truth record (JSON) here."),
+    quiet: bool = typer.Option(False, "--quiet", "-q", help="No summary or notes on stderr."),
+):
+    _simulate(robot, trajectory, effects, strength, noise, noise_q, seed, duration, rate, harmonics, base_frequency,
+              random_inertia, no_ddq, output, truth, quiet)
+
+
+@guarded
+def _simulate(robot, trajectory, effects, strength, noise, noise_q, seed, duration, rate, harmonics, base_frequency,
+              random_inertia, no_ddq, output, truth, quiet):
+    from minparam_cli.chain import build_chain
+    from minparam_cli.describe import load_description
+    from minparam_cli.identify.simulate import SimulationOptions, parse_effects, simulate as run, truth_record, validate_options
+
+    TrajectoryKind(trajectory)
+    if seed < 0:
+        raise InputError(f"--seed must be >= 0, got {seed}")
+    data_format = _output_format(output)
+    for path in (output, truth):
+        if path is not None:
+            _check_folder(Path(path))
+    chain = build_chain(load_description(robot))
+    try:
+        specs = parse_effects(effects, chain.n)
+    except InputError as e:
+        raise InputError(f"--effects: {e}") from None
+    opts = SimulationOptions(
+        duration=duration, rate=rate, harmonics=harmonics, base_frequency=base_frequency, effects=specs,
+        strength=strength, noise=noise, noise_q=noise_q, random_inertia=random_inertia,
+    )
+    validate_options(opts)
+    if chain.phi_nominal is None and not random_inertia and not quiet:
+        print(f"minparam: note: {robot} does not give inertial data for every link; using random physically consistent "
+              "parameters (as with --random-inertia)", file=sys.stderr)
+
+    sim = run(chain, opts, np.random.default_rng(seed))
+    include_ddq = not no_ddq
+    if data_format == "npz":
+        write_npz(data_arrays(sim, include_ddq), Path(output))
+    else:
+        write_output(csv_text(sim, include_ddq), output)
+    if truth is not None:
+        record = truth_record(sim, str(robot), seed, chain.name, include_ddq)
+        write_output(json_text(record), Path(truth))
+    if not quiet:
+        sys.stderr.write(summary_text(sim, chain.name, seed, output, truth))
+
+
+def register(app: typer.Typer) -> None:
+    app.command(name="simulate", help=HELP, epilog=EPILOG)(simulate)
+
+
+# --- output checks and writers ----------------------------------------------------------------------
+
+
+def _output_format(output: Path | None) -> str:
+    if output is None:
+        return "csv"
+    suffix = Path(output).suffix.lower()
+    if suffix not in (".csv", ".npz"):
+        raise InputError(f"{output}: unknown output type {suffix or '(none)'!r}; expected .csv or .npz")
+    return suffix[1:]
+
+
+def _check_folder(path: Path) -> None:
+    folder = path.parent if str(path.parent) else Path(".")
+    if not folder.is_dir():
+        raise InputError(f"{path}: output folder {folder} does not exist")
+
+
+def write_npz(arrays: dict[str, np.ndarray], output: Path) -> None:
+    """np.savez to a temporary file in the output's folder, then rename (a failed run leaves no file)."""
+    output = Path(output)
+    _check_folder(output)
+    folder = output.parent if str(output.parent) else Path(".")
+    fd, tmp = tempfile.mkstemp(prefix=f".{output.name}.", suffix=".tmp", dir=folder)
+    umask = os.umask(0)
+    os.umask(umask)
+    os.fchmod(fd, 0o666 & ~umask)
+    try:
+        with os.fdopen(fd, "wb") as fh:
+            np.savez(fh, **arrays)
+        os.replace(tmp, output)
+    except BaseException:
+        try:
+            os.unlink(tmp)
+        except OSError:
+            pass
+        raise
+
+
+# --- pure renderers ----------------------------------------------------------------------------------
+
+
+def data_arrays(sim, include_ddq: bool = True) -> dict[str, np.ndarray]:
+    """The npz content: t (N,), q, dq, [ddq,] tau (N, n)."""
+    out = {"t": sim.t, "q": sim.q, "dq": sim.dq}
+    if include_ddq:
+        out["ddq"] = sim.ddq
+    out["tau"] = sim.tau
+    return out
+
+
+def csv_text(sim, include_ddq: bool = True) -> str:
+    """One header row, then one row per sample; numbers in the shortest form that reads back exactly."""
+    from minparam_cli.identify.simulate import data_columns
+
+    n = sim.q.shape[1]
+    blocks = [sim.t[:, None], sim.q, sim.dq] + ([sim.ddq] if include_ddq else []) + [sim.tau]
+    table = np.hstack(blocks)
+    buf = io.StringIO()
+    buf.write(",".join(data_columns(n, include_ddq)) + "\n")
+    for row in table.tolist():
+        buf.write(",".join(map(repr, row)) + "\n")
+    return buf.getvalue()
+
+
+def json_text(obj, indent: int = 2, level: int = 0) -> str:
+    """JSON with nested objects indented but every list of numbers (or strings) on one line."""
+    pad, inner = " " * (indent * level), " " * (indent * (level + 1))
+    if isinstance(obj, dict):
+        if not obj:
+            return "{}"
+        items = [f"{inner}{json.dumps(str(k), ensure_ascii=False)}: {json_text(v, indent, level + 1)}" for k, v in obj.items()]
+        return "{\n" + ",\n".join(items) + "\n" + pad + "}"
+    if isinstance(obj, (list, tuple)):
+        if all(not isinstance(x, (dict, list, tuple)) for x in obj):
+            return json.dumps(list(obj), ensure_ascii=False)
+        return "[\n" + ",\n".join(inner + json_text(x, indent, level + 1) for x in obj) + "\n" + pad + "]"
+    return json.dumps(obj, ensure_ascii=False)
+
+
+def _joints_text(joints: tuple[int, ...], n: int) -> str:
+    js = [j + 1 for j in joints]
+    if len(js) == n and n > 1:
+        return "all"
+    if len(js) > 2 and js == list(range(js[0], js[-1] + 1)):
+        return f"{js[0]}-{js[-1]}"
+    return "+".join(str(j) for j in js)
+
+
+def summary_text(sim, robot_name: str, seed: int, output: Path | None, truth: Path | None) -> str:
+    """A few lines for stderr: what was simulated and where it went."""
+    o = sim.options
+    n = sim.q.shape[1]
+    rms_rigid = np.sqrt(np.mean(sim.tau_rigid**2, axis=0))
+    lines = [
+        f"simulated  {robot_name}: {sim.t.size} samples, {o.duration:g} s at {o.rate:g} Hz, seed {seed}",
+        f"motion     Fourier series, {sim.trajectory.harmonics} harmonics of {sim.trajectory.base_frequency:g} Hz, "
+        f"inside {100 * (1 - 2 * o.margin):g}% of each joint range",
+        f"inertia    {'from the description' if sim.inertia_source == 'description' else 'random, physically consistent'}",
+        "rigid RMS  " + " ".join(f"{x:.3g}" for x in rms_rigid) + " (N·m or N per joint)",
+    ]
+    if sim.effects:
+        items = []
+        for e in sim.effects:
+            tag = f"[{e.hyper_name}={e.hyper:g}]" if e.hyper is not None else ""
+            items.append(f"{e.effect}{tag}@{_joints_text(e.joints, n)}")
+        lines.append("effects    " + ", ".join(items))
+    else:
+        lines.append("effects    none")
+    noise = f"torque σ {o.noise:g}" + (f", q σ {o.noise_q:g}" if o.noise_q > 0 else "")
+    lines.append(f"noise      {noise}")
+    wrote = [str(p) for p in (output, truth) if p is not None]
+    if wrote:
+        lines.append("wrote      " + ", ".join(wrote))
+    return "\n".join(lines) + "\n"

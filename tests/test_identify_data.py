@@ -1,0 +1,165 @@
+"""identify: data loading, cleaning, filtering, streaming least squares."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from conftest import SHARED
+from typer.testing import CliRunner
+
+from minparam_cli.cli.app import app
+from minparam_cli.errors import DataError
+from minparam_cli.identify.data import DataOptions, DataReport, load_all
+from minparam_cli.identify.fit import Accumulator, errors, solve
+
+PANDA_CSV = SHARED / "data" / "panda-gaz2019" / "panda_exciting_traj_1.csv"
+
+
+def write_csv(path, t, q, dq, tau, ddq=None, names=("t", "q", "dq", "ddq", "tau")):
+    n = q.shape[1]
+    cols = [t[:, None], q, dq] + ([ddq] if ddq is not None else []) + [tau]
+    header = [names[0]] + [f"{names[1]}{j}" for j in range(1, n + 1)] + [f"{names[2]}{j}" for j in range(1, n + 1)]
+    if ddq is not None:
+        header += [f"{names[3]}{j}" for j in range(1, n + 1)]
+    header += [f"{names[4]}{j}" for j in range(1, n + 1)]
+    np.savetxt(path, np.hstack(cols), delimiter=",", header=",".join(header), comments="")
+    return path
+
+
+def smooth_signals(N=4000, n=2, rate=500.0):
+    t = np.arange(N) / rate
+    q = np.stack([0.5 * np.sin(2 * np.pi * 0.3 * (k + 1) * t) for k in range(n)], axis=1)
+    dq = np.stack([0.5 * 2 * np.pi * 0.3 * (k + 1) * np.cos(2 * np.pi * 0.3 * (k + 1) * t) for k in range(n)], axis=1)
+    ddq = np.stack([-0.5 * (2 * np.pi * 0.3 * (k + 1)) ** 2 * np.sin(2 * np.pi * 0.3 * (k + 1) * t) for k in range(n)], axis=1)
+    return t, q, dq, ddq
+
+
+def test_cleaning_counts_nan_repeats_and_time_reversals(tmp_path):
+    t, q, dq, ddq = smooth_signals(200)
+    tau = q * 2.0
+    t, q, dq, ddq, tau = (x.copy() for x in (t, q, dq, ddq, tau))
+    q[10, 0] = np.nan  # one NaN row
+    for k in (50, 51):  # two sample-and-hold rows: same values, new time stamps
+        q[k], dq[k], ddq[k], tau[k] = q[k - 1], dq[k - 1], ddq[k - 1], tau[k - 1]
+    t[100] = t[99]  # time does not increase
+    p = write_csv(tmp_path / "d.csv", t, q, dq, tau, ddq)
+    rep = DataReport(str(p))
+    b = load_all(p, 2, DataOptions(), rep)
+    assert rep.dropped == {"nan": 1, "time_not_increasing": 1, "repeated_sample": 2}
+    assert len(b) == 200 - 4 and rep.filter is None
+
+
+def test_derived_derivatives_match_the_exact_ones(tmp_path):
+    t, q, dq, ddq = smooth_signals(5000, rate=1000.0)
+    p = write_csv(tmp_path / "d.csv", t, q, dq, q.copy())
+    rep = DataReport(str(p))
+    b = load_all(p, 2, DataOptions(cutoff_hz=5.0, decimate=1), rep)
+    assert rep.derived == ["ddq"] and "cut-off 5 Hz" in rep.filter
+    exact = np.interp(b.t, t, ddq[:, 1])
+    err = np.abs(b.ddq[:, 1] - exact)
+    peak = np.max(np.abs(ddq[:, 1]))
+    inner = (b.t > t[0] + 1.0) & (b.t < t[-1] - 1.0)
+    assert np.max(err[inner]) < 1e-4 * peak  # away from the record's ends
+    assert np.max(err) < 1e-2 * peak  # the edge transient, after one cut-off period is dropped
+    assert rep.dropped["filter_edges"] == 2 * 200
+
+
+def test_chunked_reading_equals_whole_file(tmp_path):
+    t, q, dq, ddq = smooth_signals(6000, rate=1000.0)
+    rng = np.random.default_rng(0)
+    t = t + rng.uniform(-2e-4, 2e-4, len(t))  # jittery time stamps
+    t.sort()
+    p = write_csv(tmp_path / "d.csv", t, q, dq, q + 0.01 * rng.standard_normal(q.shape))
+    whole = load_all(p, 2, DataOptions(step_s=1e-3, decimate=1))
+    chunked = load_all(p, 2, DataOptions(step_s=1e-3, decimate=1, chunk_rows=700))
+    assert len(whole) == len(chunked)
+    assert np.max(np.abs(whole.ddq - chunked.ddq)) < 1e-8 * np.max(np.abs(whole.ddq))
+    assert np.max(np.abs(whole.tau - chunked.tau)) < 1e-10
+
+
+def test_column_mapping_and_npz(tmp_path):
+    t, q, dq, ddq = smooth_signals(300)
+    p = write_csv(tmp_path / "d.csv", t, q, dq, 3 * q, ddq, names=("time", "pos", "vel", "acc", "effort"))
+    b = load_all(p, 2, DataOptions(columns={"t": "time", "q": "pos", "dq": "vel", "ddq": "acc", "tau": "effort"}))
+    z = tmp_path / "d.npz"
+    np.savez(z, t=t, q=q, dq=dq, ddq=ddq, tau=3 * q)
+    bz = load_all(z, 2, DataOptions())
+    assert np.array_equal(b.tau, bz.tau) and np.array_equal(b.q, bz.q)
+
+
+@pytest.mark.parametrize(
+    "content, message",
+    [
+        ("", "empty file"),
+        ("t,q1,dq1,tau1\n0,1,2,3\n", r"\[.q2.\] missing: the robot has 2 joints"),
+        ("t,q1,q2,dq1,dq2,tau1,tau2\n0,1,2,3,x,5,6\n", "non-numeric"),
+        ("t,q1,q2,dq1,dq2,tau1\n0,1,2,3,4,5\n", "missing"),
+        ("t,q1,q2,dq1,dq2,tau1,tau2\n0,1,2,3,4,5\n", "values"),
+    ],
+    ids=["empty", "wrong-joint-count", "non-numeric", "missing-tau2", "ragged"],
+)
+def test_bad_data_files(tmp_path, content, message):
+    p = tmp_path / "bad.csv"
+    p.write_text(content)
+    with pytest.raises(DataError, match=message):
+        load_all(p, 2, DataOptions())
+    r = CliRunner().invoke(app, ["identify", "robots/planar2r.yaml", str(p)])
+    assert r.exit_code == 2 and "Traceback" not in r.output
+    assert len(r.output.strip().splitlines()) == 1
+
+
+def test_streaming_least_squares_equals_direct_least_squares():
+    rng = np.random.default_rng(3)
+    N, n, p = 900, 3, 7
+    X = rng.standard_normal((N, n, p))
+    theta = rng.standard_normal(p)
+    y = X @ theta + 0.01 * rng.standard_normal((N, n))
+    acc = Accumulator(n, p)
+    for s in range(0, N, 128):
+        acc.add(X[s : s + 128], y[s : s + 128])
+    fit = solve(acc, tuple(f"p{i}" for i in range(p)), weighted=False)
+    direct = np.linalg.lstsq(X.reshape(-1, p), y.reshape(-1), rcond=None)[0]
+    assert np.allclose(fit.theta, direct, rtol=1e-10, atol=1e-12)
+    e = errors(acc, fit.theta)
+    r = y - X @ fit.theta
+    assert np.allclose(e.rms_per_joint, np.sqrt((r**2).mean(0)), rtol=1e-10)
+    assert e.relative_error == pytest.approx(np.linalg.norm(r) / np.linalg.norm(y), rel=1e-10)
+
+
+def test_dependent_effect_columns_are_dropped_not_fatal():
+    rng = np.random.default_rng(4)
+    N, n = 500, 2
+    X = rng.standard_normal((N, n, 3))
+    X = np.concatenate([X, X[:, :, :1] + X[:, :, 1:2]], axis=2)  # column 3 = column 0 + column 1
+    y = X[:, :, :3] @ np.array([1.0, 2.0, 3.0])
+    acc = Accumulator(n, 4)
+    acc.add(X, y)
+    fit = solve(acc, ("a", "b", "c", "a+b"), weighted=False)
+    assert fit.dependent == ("a+b",) and np.allclose(fit.theta, [1, 2, 3])
+
+
+@pytest.mark.skipif(not PANDA_CSV.exists(), reason="../shared/data/panda-gaz2019 is absent (GPL data, not shipped)")
+def test_panda_real_data_rigid_and_friction_reference_figures():
+    """Reference (issue 5): 5 Hz zero-phase, 70/30 split -> 3.0 % rigid, 1.04 % with Coulomb+viscous+offset."""
+    import json
+
+    runner = CliRunner()
+    rigid = json.loads(runner.invoke(app, ["identify", "robots/panda.yaml", str(PANDA_CSV), "--no-diagnose", "-f", "json"]).output)
+    assert rigid["dropped"]["repeated_sample"] == 1131
+    assert 0.025 < rigid["before"]["relative_error"] < 0.035
+    fr = json.loads(runner.invoke(app, ["identify", "robots/panda.yaml", str(PANDA_CSV), "--no-diagnose", "--friction", "coulomb,viscous,offset", "-f", "json"]).output)
+    assert fr["before"]["relative_error"] < 0.012
+
+
+@pytest.mark.skipif(not PANDA_CSV.exists(), reason="../shared/data/panda-gaz2019 is absent (GPL data, not shipped)")
+def test_panda_diagnosis_traces_the_residual_to_friction(tmp_path):
+    import json
+
+    r = CliRunner().invoke(app, ["identify", "robots/panda.yaml", str(PANDA_CSV), "-f", "json", "--plot", str(tmp_path)])
+    assert r.exit_code == 0, r.output
+    rep = json.loads(r.output)
+    first = rep["steps"][1]["effect"]
+    assert first in {"coulomb", "asymmetric_coulomb", "viscous", "stribeck"}
+    assert rep["after"]["relative_error"] * 2 <= rep["before"]["relative_error"]
+    assert rep["steps"][0]["effect"] is None
+    assert (tmp_path / "measured_vs_predicted.png").exists() and (tmp_path / "residual_vs_velocity_step1.png").exists()
