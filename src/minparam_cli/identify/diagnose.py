@@ -34,6 +34,9 @@ BIC_THRESHOLD = -10.0
 DEFAULT_MIN_GAIN = 0.02
 MAX_STEPS = 25
 PER_JOINT_ONLY = {"cogging"}
+# a term that contains a simpler one: tried again after the forward pass (the greedy path can
+# pick asymmetric Coulomb, which also absorbs part of another effect, where plain Coulomb is enough)
+SIMPLER = {"asymmetric_coulomb": ("coulomb",), "load_coulomb": ("coulomb",)}
 DECLARED = {"coulomb": "coulomb", "viscous": "viscous", "offset": "offset", "rotor_inertia": "rotor_inertia"}
 
 
@@ -185,4 +188,48 @@ def diagnose(design: Design, train: Block, hold: Block, opts: DiagnosisOptions, 
         out.stop_reason = f"stopped after {opts.max_steps} steps"
     if not out.stop_reason:
         out.stop_reason = "no candidate left"
+    _simplify(out, design, train, hold)
     return out
+
+
+def _holdout_bic(design: Design, train: Block, hold: Block) -> tuple[float, np.ndarray, np.ndarray]:
+    """Held-out BIC of a design fitted on ``train`` (Gautier weights), with its theta and held-out prediction."""
+    n = design.chain.n
+    X, Xh = design.columns(train), design.columns(hold)
+    theta, *_ = np.linalg.lstsq(_flat(X), train.tau.reshape(-1), rcond=None)
+    res = train.tau - X @ theta
+    sigma = np.sqrt(np.sum(res**2, axis=0) / max(len(train.tau) - X.shape[-1] / n, 1))
+    sigma = np.where(sigma > 0, sigma, 1.0)
+    Xw = _flat(X / sigma[None, :, None])
+    theta, *_ = np.linalg.lstsq(Xw, (train.tau / sigma).reshape(-1), rcond=None)
+    rank = np.linalg.matrix_rank(Xw)
+    pred = Xh @ theta
+    rssh = float(np.sum(((hold.tau - pred) / sigma) ** 2))
+    Nh = hold.tau.size
+    return Nh * np.log(rssh) + rank * np.log(Nh), theta, pred
+
+
+def _simplify(out: Diagnosis, start: Design, train: Block, hold: Block) -> None:
+    """Replace a term by a simpler one it contains when the held-out BIC prefers it."""
+    from dataclasses import replace
+
+    changed = True
+    while changed:
+        changed = False
+        current, _, _ = _holdout_bic(out.design, train, hold)
+        for i, term in enumerate(out.design.terms):
+            for alt in SIMPLER.get(term.effect, ()):
+                new = Term(alt, term.joints, None)
+                if any(t == new for t in out.design.terms):
+                    continue
+                terms = out.design.terms[:i] + (new,) + out.design.terms[i + 1 :]
+                cand = replace(out.design, terms=terms)
+                score, theta, pred = _holdout_bic(cand, train, hold)
+                if score < current:
+                    out.design = cand
+                    stat = {"replaces": term.label(), "delta_bic_holdout": float(score - current)}
+                    out.steps.append(Step(new, stat, _holdout_errors(hold.tau, pred), cand, theta))
+                    changed = True
+                    break
+            if changed:
+                break

@@ -34,7 +34,12 @@ def render_identify(r: dict) -> str:
     srows = []
     for i, s in enumerate(r["steps"]):
         st = s["statistic"] or {}
-        evidence = f"ΔBIC {st['delta_bic_holdout']:.1f}, gain {100 * st['holdout_gain']:.1f} %" if "delta_bic_holdout" in st else "-"
+        if "replaces" in st:
+            evidence = f"replaces {st['replaces']}: ΔBIC {st['delta_bic_holdout']:.1f}"
+        elif "delta_bic_holdout" in st:
+            evidence = f"ΔBIC {st['delta_bic_holdout']:.1f}, gain {100 * st['holdout_gain']:.1f} %"
+        else:
+            evidence = "-"
         srows.append((i, s.get("label") or "rigid-body model as declared", evidence, f"{s['rms_total']:.4g}", _pct(s["relative_error"])))
     out.append(columns(srows, ("step", "effect added", "evidence", "rms", "‖r‖/‖τ‖"), right=(0, 3, 4)))
     out.append(f"stop: {r['stop_reason']}")
