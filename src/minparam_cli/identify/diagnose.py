@@ -137,24 +137,33 @@ def diagnose(design: Design, train: Block, hold: Block, opts: DiagnosisOptions, 
         best = None
         cands = candidates(out.design, opts.effects)
         out.candidates_per_step = max(out.candidates_per_step, len(cands))
+        Q3 = Q.reshape(len(y), n, -1)  # rows of joint j: Q3[:, j, :]
+        r03 = r0.reshape(len(y), n)
+        Xh3 = Xhw.reshape(len(yh), n, -1)
+        rh03 = rh0.reshape(len(yh), n)
         for i, term in enumerate(cands):
-            E = term_columns(term, s_train, n)
-            Ew = _flat(E / sigma[None, :, None])
-            QtE = Q.T @ Ew
-            Ep = Ew - Q @ QtE
-            norms = np.linalg.norm(Ew, axis=0)
-            if not np.any(norms > 0):
+            # only the rows of the term's joints are nonzero: work on those, through small Gram matrices
+            # (E⊥ᵀE⊥ = EᵀE − (QᵀE)ᵀQᵀE and E⊥ᵀr0 = Eᵀr0, since Qᵀr0 = 0)
+            js = list(term.joints)
+            E = term_columns(term, s_train, n)[:, js, :] / sigma[None, js, None]
+            Ef = E.reshape(-1, E.shape[-1])
+            QtE = Q3[:, js, :].reshape(-1, Q.shape[1]).T @ Ef
+            G = Ef.T @ Ef - QtE.T @ QtE
+            norms2 = np.diag(Ef.T @ Ef)
+            if not np.any(norms2 > 0):
                 continue
-            sv = np.linalg.svd(Ep, compute_uv=False)
-            m = int(np.sum(sv > max(norms.max(), 1e-300) * 1e-7))
+            evals, evecs = np.linalg.eigh(G)
+            keep = evals > norms2.max() * 1e-12  # singular values of E⊥ above 1e-6 of the largest column norm
+            m = int(keep.sum())
             if m == 0:
                 continue  # already in the span of the model: it regroups
-            g = np.linalg.lstsq(Ep, r0, rcond=1e-7)[0]
-            rss1 = float(np.sum((r0 - Ep @ g) ** 2))
-            theta_new = theta - np.linalg.lstsq(R, QtE @ g, rcond=None)[0]
-            Eh = _flat(term_columns(term, s_hold, n) / sigma[None, :, None])
-            rh1 = yhw - Xhw @ theta_new - Eh @ g
-            rssh1 = float(rh1 @ rh1)
+            b = Ef.T @ r03[:, js].reshape(-1)
+            g = evecs[:, keep] @ ((evecs[:, keep].T @ b) / evals[keep])
+            rss1 = rss0 - float(g @ b)
+            dtheta = np.linalg.lstsq(R, QtE @ g, rcond=None)[0]
+            Eh = term_columns(term, s_hold, n) / sigma[None, :, None]
+            rh1 = rh03 + Xh3 @ dtheta - Eh @ g
+            rssh1 = float(np.sum(rh1**2))
             if rssh1 <= 0 or rssh0 <= 0:
                 continue
             dbic = Nh * np.log(rssh1 / rssh0) + m * np.log(Nh)

@@ -23,7 +23,8 @@ from minparam_cli.identify.diagnose import DiagnosisOptions, diagnose
 from minparam_cli.identify.fit import Accumulator, errors, solve
 
 DEFAULT_HOLDOUT = 0.3
-DIAGNOSIS_CAP = 60_000
+DIAGNOSIS_CAP = 12_000  # samples kept for the diagnosis (training part; half as many held out)
+REGRESSOR_ROWS = 4096
 
 
 @dataclass(frozen=True)
@@ -86,7 +87,10 @@ def _stream(design: Design, sources, n: int, opts: IdentifyOptions, keep: bool):
                 pieces = [("train", b.take(m)), ("hold", b.take(~m))]
             for name, piece in pieces:
                 if len(piece):
-                    acc[name].add(design.columns(piece), piece.tau)
+                    # the full regressor is n·10n numbers a sample: build it a few thousand samples at a time
+                    for s in range(0, len(piece), REGRESSOR_ROWS):
+                        sub = piece.take(slice(s, s + REGRESSOR_ROWS))
+                        acc[name].add(design.columns(sub), sub.tau)
                     if keep:
                         thin[name].add(piece)
         reports.append(rep)
