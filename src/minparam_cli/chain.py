@@ -19,6 +19,7 @@ the motion.  The chain is frozen; ``build_chain`` is the only builder.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from functools import cached_property
 from fractions import Fraction
 
 import numpy as np
@@ -78,6 +79,24 @@ class Chain:
             path.append(k)
             k = self.parents[k]
         return tuple(reversed(path))
+
+    @cached_property
+    def local_terms(self) -> tuple:
+        """Per joint, constant 4x4 matrices with Pre·Motion(q)·Post = C0 + s·C1 + (1 − c)·C2 (revolute,
+        Rodrigues' formula, s = sin q, c = cos q) or C0 + q·C1 (prismatic); plus the axis direction and
+        point in the parent frame (Pre's rotation times the axis, Pre's origin)."""
+        out = []
+        for j in range(self.n):
+            a = self.axes[j]
+            Kx = np.zeros((4, 4))
+            if self.types[j] == REVOLUTE:
+                Kx[:3, :3] = [[0, -a[2], a[1]], [a[2], 0, -a[0]], [-a[1], a[0], 0]]
+                terms = (self.pre[j] @ self.post[j], self.pre[j] @ Kx @ self.post[j], self.pre[j] @ (Kx @ Kx) @ self.post[j])
+            else:
+                Kx[:3, 3] = a
+                terms = (self.pre[j] @ self.post[j], self.pre[j] @ Kx @ self.post[j], None)
+            out.append((terms, self.pre[j][:3, :3] @ a, self.pre[j][:3, 3].copy()))
+        return tuple(out)
 
     def with_extras(self, extras: tuple[tuple[str, ...], ...]) -> "Chain":
         from dataclasses import replace
@@ -310,11 +329,17 @@ def forward_kinematics(chain: Chain, q: np.ndarray):
     T = np.empty((N, n, 4, 4))
     z = np.empty((N, n, 3))
     o = np.empty((N, n, 3))
-    base = np.broadcast_to(np.eye(4), (N, 4, 4))
-    for j in range(n):
-        P = base if chain.parents[j] < 0 else T[:, chain.parents[j]]
-        F = P @ chain.pre[j]
-        z[:, j] = F[:, :3, :3] @ chain.axes[j]
-        o[:, j] = F[:, :3, 3]
-        T[:, j] = F @ motion(chain.types[j], chain.axes[j], q[:, j]) @ chain.post[j]
+    for j, ((C0, C1, C2), axis, origin) in enumerate(chain.local_terms):
+        qj = q[:, j, None, None]
+        local = C0 + np.sin(qj) * C1 + (1.0 - np.cos(qj)) * C2 if C2 is not None else C0 + qj * C1
+        p = chain.parents[j]
+        if p < 0:
+            T[:, j] = local
+            z[:, j] = axis
+            o[:, j] = origin
+        else:
+            P = T[:, p]
+            np.matmul(P, local, out=T[:, j])
+            z[:, j] = P[:, :3, :3] @ axis
+            o[:, j] = P[:, :3, :3] @ origin + P[:, :3, 3]
     return T, z, o

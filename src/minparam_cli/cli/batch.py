@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import time
-from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 from typing import Callable
 
@@ -53,6 +52,8 @@ def run_batch(fn: Callable, files: list[Path], args: tuple, jobs: int, progress=
             if progress:
                 progress(i + 1, len(files))
         return results
+    from concurrent.futures import ProcessPoolExecutor
+
     with ProcessPoolExecutor(max_workers=jobs) as pool:
         futures = [pool.submit(_run_one, fn, f, args) for f in files]
         for i, fut in enumerate(futures):

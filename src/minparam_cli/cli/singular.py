@@ -16,8 +16,7 @@ import typer
 
 from minparam_cli.cli.common import Progress, guarded, parse_floats, save_png, write_output
 from minparam_cli.errors import ComputationError, InputError
-from minparam_cli.kinematics.screws import DEFAULT_DAMPING, DEFAULT_EPSILON
-from minparam_cli.kinematics.singular_scan import DEFAULT_STEP_DEG
+from minparam_cli.kinematics.defaults import DEFAULT_DAMPING, DEFAULT_EPSILON, DEFAULT_STEP_DEG
 
 HELP = (
     "Singular positions by screw theory (Glazunov 1985): the local test at --q, the dependent joints, "

@@ -54,7 +54,10 @@ def _unique_key_loader():
     """A yaml.SafeLoader that refuses a key repeated in one mapping (plain safe_load keeps the last)."""
     import yaml
 
-    class UniqueKeyLoader(yaml.SafeLoader):
+    # libyaml's parser when present (several times faster); the constructor stays the safe one
+    base = getattr(yaml, "CSafeLoader", yaml.SafeLoader)
+
+    class UniqueKeyLoader(base):
         def construct_mapping(self, node, deep=False):
             seen = set()
             for key_node, _ in node.value:

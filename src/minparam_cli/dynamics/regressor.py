@@ -45,24 +45,30 @@ def _skew(v: np.ndarray) -> np.ndarray:
     return S
 
 
-def _inertia_operator(w: np.ndarray) -> np.ndarray:
-    """L(w) with I·w = L(w)·[XX XY XZ YY YZ ZZ], batched: (N, 3) -> (N, 3, 6)."""
-    L = np.zeros(w.shape[:-1] + (3, 6))
-    w1, w2, w3 = w[..., 0], w[..., 1], w[..., 2]
-    L[..., 0, 0], L[..., 0, 1], L[..., 0, 2] = w1, w2, w3
-    L[..., 1, 1], L[..., 1, 3], L[..., 1, 4] = w1, w2, w3
-    L[..., 2, 2], L[..., 2, 4], L[..., 2, 5] = w1, w2, w3
-    return L
-
-
 def link_wrench_regressor(omega, domega, acc) -> np.ndarray:
-    """Wrench (N; F) about the link origin in link coordinates, as a (N, 6, 10) linear map of phi_j."""
+    """Wrench (N; F) about the link origin in link coordinates, as a (N, 6, 10) linear map of phi_j.
+
+    Written out entry by entry: N = L(ω̇)·I + ω×(L(ω)·I) − [a]×·s and
+    F = ([ω̇]× + ωωᵀ − |ω|²E)·s + a·M (batched 3x3 products are slow in numpy).
+    """
     N = omega.shape[0]
     K = np.zeros((N, 6, 10))
-    Wo, dWo, A = _skew(omega), _skew(domega), _skew(acc)
-    K[:, 0:3, 0:6] = _inertia_operator(domega) + Wo @ _inertia_operator(omega)
-    K[:, 0:3, 6:9] = -A
-    K[:, 3:6, 6:9] = dWo + Wo @ Wo
+    w1, w2, w3 = omega[:, 0], omega[:, 1], omega[:, 2]
+    d1, d2, d3 = domega[:, 0], domega[:, 1], domega[:, 2]
+    a1, a2, a3 = acc[:, 0], acc[:, 1], acc[:, 2]
+    w11, w22, w33, w12, w13, w23 = w1 * w1, w2 * w2, w3 * w3, w1 * w2, w1 * w3, w2 * w3
+    # moment, inertia columns XX XY XZ YY YZ ZZ: L(ω̇) + ω × (L(ω) ·)
+    K[:, 0, 0], K[:, 0, 1], K[:, 0, 2], K[:, 0, 3], K[:, 0, 4], K[:, 0, 5] = d1, d2 - w13, d3 + w12, -w23, w22 - w33, w23
+    K[:, 1, 0], K[:, 1, 1], K[:, 1, 2], K[:, 1, 3], K[:, 1, 4], K[:, 1, 5] = w13, d1 + w23, w33 - w11, d2, d3 - w12, -w13
+    K[:, 2, 0], K[:, 2, 1], K[:, 2, 2], K[:, 2, 3], K[:, 2, 4], K[:, 2, 5] = -w12, w11 - w22, d1 - w23, w12, d2 + w13, d3
+    # moment, first-moment columns: s × a = −[a]× s
+    K[:, 0, 7], K[:, 0, 8] = a3, -a2
+    K[:, 1, 6], K[:, 1, 8] = -a3, a1
+    K[:, 2, 6], K[:, 2, 7] = a2, -a1
+    # force, first-moment columns: [ω̇]× + ωωᵀ − |ω|² E
+    K[:, 3, 6], K[:, 3, 7], K[:, 3, 8] = -w22 - w33, w12 - d3, w13 + d2
+    K[:, 4, 6], K[:, 4, 7], K[:, 4, 8] = w12 + d3, -w11 - w33, w23 - d1
+    K[:, 5, 6], K[:, 5, 7], K[:, 5, 8] = w13 - d2, w23 + d1, -w11 - w22
     K[:, 3:6, 9] = acc
     return K
 
@@ -118,16 +124,22 @@ def regressor(chain: Chain, q, qd, qdd, include_extras: bool = True) -> np.ndarr
     w_l, dw_l, v_l = local[..., 0], local[..., 1], local[..., 2]
     acc_l = local[..., 3] + cross(w_l, v_l)
     K = link_wrench_regressor(w_l.reshape(-1, 3), dw_l.reshape(-1, 3), acc_l.reshape(-1, 3)).reshape(N, n, 6, 10)
-    # to the base frame, moments about the base origin
-    F_w = R @ K[:, :, 3:6]
-    N_w = R @ K[:, :, 0:3] + _skew(pos) @ F_w
-    W = np.concatenate([N_w, F_w], axis=2)  # (N, n, 6, 10)
-    # joint k carries link j when k is an ancestor of j: tau_k = S_k . W_j
-    carries = np.zeros((n, n))
+    # joint k carries link j when k is an ancestor of j.  tau_k = z_k·(moment about the axis) reads, in
+    # link j's coordinates, u·N + v·F with u = R_jᵀ z_k and v = R_jᵀ (z_k × (p_j − o_k)) (revolute),
+    # u = 0 and v = R_jᵀ z_k (prismatic): one contraction for all (k, j) pairs.
+    revolute = np.array([t == REVOLUTE for t in chain.types])
+    zr = z * revolute[None, :, None]
+    arm = cross(zr[:, None, :, :], pos[:, :, None, :] - o[:, None, :, :])  # (N, j, k, 3)
+    if not revolute.all():
+        arm[:, :, ~revolute] = z[:, None, ~revolute]
+    G = np.empty((N, n, n, 6))  # (sample, link j, joint k, [u v])
+    np.matmul(zr[:, None, :, :], R, out=G[..., :3])
+    np.matmul(arm, R, out=G[..., 3:])
+    carries = np.zeros((n, n))  # carries[j, k]: joint k carries link j
     for j in range(n):
-        carries[list(chain.ancestors(j)), j] = 1.0
-    Wt = W.transpose(0, 2, 1, 3).reshape(N, 6, 10 * n)
-    Y[:, :, : 10 * n] = (S @ Wt) * np.repeat(carries, 10, axis=1)[None]
+        carries[j, list(chain.ancestors(j))] = 1.0
+    G *= carries[None, :, :, None]
+    Y[:, :, : 10 * n] = np.matmul(G, K).transpose(0, 2, 1, 3).reshape(N, n, 10 * n)
     if include_extras:
         for c, (k, kind) in enumerate(layout.extra_columns):
             col = layout.n_inertial + c

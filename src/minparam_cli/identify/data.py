@@ -199,6 +199,41 @@ def _clean(raw: dict, last: np.ndarray | None, report: DataReport) -> tuple[dict
     return out, new_last
 
 
+def time_span(path: str | Path, opts: DataOptions) -> tuple[float, float]:
+    """First and last time stamp of a data file without reading it all (CSV: first and last line)."""
+    path = Path(path)
+    name = opts.columns.get("t", "t")
+    if path.suffix.lower() == ".npz":
+        try:
+            with np.load(path, allow_pickle=False) as z:
+                t = np.asarray(z[name], dtype=float)
+        except (OSError, ValueError, KeyError) as e:
+            raise DataError(f"{path}: cannot read time array '{name}' ({e})") from e
+        t = t[np.isfinite(t)]
+        if len(t) < 2:
+            raise DataError(f"{path}: fewer than two time stamps")
+        return float(t.min()), float(t.max())
+    try:
+        with open(path, "rb") as fh:
+            header = fh.readline().decode("utf-8", "replace").strip().split(",")
+            first = fh.readline().decode("utf-8", "replace")
+            fh.seek(0, 2)
+            size = fh.tell()
+            fh.seek(max(0, size - 65536))
+            tail = [ln for ln in fh.read().decode("utf-8", "replace").splitlines() if ln.strip()]
+    except OSError as e:
+        raise DataError(f"{path}: cannot read file ({e.strerror})") from e
+    names = [h.strip() for h in header]
+    if name not in names:
+        raise DataError(f"{path}: missing time column '{name}' (use --columns t=NAME)")
+    k = names.index(name)
+    try:
+        t0, t1 = float(first.split(",")[k]), float(tail[-1].split(",")[k])
+    except (ValueError, IndexError) as e:
+        raise DataError(f"{path}: cannot read the first and last time stamps ({e})") from e
+    return t0, t1
+
+
 def iter_blocks(path: str | Path, n: int, opts: DataOptions, report: DataReport | None = None) -> Iterator[Block]:
     """Clean, filter and differentiate the file chunk by chunk; memory bounded by the chunk size."""
     from minparam_cli.identify.filtering import Processor

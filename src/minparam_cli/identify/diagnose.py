@@ -27,7 +27,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from minparam_cli.identify.data import Block
-from minparam_cli.identify.design import Design, Term, term_columns
+from minparam_cli.identify.design import Design, Term, term_blocks, term_columns
 from minparam_cli.identify.effects import EFFECT_IDS, EFFECTS
 
 BIC_THRESHOLD = -10.0
@@ -141,28 +141,36 @@ def diagnose(design: Design, train: Block, hold: Block, opts: DiagnosisOptions, 
         r03 = r0.reshape(len(y), n)
         Xh3 = Xhw.reshape(len(yh), n, -1)
         rh03 = rh0.reshape(len(yh), n)
+        Rinv = np.linalg.pinv(R)
         for i, term in enumerate(cands):
-            # only the rows of the term's joints are nonzero: work on those, through small Gram matrices
-            # (E⊥ᵀE⊥ = EᵀE − (QᵀE)ᵀQᵀE and E⊥ᵀr0 = Eᵀr0, since Qᵀr0 = 0)
-            js = list(term.joints)
-            E = term_columns(term, s_train, n)[:, js, :] / sigma[None, js, None]
-            Ef = E.reshape(-1, E.shape[-1])
-            QtE = Q3[:, js, :].reshape(-1, Q.shape[1]).T @ Ef
-            G = Ef.T @ Ef - QtE.T @ QtE
-            norms2 = np.diag(Ef.T @ Ef)
+            # E is block-sparse (joint j's columns live in joint j's rows): work block by block through
+            # small Gram matrices, E⊥ᵀE⊥ = EᵀE − (QᵀE)ᵀQᵀE and E⊥ᵀr0 = Eᵀr0 (Qᵀr0 = 0)
+            blocks = [blk / sigma[j] for blk, j in zip(term_blocks(term, s_train), term.joints)]
+            QtE = np.hstack([Q3[:, j, :].T @ blk for blk, j in zip(blocks, term.joints)])
+            EtE = np.zeros((QtE.shape[1],) * 2)
+            b = np.empty(QtE.shape[1])
+            c = 0
+            for blk, j in zip(blocks, term.joints):
+                w = blk.shape[1]
+                EtE[c : c + w, c : c + w] = blk.T @ blk
+                b[c : c + w] = blk.T @ r03[:, j]
+                c += w
+            norms2 = np.diag(EtE)
             if not np.any(norms2 > 0):
                 continue
-            evals, evecs = np.linalg.eigh(G)
+            evals, evecs = np.linalg.eigh(EtE - QtE.T @ QtE)
             keep = evals > norms2.max() * 1e-12  # singular values of E⊥ above 1e-6 of the largest column norm
             m = int(keep.sum())
             if m == 0:
                 continue  # already in the span of the model: it regroups
-            b = Ef.T @ r03[:, js].reshape(-1)
             g = evecs[:, keep] @ ((evecs[:, keep].T @ b) / evals[keep])
             rss1 = rss0 - float(g @ b)
-            dtheta = np.linalg.lstsq(R, QtE @ g, rcond=None)[0]
-            Eh = term_columns(term, s_hold, n) / sigma[None, :, None]
-            rh1 = rh03 + Xh3 @ dtheta - Eh @ g
+            rh1 = rh03 + Xh3 @ (Rinv @ (QtE @ g))
+            c = 0
+            for blk, j in zip(term_blocks(term, s_hold), term.joints):
+                w = blk.shape[1]
+                rh1[:, j] -= (blk / sigma[j]) @ g[c : c + w]
+                c += w
             rssh1 = float(np.sum(rh1**2))
             if rssh1 <= 0 or rssh0 <= 0:
                 continue

@@ -17,7 +17,7 @@ import numpy as np
 
 from minparam_cli.chain import Chain
 from minparam_cli.errors import DataError
-from minparam_cli.identify.data import Block, DataOptions, DataReport, iter_blocks
+from minparam_cli.identify.data import Block, DataOptions, DataReport, iter_blocks, time_span
 from minparam_cli.identify.design import Design
 from minparam_cli.identify.diagnose import DiagnosisOptions, diagnose
 from minparam_cli.identify.fit import Accumulator, errors, solve
@@ -59,15 +59,11 @@ class _Thinned:
         return Block.concat(self.blocks) if self.blocks else None
 
 
-def _split_time(path: Path, n: int, opts: IdentifyOptions) -> float:
-    """Time at which the held-out part starts: a cheap pass over the time column."""
-    t0 = t1 = None
-    for b in iter_blocks(path, n, opts.data, DataReport(str(path))):
-        if len(b):
-            t0 = b.t[0] if t0 is None else t0
-            t1 = b.t[-1]
-    if t0 is None or t1 <= t0:
-        raise DataError(f"{path}: fewer than two usable samples")
+def _split_time(path: Path, opts: IdentifyOptions) -> float:
+    """Time at which the held-out part starts: the last ``holdout`` of the record's time span."""
+    t0, t1 = time_span(path, opts.data)
+    if not t1 > t0:
+        raise DataError(f"{path}: the last time stamp ({t1}) is not after the first ({t0})")
     return float(t0 + (1.0 - opts.holdout) * (t1 - t0))
 
 
@@ -118,7 +114,7 @@ def identify(chain: Chain, data_path: str | Path, opts: IdentifyOptions, progres
     else:
         if not 0 < opts.holdout < 1:
             raise DataError(f"--holdout must be between 0 and 1, got {opts.holdout}")
-        sources = [(data_path, None, _split_time(data_path, n, opts))]
+        sources = [(data_path, None, _split_time(data_path, opts))]
 
     acc, thin, reports = _stream(design, sources, n, opts, keep=opts.diagnose)
     for part in ("train", "hold"):

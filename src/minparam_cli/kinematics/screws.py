@@ -66,11 +66,7 @@ from minparam_cli.kinematics.plucker import (
     rows_at_point,
 )
 
-DEFAULT_EPSILON = 1e-3
-"""Relative cut on σ_min/σ_max of the normalised screw matrix."""
-
-DEFAULT_DAMPING = 0.05
-"""Damping of the damped-least-squares comparison, relative to σ_max."""
+from minparam_cli.kinematics.defaults import DEFAULT_DAMPING, DEFAULT_EPSILON  # noqa: E402,F401
 
 TIE_RTOL = 1e-9
 """Conditioning scores equal to this relative tolerance are a tie; the later joint is held."""

@@ -35,7 +35,7 @@ from minparam_cli.kinematics.screws import (
     require_serial,
 )
 
-DEFAULT_STEP_DEG = 15.0
+from minparam_cli.kinematics.defaults import DEFAULT_STEP_DEG  # noqa: E402,F401
 MAX_NODES = 3_000_000
 MAX_POINTS_KEPT = 200_000
 REFINE_ITERATIONS = 60

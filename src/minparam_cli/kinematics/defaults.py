@@ -1,0 +1,10 @@
+"""Default settings of the singularity stage, importable without numpy (the CLI shows them in --help)."""
+
+DEFAULT_EPSILON = 1e-3
+"""Relative cut on σ_min/σ_max of the normalised screw matrix."""
+
+DEFAULT_DAMPING = 0.05
+"""Damping of the damped-least-squares comparison, relative to σ_max."""
+
+DEFAULT_STEP_DEG = 15.0
+"""Grid step of the global scan, degrees."""
