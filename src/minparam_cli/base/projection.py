@@ -30,7 +30,7 @@ from typing import Callable
 import numpy as np
 
 from minparam_cli.base.echelon import ExactRowSpace, FloatRowSpace, integer_rref
-from minparam_cli.base.result import COEFFICIENT_CUTOFF, BaseSet, regrouping_matrix
+from minparam_cli.base.result import BETA_DIGITS, COEFFICIENT_CUTOFF, BaseSet, beta_from_unit_columns, regrouping_matrix
 from minparam_cli.chain import REVOLUTE, Chain
 from minparam_cli.dynamics.projection import (
     KINETIC,
@@ -60,7 +60,6 @@ from minparam_cli.errors import ComputationError
 # the estimate is made before anything is computed.
 MAX_ROWS = 4 * 10**9
 # float mode: beta is accurate to ~1e-13 relative; keep 12 significant digits (as the QR route)
-BETA_DIGITS = 12
 
 Progress = Callable[[int, int], None]
 
@@ -220,16 +219,6 @@ def _exact_result(geom: ProjectionGeometry, stream: dict):
 # --- step 3-4, floating point ------------------------------------------------------
 
 
-def _significant(x: np.ndarray, digits: int) -> np.ndarray:
-    """x rounded to ``digits`` significant digits (drops rounding noise: 1 - 2e-16 -> 1)."""
-    out = x.copy()
-    nz = x != 0
-    exponent = np.floor(np.log10(np.abs(x[nz])))
-    factor = 10.0 ** (digits - 1 - exponent)
-    out[nz] = np.round(x[nz] * factor) / factor
-    return out
-
-
 def _scan_in_order(Zn: np.ndarray, tol: float) -> tuple[list[int], np.ndarray]:
     """Keep rule on unit-norm columns: r[i] = distance of column i from the span of the kept
     columns before it (Gram–Schmidt, each projection done twice for orthogonality)."""
@@ -275,9 +264,7 @@ def _float_result(geom: ProjectionGeometry, stream: dict):
     dropped = [i for i in range(P) if i not in set(kept)]
     if dropped and kept:
         beta_n, *_ = np.linalg.lstsq(Zn[:, kept], Zn[:, dropped], rcond=None)
-        beta_n[np.abs(beta_n) < COEFFICIENT_CUTOFF] = 0.0
-        scale_d = np.where(effect[dropped], norms[dropped], 0.0)
-        beta = _significant(beta_n / norms[kept][:, None] * scale_d[None, :], BETA_DIGITS)
+        beta = beta_from_unit_columns(beta_n, norms, effect, kept, dropped)
     else:
         beta = np.zeros((len(kept), len(dropped)))
     K = regrouping_matrix(kept, beta, dropped, P)

@@ -21,26 +21,13 @@ import time
 
 import numpy as np
 
-from minparam_cli.base.result import COEFFICIENT_CUTOFF, BaseSet, regrouping_matrix
+from minparam_cli.base.result import BETA_DIGITS, COEFFICIENT_CUTOFF, BaseSet, beta_from_unit_columns, regrouping_matrix
 from minparam_cli.chain import Chain
 from minparam_cli.dynamics.regressor import random_states, regressor
 from minparam_cli.errors import ComputationError, InputError
 
 DEFAULT_SAMPLES = 100
 DEFAULT_SEED = 0
-# β is accurate to ~1e-13 relative; 12 significant digits drop only rounding noise (1 - 2e-16 -> 1)
-BETA_DIGITS = 12
-
-
-def _round_significant(x: np.ndarray, digits: int) -> np.ndarray:
-    out = np.zeros_like(x)
-    nz = x != 0
-    mag = np.floor(np.log10(np.abs(x[nz])))
-    scale = 10.0 ** (digits - 1 - mag)
-    out[nz] = np.round(x[nz] * scale) / scale
-    return out
-
-
 def stacked_regressor(chain: Chain, samples: int, rng: np.random.Generator) -> np.ndarray:
     q, qd, qdd = random_states(chain, samples, rng)
     Y = regressor(chain, q, qd, qdd)
@@ -111,9 +98,7 @@ def base_from_regressor(W: np.ndarray, source: str = ""):
             Rd[:, k] = R[:, position[c]]
     Q1, R1 = np.linalg.qr(Rk)
     beta_n = np.linalg.solve(R1, Q1.T @ Rd)
-    beta_n[np.abs(beta_n) < COEFFICIENT_CUTOFF] = 0.0
-    scale_d = np.where(effect[dropped], norms[dropped], 0.0)
-    beta = _round_significant(beta_n / norms[kept][:, None] * scale_d[None, :], BETA_DIGITS)
+    beta = beta_from_unit_columns(beta_n, norms, effect, kept, dropped)
     K = regrouping_matrix(kept, beta, dropped, P)
 
     kept_r = r[kept]

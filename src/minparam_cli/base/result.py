@@ -10,6 +10,8 @@ from minparam_cli.params import split_name
 
 # entries of the normalised regrouping matrix below this are rounding noise
 COEFFICIENT_CUTOFF = 1e-10
+# β is accurate to ~1e-13 relative; 12 significant digits drop only rounding noise (1 - 2e-16 -> 1)
+BETA_DIGITS = 12
 
 
 @dataclass(frozen=True, eq=False)
@@ -84,3 +86,20 @@ def regrouping_matrix(kept: list[int], beta: np.ndarray, dropped: list[int], n: 
     if dropped:
         K[:, dropped] = beta
     return K
+
+
+def round_significant(x: np.ndarray, digits: int = BETA_DIGITS) -> np.ndarray:
+    """x rounded to ``digits`` significant digits."""
+    out = np.zeros_like(x)
+    nz = x != 0
+    mag = np.floor(np.log10(np.abs(x[nz])))
+    scale = 10.0 ** (digits - 1 - mag)
+    out[nz] = np.round(x[nz] * scale) / scale
+    return out
+
+
+def beta_from_unit_columns(beta_n: np.ndarray, norms: np.ndarray, effect: np.ndarray, kept: list[int], dropped: list[int]) -> np.ndarray:
+    """β in the standard parameters' units from β over unit-norm columns: noise cut, then rounding."""
+    beta_n = np.where(np.abs(beta_n) < COEFFICIENT_CUTOFF, 0.0, beta_n)
+    scale_d = np.where(effect[dropped], norms[dropped], 0.0)
+    return round_significant(beta_n / norms[kept][:, None] * scale_d[None, :])
