@@ -26,7 +26,7 @@ class DeriveOptions:
     gravity: tuple[float, float, float] | None = None
     samples: int = 100
     seed: int = 0
-    symbolic: bool | None = None  # None: default for the file type
+    symbolic: bool | None = None  # None (the default): numeric
 
 
 def load_chain(path: str | Path, opts: DeriveOptions):
@@ -61,8 +61,7 @@ def derive_file(path: str | Path, opts: DeriveOptions, progress: Callable[[int, 
 
         base = derive_qr(chain, samples=opts.samples, seed=opts.seed)
     report = base_report(chain, base, 0.0)
-    want_symbolic = opts.symbolic if opts.symbolic is not None else False
-    if want_symbolic:
+    if opts.symbolic:
         from minparam_cli.base.symbolic import add_symbolic
 
         report = add_symbolic(report, desc, chain, base)

@@ -30,7 +30,7 @@ from typing import Callable
 import numpy as np
 
 from minparam_cli.base.echelon import ExactRowSpace, FloatRowSpace, integer_rref
-from minparam_cli.base.result import BETA_DIGITS, COEFFICIENT_CUTOFF, BaseSet, beta_from_unit_columns, regrouping_matrix
+from minparam_cli.base.result import BaseSet, beta_from_unit_columns, regrouping_matrix, scan_margin
 from minparam_cli.chain import REVOLUTE, Chain
 from minparam_cli.dynamics.projection import (
     KINETIC,
@@ -268,17 +268,8 @@ def _float_result(geom: ProjectionGeometry, stream: dict):
     else:
         beta = np.zeros((len(kept), len(dropped)))
     K = regrouping_matrix(kept, beta, dropped, P)
-    kept_r = r[kept]
-    dropped_r = r[[i for i in dropped if effect[i]]]
-    margin = {
-        "criterion": "|R_ii| of unit-norm columns of Z in scan order; cut at max(rows, P)*eps",
-        "tolerance": tol,
-        "last_kept": float(kept_r.min()) if len(kept_r) else None,
-        "first_dropped": float(dropped_r.max()) if len(dropped_r) else None,
-        "coefficient_cutoff": COEFFICIENT_CUTOFF,
-        "coefficient_digits": BETA_DIGITS,
-        "rows": rows_z,
-    }
+    criterion = "|R_ii| of unit-norm columns of Z in scan order; cut at max(rows, P)*eps"
+    margin = scan_margin(r, kept, dropped, effect, criterion, tol, rows_z)
     return kept, K, unident, margin, None
 
 

@@ -21,7 +21,7 @@ import time
 
 import numpy as np
 
-from minparam_cli.base.result import BETA_DIGITS, COEFFICIENT_CUTOFF, BaseSet, beta_from_unit_columns, regrouping_matrix
+from minparam_cli.base.result import BaseSet, beta_from_unit_columns, regrouping_matrix, scan_margin
 from minparam_cli.chain import Chain
 from minparam_cli.dynamics.regressor import random_states, regressor
 from minparam_cli.errors import ComputationError, InputError
@@ -101,17 +101,7 @@ def base_from_regressor(W: np.ndarray, source: str = ""):
     beta = beta_from_unit_columns(beta_n, norms, effect, kept, dropped)
     K = regrouping_matrix(kept, beta, dropped, P)
 
-    kept_r = r[kept]
-    dropped_r = r[[i for i in dropped if effect[i]]]
-    margin = {
-        "criterion": "|R_ii| of unit-norm columns, QR in scan order; cut at max(M,N)*eps",
-        "tolerance": tol,
-        "last_kept": float(kept_r.min()) if len(kept_r) else None,
-        "first_dropped": float(dropped_r.max()) if len(dropped_r) else None,
-        "svd_rank": rank_svd,
-        "svd_gap": [float(sv[rank_svd - 1] / sv[0]), float(sv[rank_svd] / sv[0]) if rank_svd < len(sv) else None],
-        "coefficient_cutoff": COEFFICIENT_CUTOFF,
-        "coefficient_digits": BETA_DIGITS,
-        "rows": rows,
-    }
+    margin = scan_margin(r, kept, dropped, effect, "|R_ii| of unit-norm columns, QR in scan order; cut at max(M,N)*eps", tol, rows)
+    margin["svd_rank"] = rank_svd
+    margin["svd_gap"] = [float(sv[rank_svd - 1] / sv[0]), float(sv[rank_svd] / sv[0]) if rank_svd < len(sv) else None]
     return kept, K, unident, margin

@@ -103,3 +103,18 @@ def beta_from_unit_columns(beta_n: np.ndarray, norms: np.ndarray, effect: np.nda
     beta_n = np.where(np.abs(beta_n) < COEFFICIENT_CUTOFF, 0.0, beta_n)
     scale_d = np.where(effect[dropped], norms[dropped], 0.0)
     return round_significant(beta_n / norms[kept][:, None] * scale_d[None, :])
+
+
+def scan_margin(r: np.ndarray, kept: list[int], dropped: list[int], effect: np.ndarray, criterion: str, tol: float, rows: int) -> dict:
+    """The rank margin of a scan-order elimination: smallest kept and largest dropped residual."""
+    kept_r = r[kept]
+    dropped_r = r[[i for i in dropped if effect[i]]]
+    return {
+        "criterion": criterion,
+        "tolerance": tol,
+        "last_kept": float(kept_r.min()) if len(kept_r) else None,
+        "first_dropped": float(dropped_r.max()) if len(dropped_r) else None,
+        "coefficient_cutoff": COEFFICIENT_CUTOFF,
+        "coefficient_digits": BETA_DIGITS,
+        "rows": rows,
+    }

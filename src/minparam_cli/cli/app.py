@@ -39,17 +39,11 @@ def _root(
 
 
 def _register() -> None:
-    from minparam_cli.cli import check, derive
+    from minparam_cli.cli import check, derive, identify, platform, simulate, singular
 
     app.command(name="derive", help=derive.HELP, epilog=derive.EPILOG)(derive.derive)
     app.command(name="check", help=check.HELP, epilog=check.EPILOG)(check.check)
-    for optional in ("platform", "singular", "identify", "simulate"):
-        try:
-            module = __import__(f"minparam_cli.cli.{optional}", fromlist=["register"])
-        except ModuleNotFoundError as e:
-            if e.name != f"minparam_cli.cli.{optional}":
-                raise
-            continue
+    for module in (identify, simulate, singular, platform):
         module.register(app)
 
 

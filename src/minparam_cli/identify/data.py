@@ -172,16 +172,14 @@ def _clean(raw: dict, last: np.ndarray | None, report: DataReport) -> tuple[dict
     ok = np.all(np.isfinite(stacked), axis=1)
     report.dropped["nan"] += int((~ok).sum())
     stacked = stacked[ok]
-    keep = np.ones(len(stacked), dtype=bool)
-    prev = last
-    # vectorised: compare every row with the previous kept candidate (the row before it)
-    prev_rows = np.vstack([prev[None] if prev is not None else np.full((1, stacked.shape[1]), np.nan), stacked[:-1]]) if len(stacked) else stacked
+    # compare every row with the row before it (the first with the previous chunk's last kept row)
+    first = last[None] if last is not None else np.full((1, stacked.shape[1]), np.nan)
+    prev_rows = np.vstack([first, stacked[:-1]]) if len(stacked) else stacked
     repeated = np.all(stacked[:, 1:] == prev_rows[:, 1:], axis=1)
-    keep &= ~repeated
     report.dropped["repeated_sample"] += int(repeated.sum())
-    stacked = stacked[keep]
+    stacked = stacked[~repeated]
     # time must increase: keep the running maximum rule
-    t_prev = prev[0] if prev is not None else -np.inf
+    t_prev = last[0] if last is not None else -np.inf
     tt = stacked[:, 0]
     running = np.maximum.accumulate(np.concatenate([[t_prev], tt]))[:-1]
     increasing = tt > running

@@ -69,6 +69,14 @@ def _flat(X: np.ndarray) -> np.ndarray:
     return X.reshape(-1, X.shape[-1])
 
 
+def joint_sigma(X: np.ndarray, y: np.ndarray) -> np.ndarray:
+    """Gautier's weights: each joint's residual standard deviation after OLS (1 where it is zero)."""
+    theta, *_ = np.linalg.lstsq(_flat(X), y.reshape(-1), rcond=None)
+    res = y - X @ theta
+    sigma = np.sqrt(np.sum(res**2, axis=0) / max(len(y) - X.shape[-1] / y.shape[1], 1))
+    return np.where(sigma > 0, sigma, 1.0)
+
+
 def _holdout_errors(yh: np.ndarray, pred: np.ndarray) -> dict:
     r = yh - pred
     rss = np.sum(r**2, axis=0)
@@ -111,14 +119,8 @@ def diagnose(design: Design, train: Block, hold: Block, opts: DiagnosisOptions, 
     s_train, s_hold = design.signals(train), design.signals(hold)
     out = Diagnosis(design=design)
 
-    def fit(Xc):
-        theta, *_ = np.linalg.lstsq(_flat(Xc), y.reshape(-1), rcond=None)
-        res = y - Xc @ theta
-        sigma = np.sqrt(np.sum(res**2, axis=0) / max(len(y) - Xc.shape[-1] / n, 1))
-        return np.where(sigma > 0, sigma, 1.0)
-
     for step in range(opts.max_steps + 1):
-        sigma = fit(X)
+        sigma = joint_sigma(X, y)
         Xw = _flat(X / sigma[None, :, None])
         yw = (y / sigma).reshape(-1)
         Q, R = np.linalg.qr(Xw)
@@ -197,7 +199,7 @@ def diagnose(design: Design, train: Block, hold: Block, opts: DiagnosisOptions, 
         out.design = out.design.with_term(term)
         X = np.concatenate([X, term_columns(term, s_train, n)], axis=2)
         Xh = np.concatenate([Xh, term_columns(term, s_hold, n)], axis=2)
-        sig = fit(X)
+        sig = joint_sigma(X, y)
         theta_all, *_ = np.linalg.lstsq(_flat(X / sig[None, :, None]), (y / sig).reshape(-1), rcond=None)
         stat = {"delta_bic_holdout": float(dbic), "holdout_gain": float(gain), "F": float(F), "p_value": p_value, "rank": m}
         out.steps.append(Step(term, stat, _holdout_errors(yh, Xh @ theta_all), out.design, theta_all))
@@ -211,12 +213,8 @@ def diagnose(design: Design, train: Block, hold: Block, opts: DiagnosisOptions, 
 
 def _holdout_bic(design: Design, train: Block, hold: Block) -> tuple[float, np.ndarray, np.ndarray]:
     """Held-out BIC of a design fitted on ``train`` (Gautier weights), with its theta and held-out prediction."""
-    n = design.chain.n
     X, Xh = design.columns(train), design.columns(hold)
-    theta, *_ = np.linalg.lstsq(_flat(X), train.tau.reshape(-1), rcond=None)
-    res = train.tau - X @ theta
-    sigma = np.sqrt(np.sum(res**2, axis=0) / max(len(train.tau) - X.shape[-1] / n, 1))
-    sigma = np.where(sigma > 0, sigma, 1.0)
+    sigma = joint_sigma(X, train.tau)
     Xw = _flat(X / sigma[None, :, None])
     theta, *_ = np.linalg.lstsq(Xw, (train.tau / sigma).reshape(-1), rcond=None)
     rank = np.linalg.matrix_rank(Xw)

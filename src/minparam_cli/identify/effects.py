@@ -47,7 +47,6 @@ class Effect:
         return [f"{c}{joint + 1}{tag}" for c in self.column_names]
 
 
-SMOOTH_VELOCITY = 0.01  # rad/s: width of the smooth sign, tanh(qd / 0.01)
 STRIBECK_GRID = (0.005, 0.01, 0.02, 0.05, 0.1, 0.2, 0.5)
 COGGING_GRID = tuple(float(k) for k in range(2, 61))
 
@@ -88,11 +87,6 @@ EFFECTS: dict[str, Effect] = {
 }
 
 EFFECT_IDS = tuple(EFFECTS)
-
-
-def smooth_coulomb(dq: np.ndarray, width: float = SMOOTH_VELOCITY) -> np.ndarray:
-    """The optional smooth Coulomb term tanh(q̇/width)."""
-    return np.tanh(dq / width)
 
 
 def effect_torque(effect_id: str, s: Signals, joint: int, coefficients, hyper: float | None = None) -> np.ndarray:
