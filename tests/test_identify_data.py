@@ -163,3 +163,30 @@ def test_panda_diagnosis_traces_the_residual_to_friction(tmp_path):
     assert rep["after"]["relative_error"] * 2 <= rep["before"]["relative_error"]
     assert rep["steps"][0]["effect"] is None
     assert (tmp_path / "measured_vs_predicted.png").exists() and (tmp_path / "residual_vs_velocity_step1.png").exists()
+
+
+@pytest.mark.parametrize(
+    "option, value, needle",
+    [
+        ("--effects", "coulomb,gremlins", "gremlins"),
+        ("--holdout", "1.5", "between 0 and 1"),
+        ("--columns", "q", "KEY=NAME"),
+        ("--columns", "speed=v", "keys are"),
+        ("--cutoff", "-1", "positive"),
+        ("--friction", "sticky", "sticky"),
+        ("--min-gain", "1.5", "[0, 1)"),
+    ],
+)
+def test_bad_identify_options(tmp_path, option, value, needle):
+    t, q, dq, ddq = smooth_signals(300)
+    p = write_csv(tmp_path / "d.csv", t, q, dq, q.copy(), ddq)
+    r = CliRunner().invoke(app, ["identify", "robots/planar2r.yaml", str(p), option, value])
+    assert r.exit_code == 2, r.output
+    assert needle in r.output and "Traceback" not in r.output
+
+
+def test_plot_folder_must_exist(tmp_path):
+    t, q, dq, ddq = smooth_signals(300)
+    p = write_csv(tmp_path / "d.csv", t, q, dq, q.copy(), ddq)
+    r = CliRunner().invoke(app, ["identify", "robots/planar2r.yaml", str(p), "--plot", str(tmp_path / "nope")])
+    assert r.exit_code == 2 and "not a folder" in r.output
