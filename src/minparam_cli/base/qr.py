@@ -63,17 +63,17 @@ def derive_qr(chain: Chain, samples: int = DEFAULT_SAMPLES, seed: int = DEFAULT_
 def base_from_regressor(W: np.ndarray, source: str = ""):
     """Kept columns, regrouping matrix K, no-effect columns and rank margin of a stacked regressor."""
     rows, P = W.shape
-    norms = np.linalg.norm(W, axis=0)
+    norms = np.sqrt(np.einsum("ij,ij->j", W, W))  # no (rows, P) temporary
     eps = np.finfo(float).eps
     zero_tol = norms.max() * max(rows, P) * eps
     effect = norms > zero_tol
-    Wn = np.zeros_like(W)
-    Wn[:, effect] = W[:, effect] / norms[effect]
     tol = max(rows, P) * eps  # columns have unit norm, so max |R_ii| <= 1
     cols = np.flatnonzero(effect)
-    # one Householder QR in scan order: Wn[:, cols] = Q R, Q orthogonal, so R carries
-    # every column norm, singular value and least-squares solution of Wn[:, cols]
-    R = np.linalg.qr(Wn[:, cols], mode="r")
+    Wn = W[:, cols]
+    Wn *= 1.0 / norms[cols]
+    # one Householder QR in scan order: Wn = Q R, Q orthogonal, so R carries
+    # every column norm, singular value and least-squares solution of Wn
+    R = np.linalg.qr(Wn, mode="r")
     r = np.zeros(P)
     r[cols] = np.abs(np.diagonal(R))
     kept = [int(i) for i in cols if r[i] > tol]

@@ -20,6 +20,12 @@ coordinates, is linear in that link's 10 parameters:
 Backward pass: joint k carries the wrenches of every link in its subtree,
 tau_k = S_kᵀ · W_j.  Extras add Ia·qdd_k, Fc·sign(qd_k), Fv·qd_k and a
 constant, each in its own column.
+
+Two implementations of the inertial columns give the same numbers: numpy, all
+links and samples at once (the reference, always available), and a compiled
+kernel (``_rnea.c``, one sample at a time, built by setup.py when a C compiler
+is present).  At 100 samples numpy spends its time in per-call overhead, the
+kernel in arithmetic (benchmarks/bench_derive.py).
 """
 
 from __future__ import annotations
@@ -28,21 +34,21 @@ import numpy as np
 
 from minparam_cli.chain import REVOLUTE, Chain, forward_kinematics
 
+try:  # compiled kernel (setup.py, optional): same numbers as the numpy reference below
+    from minparam_cli.dynamics import _rnea
+except ImportError:  # pragma: no cover - depends on the install having a C compiler
+    _rnea = None
+
 
 def cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """Row-wise cross product of (..., 3) arrays (np.cross is slow on small batches)."""
+    """Row-wise cross product of (..., 3) arrays, broadcasting (np.cross is slow on small batches)."""
     a0, a1, a2 = a[..., 0], a[..., 1], a[..., 2]
     b0, b1, b2 = b[..., 0], b[..., 1], b[..., 2]
-    return np.stack([a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0], axis=-1)
-
-
-def _skew(v: np.ndarray) -> np.ndarray:
-    """(N, 3) -> (N, 3, 3) cross-product matrices."""
-    S = np.zeros(v.shape[:-1] + (3, 3))
-    S[..., 0, 1], S[..., 0, 2] = -v[..., 2], v[..., 1]
-    S[..., 1, 0], S[..., 1, 2] = v[..., 2], -v[..., 0]
-    S[..., 2, 0], S[..., 2, 1] = -v[..., 1], v[..., 0]
-    return S
+    out = np.empty(np.broadcast_shapes(a.shape, b.shape))
+    np.subtract(a1 * b2, a2 * b1, out=out[..., 0])
+    np.subtract(a2 * b0, a0 * b2, out=out[..., 1])
+    np.subtract(a0 * b1, a1 * b0, out=out[..., 2])
+    return out
 
 
 def link_wrench_regressor(omega, domega, acc) -> np.ndarray:
@@ -85,61 +91,91 @@ def joint_screws(chain: Chain, z: np.ndarray, o: np.ndarray) -> np.ndarray:
     return S
 
 
-def _cross_motion(V: np.ndarray, S: np.ndarray) -> np.ndarray:
+def _kernel_arrays(chain: Chain):
+    """The chain's constants laid out for the compiled kernel, built once per chain."""
+    cached = chain.__dict__.get("_kernel_arrays")
+    if cached is None:
+        n = chain.n
+        terms = np.zeros((n, 3, 4, 4))
+        axor = np.zeros((n, 6))
+        for j, ((C0, C1, C2), axis, origin) in enumerate(chain.local_terms):
+            terms[j, 0], terms[j, 1] = C0, C1
+            if C2 is not None:
+                terms[j, 2] = C2
+            axor[j, :3], axor[j, 3:] = axis, origin
+        parents = np.array(chain.parents, dtype=np.int64)
+        cached = (terms, axor, parents, chain.revolute.astype(np.uint8), np.ascontiguousarray(chain.gravity, dtype=float))
+        object.__setattr__(chain, "_kernel_arrays", cached)  # a cache, not state: Chain stays frozen
+    return cached
+
+
+def _carry_matrix(chain: Chain) -> np.ndarray:
+    """carry[j, k] = 1 when joint k carries link j (k an ancestor of j, or j itself)."""
+    carry = np.zeros((chain.n, chain.n))
+    for j in range(chain.n):
+        carry[j, list(chain.ancestors(j))] = 1.0
+    return carry
+
+
+def inertial_regressor_numpy(chain: Chain, q, qd, qdd, out: np.ndarray) -> None:
+    """Reference implementation: fill out[:, :, :10 n] (out zeroed, shape (N, n, P)), every link at once.
+
+    Spatial vectors at the base origin: V = carry·(S qd), A = a0 + carry·(S qdd + (V ×_m S) qd);
+    each link's wrench regressor K_j (link coordinates) is moved to the base origin, W_j = X_j* K_j,
+    and joint k reads Y[k, j] = S_kᵀ W_j when it carries link j.
+    """
+    N, n = q.shape
+    T, z, o = forward_kinematics(chain, q)
+    rev = chain.revolute
+    carry = _carry_matrix(chain)
+    S = np.empty((N, n, 6))
+    S[..., :3] = z * rev[:, None]
+    S[..., 3:] = cross(o, S[..., :3]) + z * (~rev)[:, None]
+    Sd = S * qd[..., None]
+    V = np.matmul(carry, Sd)
     w, v = V[..., :3], V[..., 3:]
-    ws, vs = S[..., :3], S[..., 3:]
-    return np.concatenate([cross(w, ws), cross(w, vs) + cross(v, ws)], axis=-1)
+    inc = S * qdd[..., None]
+    inc[..., :3] += cross(w, Sd[..., :3])
+    inc[..., 3:] += cross(w, Sd[..., 3:]) + cross(v, Sd[..., :3])
+    A = np.matmul(carry, inc)
+    A[..., 3:] -= chain.gravity
+    R = T[..., :3, :3]
+    pos = T[..., :3, 3]
+    vo = v + cross(w, pos)
+    ao = A[..., 3:] + cross(A[..., :3], pos) + cross(w, vo)
+    local = np.matmul(np.swapaxes(R, -1, -2), np.stack([w, A[..., :3], ao], axis=-1))
+    K = link_wrench_regressor(local[..., 0].reshape(-1, 3), local[..., 1].reshape(-1, 3), local[..., 2].reshape(-1, 3))
+    K = K.reshape(N, n, 6, 10)
+    W = np.empty((N, n, 6, 10))
+    W[..., 3:, :] = np.matmul(R, K[..., 3:, :])
+    W[..., :3, :] = np.matmul(R, K[..., :3, :]) + cross(pos[..., None, :], np.swapaxes(W[..., 3:, :], -1, -2)).swapaxes(-1, -2)
+    Yb = np.matmul(S, W.transpose(0, 2, 1, 3).reshape(N, 6, n * 10)).reshape(N, n, n, 10)
+    Yb *= carry.T[None, :, :, None]
+    out[:, :, : 10 * n] = Yb.reshape(N, n, 10 * n)
 
 
-def regressor(chain: Chain, q, qd, qdd, include_extras: bool = True) -> np.ndarray:
+def regressor(chain: Chain, q, qd, qdd, include_extras: bool = True, backend: str = "auto") -> np.ndarray:
     """Y with shape (N, n, P): tau[s, k] = Y[s, k, :] @ phi.
 
     P = 10 n inertial columns, plus the extra columns of ``chain.layout`` when
-    ``include_extras``.
+    ``include_extras``.  ``backend``: "auto" (the compiled kernel when it was
+    built, else numpy), "numpy" or "kernel"; both give the same numbers
+    (tests/test_kernel.py).
     """
-    q, qd, qdd = (np.atleast_2d(np.asarray(x, dtype=float)) for x in (q, qd, qdd))
+    q, qd, qdd = (np.ascontiguousarray(np.atleast_2d(np.asarray(x, dtype=float))) for x in (q, qd, qdd))
     N, n = q.shape
-    T, z, o = forward_kinematics(chain, q)
-    S = joint_screws(chain, z, o)
-    V = np.zeros((N, n, 6))
-    A = np.zeros((N, n, 6))
-    a0 = np.concatenate([np.zeros(3), -chain.gravity])
-    for j in range(n):
-        p = chain.parents[j]
-        Vp = V[:, p] if p >= 0 else np.zeros((N, 6))
-        Ap = A[:, p] if p >= 0 else np.broadcast_to(a0, (N, 6))
-        V[:, j] = Vp + S[:, j] * qd[:, j, None]
-        A[:, j] = Ap + S[:, j] * qdd[:, j, None] + _cross_motion(V[:, j], S[:, j]) * qd[:, j, None]
-
+    if n != chain.n or qd.shape != q.shape or qdd.shape != q.shape:
+        raise ValueError(f"expected q, qd, qdd with shape (N, {chain.n})")
     layout = chain.layout
     P = layout.size if include_extras else layout.n_inertial
     Y = np.zeros((N, n, P))
-    # every link at once: (w, dw, v, a) of the frame origins in link coordinates
-    R = T[:, :, :3, :3]
-    pos = T[:, :, :3, 3]
-    w, dw = V[..., :3], A[..., :3]
-    v_origin = V[..., 3:] + cross(w, pos)
-    a_origin = A[..., 3:] + cross(dw, pos)
-    local = np.matmul(np.swapaxes(R, -1, -2), np.stack([w, dw, v_origin, a_origin], axis=-1))
-    w_l, dw_l, v_l = local[..., 0], local[..., 1], local[..., 2]
-    acc_l = local[..., 3] + cross(w_l, v_l)
-    K = link_wrench_regressor(w_l.reshape(-1, 3), dw_l.reshape(-1, 3), acc_l.reshape(-1, 3)).reshape(N, n, 6, 10)
-    # joint k carries link j when k is an ancestor of j.  tau_k = z_k·(moment about the axis) reads, in
-    # link j's coordinates, u·N + v·F with u = R_jᵀ z_k and v = R_jᵀ (z_k × (p_j − o_k)) (revolute),
-    # u = 0 and v = R_jᵀ z_k (prismatic): one contraction for all (k, j) pairs.
-    revolute = np.array([t == REVOLUTE for t in chain.types])
-    zr = z * revolute[None, :, None]
-    arm = cross(zr[:, None, :, :], pos[:, :, None, :] - o[:, None, :, :])  # (N, j, k, 3)
-    if not revolute.all():
-        arm[:, :, ~revolute] = z[:, None, ~revolute]
-    G = np.empty((N, n, n, 6))  # (sample, link j, joint k, [u v])
-    np.matmul(zr[:, None, :, :], R, out=G[..., :3])
-    np.matmul(arm, R, out=G[..., 3:])
-    carries = np.zeros((n, n))  # carries[j, k]: joint k carries link j
-    for j in range(n):
-        carries[j, list(chain.ancestors(j))] = 1.0
-    G *= carries[None, :, :, None]
-    Y[:, :, : 10 * n] = np.matmul(G, K).transpose(0, 2, 1, 3).reshape(N, n, 10 * n)
+    if backend == "kernel" and _rnea is None:
+        raise RuntimeError("the compiled regressor kernel was not built")
+    if backend != "numpy" and _rnea is not None:
+        terms, axor, parents, revolute, gravity = _kernel_arrays(chain)
+        _rnea.inertial_regressor(Y, q, qd, qdd, terms, axor, parents, revolute, gravity, N, n, P)
+    else:
+        inertial_regressor_numpy(chain, q, qd, qdd, Y)
     if include_extras:
         for c, (k, kind) in enumerate(layout.extra_columns):
             col = layout.n_inertial + c

@@ -1,0 +1,226 @@
+/*
+ * Compiled kernel for the inertial part of the Newton-Euler regressor.
+ *
+ * Same algorithm, frames and parameter order as the numpy version in
+ * regressor.py (which stays the reference and the fallback):
+ *   forward pass  V_j = V_p + S_j qd_j,  A_j = A_p + S_j qdd_j + (V_j x_m S_j) qd_j,  A_0 = (0, -g),
+ *   per link      the wrench about the link origin in link coordinates, K_j (6 x 10), linear in phi_j,
+ *   projection    Y[k, 10 j + c] = S_k . (K_j moved to the base origin, base coordinates), k an ancestor of j.
+ * One sample at a time, no allocation inside the loop; the GIL is released while it runs.
+ * Only the buffer protocol is used (no numpy headers), so it builds with nothing but a C compiler.
+ */
+#define PY_SSIZE_T_CLEAN
+#include <Python.h>
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+static inline void cross3(const double *a, const double *b, double *out)
+{
+    out[0] = a[1] * b[2] - a[2] * b[1];
+    out[1] = a[2] * b[0] - a[0] * b[2];
+    out[2] = a[0] * b[1] - a[1] * b[0];
+}
+
+/* x in base coordinates -> R^T x (R row-major in the 4x4 T). */
+static inline void to_local(const double *T, const double *x, double *out)
+{
+    for (int c = 0; c < 3; c++)
+        out[c] = T[c] * x[0] + T[4 + c] * x[1] + T[8 + c] * x[2];
+}
+
+/* Wrench regressor about the link origin, link coordinates: rows (moment; force), 10 columns
+ * XX XY XZ YY YZ ZZ MX MY MZ M. */
+static void link_wrench(const double *w, const double *d, const double *a, double *K)
+{
+    const double w11 = w[0] * w[0], w22 = w[1] * w[1], w33 = w[2] * w[2];
+    const double w12 = w[0] * w[1], w13 = w[0] * w[2], w23 = w[1] * w[2];
+    const double k[60] = {
+        d[0], d[1] - w13, d[2] + w12, -w23, w22 - w33, w23, 0.0, a[2], -a[1], 0.0,
+        w13, d[0] + w23, w33 - w11, d[1], d[2] - w12, -w13, -a[2], 0.0, a[0], 0.0,
+        -w12, w11 - w22, d[0] - w23, w12, d[1] + w13, d[2], a[1], -a[0], 0.0, 0.0,
+        0.0, 0.0, 0.0, 0.0, 0.0, 0.0, -w22 - w33, w12 - d[2], w13 + d[1], a[0],
+        0.0, 0.0, 0.0, 0.0, 0.0, 0.0, w12 + d[2], -w11 - w33, w23 - d[0], a[1],
+        0.0, 0.0, 0.0, 0.0, 0.0, 0.0, w13 - d[1], w23 + d[0], -w11 - w22, a[2],
+    };
+    memcpy(K, k, sizeof k);
+}
+
+static void regress(double *Y, Py_ssize_t N, Py_ssize_t n, Py_ssize_t P,
+                    const double *q, const double *qd, const double *qdd,
+                    const double *terms, const double *axor, const long long *parents,
+                    const unsigned char *revolute, const double *g, double *work)
+{
+    double *T = work;      /* n x 16, row-major 4x4 link frames */
+    double *S = T + 16 * n; /* n x 6 joint screws at the base origin */
+    double *V = S + 6 * n;  /* n x 6 spatial velocities */
+    double *A = V + 6 * n;  /* n x 6 spatial accelerations (gravity included) */
+    const double zero6[6] = {0, 0, 0, 0, 0, 0};
+    const double a0[6] = {0, 0, 0, -g[0], -g[1], -g[2]};
+
+    for (Py_ssize_t s = 0; s < N; s++) {
+        const double *qs = q + s * n, *qds = qd + s * n, *qdds = qdd + s * n;
+        double *Ys = Y + s * n * P;
+        for (Py_ssize_t j = 0; j < n; j++) {
+            const double *C0 = terms + 48 * j, *C1 = C0 + 16, *C2 = C0 + 32;
+            const double *ax = axor + 6 * j, *org = ax + 3;
+            const long long p = parents[j];
+            double L[16], z[3], o[3];
+            double *Tj = T + 16 * j;
+            if (revolute[j]) {
+                const double sn = sin(qs[j]), vc = 1.0 - cos(qs[j]);
+                for (int i = 0; i < 16; i++)
+                    L[i] = C0[i] + sn * C1[i] + vc * C2[i];
+            } else {
+                for (int i = 0; i < 16; i++)
+                    L[i] = C0[i] + qs[j] * C1[i];
+            }
+            if (p < 0) {
+                memcpy(Tj, L, sizeof L);
+                memcpy(z, ax, sizeof z);
+                memcpy(o, org, sizeof o);
+            } else {
+                const double *Tp = T + 16 * p;
+                for (int r = 0; r < 3; r++) {
+                    for (int c = 0; c < 4; c++)
+                        Tj[4 * r + c] = Tp[4 * r] * L[c] + Tp[4 * r + 1] * L[4 + c] + Tp[4 * r + 2] * L[8 + c]
+                                        + Tp[4 * r + 3] * L[12 + c];
+                    z[r] = Tp[4 * r] * ax[0] + Tp[4 * r + 1] * ax[1] + Tp[4 * r + 2] * ax[2];
+                    o[r] = Tp[4 * r] * org[0] + Tp[4 * r + 1] * org[1] + Tp[4 * r + 2] * org[2] + Tp[4 * r + 3];
+                }
+                Tj[12] = 0.0, Tj[13] = 0.0, Tj[14] = 0.0, Tj[15] = 1.0;
+            }
+            double *Sj = S + 6 * j, *Vj = V + 6 * j, *Aj = A + 6 * j;
+            if (revolute[j]) {
+                memcpy(Sj, z, sizeof z);
+                cross3(o, z, Sj + 3);
+            } else {
+                Sj[0] = Sj[1] = Sj[2] = 0.0;
+                memcpy(Sj + 3, z, sizeof z);
+            }
+            const double *Vp = p < 0 ? zero6 : V + 6 * p, *Ap = p < 0 ? a0 : A + 6 * p;
+            for (int i = 0; i < 6; i++)
+                Vj[i] = Vp[i] + Sj[i] * qds[j];
+            double c1[3], c2[3], c3[3];
+            cross3(Vj, Sj, c1);
+            cross3(Vj, Sj + 3, c2);
+            cross3(Vj + 3, Sj, c3);
+            for (int i = 0; i < 3; i++) {
+                Aj[i] = Ap[i] + Sj[i] * qdds[j] + c1[i] * qds[j];
+                Aj[3 + i] = Ap[3 + i] + Sj[3 + i] * qdds[j] + (c2[i] + c3[i]) * qds[j];
+            }
+            /* classical velocity and acceleration of the link origin, then link coordinates */
+            const double pos[3] = {Tj[3], Tj[7], Tj[11]};
+            double t[3], vo[3], ao[3], wl[3], dwl[3], al[3];
+            cross3(Vj, pos, t);
+            for (int i = 0; i < 3; i++)
+                vo[i] = Vj[3 + i] + t[i];
+            cross3(Aj, pos, t);
+            for (int i = 0; i < 3; i++)
+                ao[i] = Aj[3 + i] + t[i];
+            cross3(Vj, vo, t);
+            for (int i = 0; i < 3; i++)
+                ao[i] += t[i];
+            to_local(Tj, Vj, wl);
+            to_local(Tj, Aj, dwl);
+            to_local(Tj, ao, al);
+            double K[60], W[60];
+            link_wrench(wl, dwl, al, K);
+            /* to the base origin in base coordinates: f0 = R Kf, n0 = R Kn + pos x f0 */
+            for (int c = 0; c < 10; c++) {
+                double f[3], m[3];
+                for (int r = 0; r < 3; r++) {
+                    const double *R = Tj + 4 * r;
+                    f[r] = R[0] * K[30 + c] + R[1] * K[40 + c] + R[2] * K[50 + c];
+                    m[r] = R[0] * K[c] + R[1] * K[10 + c] + R[2] * K[20 + c];
+                }
+                cross3(pos, f, t);
+                for (int r = 0; r < 3; r++) {
+                    W[10 * r + c] = m[r] + t[r];
+                    W[10 * (3 + r) + c] = f[r];
+                }
+            }
+            /* every joint from j back to the root carries link j */
+            for (long long k = (long long)j; k >= 0; k = parents[k]) {
+                const double *Sk = S + 6 * k;
+                double *row = Ys + k * P + 10 * j;
+                for (int c = 0; c < 10; c++)
+                    row[c] = Sk[0] * W[c] + Sk[1] * W[10 + c] + Sk[2] * W[20 + c] + Sk[3] * W[30 + c]
+                             + Sk[4] * W[40 + c] + Sk[5] * W[50 + c];
+            }
+        }
+    }
+}
+
+static int need(Py_buffer *b, Py_ssize_t bytes, const char *what)
+{
+    if (b->len != bytes) {
+        PyErr_Format(PyExc_ValueError, "_rnea: %s has %zd bytes, expected %zd", what, b->len, bytes);
+        return 0;
+    }
+    return 1;
+}
+
+static PyObject *inertial_regressor(PyObject *self, PyObject *args)
+{
+    Py_buffer out, q, qd, qdd, terms, axor, parents, revolute, g;
+    Py_ssize_t N, n, P;
+    if (!PyArg_ParseTuple(args, "w*y*y*y*y*y*y*y*y*nnn", &out, &q, &qd, &qdd, &terms, &axor, &parents,
+                          &revolute, &g, &N, &n, &P))
+        return NULL;
+    PyObject *result = NULL;
+    double *work = NULL;
+    const Py_ssize_t d = (Py_ssize_t)sizeof(double);
+    if (N < 0 || n < 1 || P < 10 * n) {
+        PyErr_SetString(PyExc_ValueError, "_rnea: bad sizes");
+        goto done;
+    }
+    for (Py_ssize_t j = 0; j < n; j++) {
+        const long long pj = ((const long long *)parents.buf)[j];
+        if (pj >= j || pj < -1) {
+            PyErr_SetString(PyExc_ValueError, "_rnea: parents must precede their children");
+            goto done;
+        }
+    }
+    if (!need(&out, N * n * P * d, "out") || !need(&q, N * n * d, "q") || !need(&qd, N * n * d, "qd")
+        || !need(&qdd, N * n * d, "qdd") || !need(&terms, 48 * n * d, "terms") || !need(&axor, 6 * n * d, "axor")
+        || !need(&parents, n * (Py_ssize_t)sizeof(long long), "parents") || !need(&revolute, n, "revolute")
+        || !need(&g, 3 * d, "gravity"))
+        goto done;
+    work = (double *)malloc((size_t)(34 * n) * sizeof(double));
+    if (work == NULL) {
+        PyErr_NoMemory();
+        goto done;
+    }
+    Py_BEGIN_ALLOW_THREADS
+    regress((double *)out.buf, N, n, P, (const double *)q.buf, (const double *)qd.buf, (const double *)qdd.buf,
+            (const double *)terms.buf, (const double *)axor.buf, (const long long *)parents.buf,
+            (const unsigned char *)revolute.buf, (const double *)g.buf, work);
+    Py_END_ALLOW_THREADS
+    result = Py_None;
+    Py_INCREF(result);
+done:
+    free(work);
+    PyBuffer_Release(&out);
+    PyBuffer_Release(&q);
+    PyBuffer_Release(&qd);
+    PyBuffer_Release(&qdd);
+    PyBuffer_Release(&terms);
+    PyBuffer_Release(&axor);
+    PyBuffer_Release(&parents);
+    PyBuffer_Release(&revolute);
+    PyBuffer_Release(&g);
+    return result;
+}
+
+static PyMethodDef methods[] = {
+    {"inertial_regressor", inertial_regressor, METH_VARARGS,
+     "inertial_regressor(out, q, qd, qdd, terms, axor, parents, revolute, gravity, N, n, P): fill the "
+     "10 n inertial columns of out (N, n, P), C-contiguous float64; other entries are left untouched."},
+    {NULL, NULL, 0, NULL},
+};
+
+static struct PyModuleDef module = {PyModuleDef_HEAD_INIT, "_rnea", "Compiled Newton-Euler regressor kernel.", -1,
+                                    methods};
+
+PyMODINIT_FUNC PyInit__rnea(void) { return PyModule_Create(&module); }

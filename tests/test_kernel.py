@@ -1,0 +1,104 @@
+"""The compiled regressor kernel and the numpy reference give the same regressor."""
+
+from __future__ import annotations
+
+import os
+
+import numpy as np
+import pytest
+import reference_dynamics as ref
+from test_urdf import inertial, joint, link, urdf
+
+from minparam_cli.chain import build_chain
+from minparam_cli.describe import load_description
+from minparam_cli.dynamics import regressor as reg
+
+ALL_EXTRAS = ("rotor_inertia", "coulomb", "viscous", "offset")
+needs_kernel = pytest.mark.skipif(reg._rnea is None, reason="compiled kernel not built (no C compiler at install)")
+
+
+def test_ci_builds_the_kernel():
+    """.ci/run sets MINPARAM_REQUIRE_KERNEL=1: a silent fallback to numpy must not pass CI."""
+    if os.environ.get("MINPARAM_REQUIRE_KERNEL") != "1":
+        pytest.skip("MINPARAM_REQUIRE_KERNEL is not set")
+    assert reg._rnea is not None
+
+
+def _states(chain, N, seed):
+    rng = np.random.default_rng(seed)
+    return reg.random_states(chain, N, rng)
+
+
+@needs_kernel
+def test_kernel_equals_numpy_on_every_robot_with_every_extra(robot_path):
+    chain = build_chain(load_description(robot_path))
+    chain = chain.with_extras(tuple(ALL_EXTRAS for _ in range(chain.n)))
+    q, qd, qdd = _states(chain, 57, 5)
+    Yk = reg.regressor(chain, q, qd, qdd, backend="kernel")
+    Yn = reg.regressor(chain, q, qd, qdd, backend="numpy")
+    assert Yk.shape == Yn.shape == (57, chain.n, chain.layout.size)
+    assert np.abs(Yk - Yn).max() <= 1e-12 * np.abs(Yn).max()
+
+
+def _tree_with_prismatic(tmp_path):
+    """A waist carrying a 2R arm and a prismatic lift with a wrist: a tree with both joint types."""
+    body = link("world") + link("torso", inertial(5)) + link("a1", inertial(1.5, "0.1 0 0"))
+    body += link("a2", inertial(1.0, "0.15 0.02 0")) + link("lift", inertial(2.0, "0 0 0.1", "0.1 0.2 0.3"))
+    body += link("wrist", inertial(0.5, "0.02 0 0.05"))
+    body += joint("waist", "revolute", "world", "torso", "0 0 0.5", axis="0 0 1")
+    body += joint("sh", "revolute", "torso", "a1", "0 0.3 0.2", "1.5707963 0 0", "0 0 1")
+    body += joint("el", "revolute", "a1", "a2", "0.3 0 0", axis="0 0 1")
+    body += joint("up", "prismatic", "torso", "lift", "0.1 -0.3 0", "0 0.4 0", "0 0 1")
+    body += joint("tw", "revolute", "lift", "wrist", "0 0 0.2", "0.3 0 0", "1 0 0")
+    return build_chain(load_description(urdf(tmp_path, "tree_lift.urdf", body)))
+
+
+@needs_kernel
+def test_kernel_on_a_tree_with_a_prismatic_joint(tmp_path):
+    chain = _tree_with_prismatic(tmp_path)
+    assert chain.parents == (-1, 0, 1, 0, 3) and not chain.revolute[3]
+    q, qd, qdd = _states(chain, 40, 2)
+    Yk = reg.regressor(chain, q, qd, qdd, backend="kernel")
+    Yn = reg.regressor(chain, q, qd, qdd, backend="numpy")
+    assert np.abs(Yk - Yn).max() <= 1e-12 * np.abs(Yn).max()
+
+
+@pytest.mark.parametrize("backend", ["numpy", pytest.param("kernel", marks=needs_kernel)])
+def test_each_backend_matches_euler_lagrange_on_the_tree(tmp_path, backend):
+    chain = _tree_with_prismatic(tmp_path)
+    rng = np.random.default_rng(8)
+    phi = rng.standard_normal(10 * chain.n)
+    q, qd, qdd = rng.standard_normal((3, 3, chain.n))
+    Y = reg.regressor(chain, q, qd, qdd, include_extras=False, backend=backend)
+    for s in range(3):
+        tau_ref = ref.inverse_dynamics(chain, phi, q[s], qd[s], qdd[s])
+        assert np.linalg.norm(Y[s] @ phi - tau_ref) <= 1e-9 * np.linalg.norm(tau_ref)
+
+
+@needs_kernel
+def test_kernel_accepts_non_contiguous_input_and_no_samples():
+    chain = build_chain(load_description(os.path.join(os.path.dirname(__file__), "..", "robots", "puma560.yaml")))
+    q, qd, qdd = _states(chain, 30, 1)
+    Yk = reg.regressor(chain, q[::2], qd[::2], qdd[::2], backend="kernel")
+    Yn = reg.regressor(chain, q[::2], qd[::2], qdd[::2], backend="numpy")
+    assert np.abs(Yk - Yn).max() <= 1e-12 * np.abs(Yn).max()
+    empty = np.zeros((0, chain.n))
+    assert reg.regressor(chain, empty, empty, empty, backend="kernel").shape == (0, chain.n, chain.layout.size)
+
+
+@needs_kernel
+def test_kernel_refuses_buffers_of_the_wrong_size():
+    chain = build_chain(load_description(os.path.join(os.path.dirname(__file__), "..", "robots", "planar2r.yaml")))
+    terms, axor, parents, revolute, g = reg._kernel_arrays(chain)
+    q = np.zeros((3, 2))
+    with pytest.raises(ValueError, match="out has"):
+        reg._rnea.inertial_regressor(np.zeros((3, 2, 19)), q, q, q, terms, axor, parents, revolute, g, 3, 2, 20)
+    with pytest.raises(ValueError, match="parents must precede"):
+        bad = np.array([-1, 1], dtype=np.int64)
+        reg._rnea.inertial_regressor(np.zeros((3, 2, 20)), q, q, q, terms, axor, bad, revolute, g, 3, 2, 20)
+
+
+def test_wrong_shapes_are_refused():
+    chain = build_chain(load_description(os.path.join(os.path.dirname(__file__), "..", "robots", "planar2r.yaml")))
+    with pytest.raises(ValueError, match="shape"):
+        reg.regressor(chain, np.zeros((4, 3)), np.zeros((4, 3)), np.zeros((4, 3)))
