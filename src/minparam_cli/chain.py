@@ -48,13 +48,21 @@ class Chain:
     phi_nominal: np.ndarray | None = None  # standard inertial params (10 n) if every link has them
     limits: tuple[tuple[float, float] | None, ...] = ()
     tool: np.ndarray | None = None
-    # exact rational versions of pre, axes, post (nested tuples of Fraction) when available
-    exact: tuple | None = field(default=None, repr=False)
     length_scale: float = 1.0
+    # the description the exact geometry comes from (None: none, e.g. a chain rebuilt at other values)
+    exact_source: RobotDescription | None = field(default=None, repr=False)
 
     @property
     def n(self) -> int:
         return len(self.types)
+
+    @cached_property
+    def exact(self) -> tuple | None:
+        """Exact rational versions of pre, axes, post (per joint, nested tuples of Fraction), or None
+        when the geometry is not exact (irrational lengths, angles off multiples of 90 deg, ...).
+
+        Computed on first use: only the exact (projection, symbolic) stages need it."""
+        return None if self.exact_source is None else exact_matrices(self.exact_source)
 
     @property
     def revolute(self) -> np.ndarray:
@@ -257,15 +265,6 @@ def build_chain(
     axes = np.array([np.array(a, dtype=float) for _, a, _ in mats])
     axes /= np.linalg.norm(axes, axis=1)[:, None]
     post = np.array([np.array(p, dtype=float) for _, _, p in mats])
-    exact = None
-    if not values:
-        try:
-            emats = _joint_matrices(desc, _Num(True, None))
-            exact = tuple(
-                (tuple(tuple(r) for r in p), tuple(a), tuple(tuple(r) for r in q)) for p, a, q in emats
-            )
-        except _NotExact:
-            exact = None
     if extras is None:
         extras = tuple(j.extras for j in desc.joints)
     phi = None
@@ -289,9 +288,18 @@ def build_chain(
         phi_nominal=phi,
         limits=tuple(j.limits for j in desc.joints),
         tool=None if desc.tool is None else np.asarray(desc.tool, dtype=float),
-        exact=exact,
         length_scale=float(max(lengths)) if lengths else 1.0,
+        exact_source=None if values else desc,
     )
+
+
+def exact_matrices(desc: RobotDescription) -> tuple | None:
+    """(pre, axis, post) per joint as nested tuples of Fraction, or None if the geometry is not exact."""
+    try:
+        emats = _joint_matrices(desc, _Num(True, None))
+    except _NotExact:
+        return None
+    return tuple((tuple(tuple(r) for r in p), tuple(a), tuple(tuple(r) for r in q)) for p, a, q in emats)
 
 
 def motion(kind: str, axis: np.ndarray, q: np.ndarray) -> np.ndarray:

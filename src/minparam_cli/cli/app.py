@@ -1,28 +1,29 @@
-"""The ``minparam`` command: joins one typer module per command."""
+"""The ``minparam`` command: joins one typer module per command.
+
+Start-up time matters (``minparam derive robot.yaml`` is a short process), so
+the command modules are imported, and their click commands built, only when
+needed: ``main()`` registers just the command named first on the command line
+and every command otherwise (``minparam --help``, an unknown name, options
+before the command).  A command's own help and errors look the same either
+way, because they never list the other commands.  ``app`` (the full app, for
+tests and embedding) is built on first access.
+"""
 
 from __future__ import annotations
 
-import os
+import importlib
+import sys
+
+from minparam_cli import runtime
 
 # Single-threaded BLAS unless the user says otherwise: every matrix here is small
 # (hundreds of rows), where OpenBLAS threads cost more than they save and
-# stall badly on a busy machine.  Must be set before numpy is imported.
-for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
-    os.environ.setdefault(_var, "1")
+# stall badly on a busy machine.  Must happen before numpy is imported.
+runtime.single_thread_blas()
 
 import typer  # noqa: E402
 
 from minparam_cli import __version__  # noqa: E402
-
-app = typer.Typer(
-    name="minparam",
-    help="Base inertial parameters, identification and kinematics of robot arms from DH/MDH tables or URDF.",
-    no_args_is_help=True,
-    add_completion=False,
-    pretty_exceptions_enable=False,
-    rich_markup_mode=None,
-    context_settings={"help_option_names": ["-h", "--help"]},
-)
 
 
 def _version(value: bool):
@@ -31,26 +32,79 @@ def _version(value: bool):
         raise typer.Exit(0)
 
 
-@app.callback()
 def _root(
     version: bool = typer.Option(False, "--version", callback=_version, is_eager=True, help="Print the version and exit."),
 ):
     """minparam: base parameters, identification, singularities and platforms."""
 
 
-def _register() -> None:
-    from minparam_cli.cli import check, derive, identify, platform, simulate, singular
+def _add_derive(app: typer.Typer) -> None:
+    from minparam_cli.cli import derive
 
     app.command(name="derive", help=derive.HELP, epilog=derive.EPILOG)(derive.derive)
+
+
+def _add_check(app: typer.Typer) -> None:
+    from minparam_cli.cli import check
+
     app.command(name="check", help=check.HELP, epilog=check.EPILOG)(check.check)
-    for module in (identify, simulate, singular, platform):
-        module.register(app)
 
 
-_register()
+def _add_module(name: str):
+    def add(app: typer.Typer) -> None:
+        importlib.import_module(f"minparam_cli.cli.{name}").register(app)
+
+    return add
+
+
+# Every top-level command, in the order `minparam --help` lists them.
+COMMANDS = {
+    "derive": _add_derive,
+    "check": _add_check,
+    "identify": _add_module("identify"),
+    "simulate": _add_module("simulate"),
+    "singular": _add_module("singular"),
+    "platform": _add_module("platform"),
+}
+
+
+def build_app(names: tuple[str, ...] | None = None) -> typer.Typer:
+    """The typer app with the commands ``names`` (every command when None), in COMMANDS order."""
+    app = typer.Typer(
+        name="minparam",
+        help="Base inertial parameters, identification and kinematics of robot arms from DH/MDH tables or URDF.",
+        no_args_is_help=True,
+        add_completion=False,
+        pretty_exceptions_enable=False,
+        rich_markup_mode=None,
+        context_settings={"help_option_names": ["-h", "--help"]},
+    )
+    app.callback()(_root)
+    for name, add in COMMANDS.items():
+        if names is None or name in names:
+            add(app)
+    return app
+
+
+def commands_for(argv: list[str]) -> tuple[str, ...] | None:
+    """The commands a command line needs: the one it starts with, or None (all) when it
+    starts with anything else (an option such as --help, an unknown name, nothing)."""
+    if argv and argv[0] in COMMANDS:
+        return (argv[0],)
+    return None
+
+
+def __getattr__(name: str):
+    if name == "app":  # the full app, built once on first access
+        app = build_app()
+        globals()["app"] = app
+        return app
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
 def main() -> int:
+    runtime.tune_allocator()  # our own process only: see runtime.py
+    app = build_app(commands_for(sys.argv[1:]))
     try:
         app(standalone_mode=True)
     except SystemExit as e:

@@ -5,7 +5,6 @@ from __future__ import annotations
 import functools
 import os
 import sys
-import tempfile
 import time
 from enum import Enum
 from pathlib import Path
@@ -65,6 +64,8 @@ def guarded(fn: Callable) -> Callable:
 def atomic_write(path: Path, write: Callable[[str], None], suffix: str = ".tmp") -> None:
     """Create ``path`` all at once: ``write`` fills a temporary file in the same folder,
     which is then renamed over ``path``.  A failure leaves no file behind."""
+    import tempfile  # only when writing a file: not on the start-up path of every command
+
     path = Path(path)
     directory = path.parent if str(path.parent) else Path(".")
     if not directory.is_dir():

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import json
 from enum import Enum
 from pathlib import Path
 from typing import List, Optional
@@ -87,12 +86,12 @@ def _derive(paths, method, fmt, friction, rotor_inertia, gravity, samples, seed,
 
 
 def render(report: dict, fmt: Format) -> str:
+    if fmt in (Format.json, Format.jsonl):
+        import json  # imported here: the default table output does not need it
+
+        return json.dumps(report, indent=2 if fmt == Format.json else None, ensure_ascii=False)
     from minparam_cli.render import text
 
-    if fmt in (Format.json,):
-        return json.dumps(report, indent=2, ensure_ascii=False)
-    if fmt == Format.jsonl:
-        return json.dumps(report, ensure_ascii=False)
     if fmt == Format.markdown:
         return text.render_markdown(report)
     if fmt == Format.latex:
@@ -112,6 +111,8 @@ def _summary_rows(results: list[dict]) -> list[tuple]:
 
 
 def render_batch(results: list[dict], fmt: Format) -> str:
+    import json
+
     from tabulate import tabulate
 
     if fmt in (Format.json, Format.jsonl):
