@@ -17,6 +17,7 @@
 
 from __future__ import annotations
 
+import random
 import time
 
 import numpy as np
@@ -28,7 +29,12 @@ from minparam_cli.errors import ComputationError, InputError
 
 DEFAULT_SAMPLES = 100
 DEFAULT_SEED = 0
-def stacked_regressor(chain: Chain, samples: int, rng: np.random.Generator) -> np.ndarray:
+def sample_rng(seed: int) -> random.Random:
+    """The seeded generator of the random states (stdlib: see dynamics.regressor.random_states)."""
+    return random.Random(seed)
+
+
+def stacked_regressor(chain: Chain, samples: int, rng) -> np.ndarray:
     q, qd, qdd = random_states(chain, samples, rng)
     Y = regressor(chain, q, qd, qdd)
     return Y.reshape(-1, Y.shape[-1])
@@ -44,7 +50,7 @@ def derive_qr(chain: Chain, samples: int = DEFAULT_SAMPLES, seed: int = DEFAULT_
         raise InputError(
             f"{samples} samples give {rows} equations for {P} parameters; use at least {-(-P // chain.n)} samples"
         )
-    W = stacked_regressor(chain, samples, np.random.default_rng(seed))
+    W = stacked_regressor(chain, samples, sample_rng(seed))
     kept, K, unident, margin = base_from_regressor(W, chain.source)
     return BaseSet(
         standard_names=chain.layout.names,

@@ -35,7 +35,7 @@ from fractions import Fraction
 
 import numpy as np
 
-from minparam_cli.base.qr import base_from_regressor, stacked_regressor
+from minparam_cli.base.qr import base_from_regressor, sample_rng, stacked_regressor
 from minparam_cli.base.result import BaseSet
 from minparam_cli.chain import build_chain
 from minparam_cli.errors import ComputationError
@@ -101,7 +101,7 @@ class BetaSampler:
         return build_chain(self.desc, values=values or None, extras=self.extras)
 
     def regressor_at(self, x):
-        return stacked_regressor(self.chain_at(x), self.samples, np.random.default_rng(self.seed))
+        return stacked_regressor(self.chain_at(x), self.samples, sample_rng(self.seed))
 
     def __call__(self, x) -> np.ndarray:
         self.calls += 1
