@@ -12,7 +12,7 @@ from typing import Optional
 import typer
 
 from minparam_cli.cli.common import Progress, guarded, parse_floats, save_png, write_output
-from minparam_cli.errors import ComputationError, DescriptionError, InputError
+from minparam_cli.errors import DescriptionError, InputError
 
 HELP = "Kinematics of parallel platforms: hexapods and the dodekapod (Dang 2013). Inverse, forward (every assembly mode), workspace."
 IK_HELP = "Inverse kinematics: leg lengths from a pose (x,y,z + roll,pitch,yaw, or position + platform normal)."
