@@ -102,3 +102,19 @@ def test_wrong_shapes_are_refused():
     chain = build_chain(load_description(os.path.join(os.path.dirname(__file__), "..", "robots", "planar2r.yaml")))
     with pytest.raises(ValueError, match="shape"):
         reg.regressor(chain, np.zeros((4, 3)), np.zeros((4, 3)), np.zeros((4, 3)))
+
+
+def test_smooth_coulomb_column_is_tanh_and_tends_to_sign():
+    chain = build_chain(load_description(os.path.join(os.path.dirname(__file__), "..", "robots", "planar2r.yaml")))
+    chain = chain.with_extras((("coulomb",), ("coulomb",)))
+    q, qd, qdd = _states(chain, 200, 4)
+    col = chain.layout.names.index("Fc2")
+    sharp = reg.regressor(chain, q, qd, qdd)[:, 1, col]
+    assert np.array_equal(sharp, np.sign(qd[:, 1]))
+    smooth = reg.regressor(chain.with_coulomb_smoothing(0.05), q, qd, qdd)[:, 1, col]
+    assert np.allclose(smooth, np.tanh(qd[:, 1] / 0.05), rtol=0, atol=1e-15)
+    nearly = reg.regressor(chain.with_coulomb_smoothing(1e-9), q, qd, qdd)[:, 1, col]
+    moving = np.abs(qd[:, 1]) > 1e-6
+    assert np.abs(nearly - sharp)[moving].max() < 1e-12
+    with pytest.raises(ValueError, match=">= 0"):
+        chain.with_coulomb_smoothing(-1.0)

@@ -49,6 +49,8 @@ class Chain:
     limits: tuple[tuple[float, float] | None, ...] = ()
     tool: np.ndarray | None = None
     length_scale: float = 1.0
+    # Coulomb friction columns: sign(qd) when 0, else the smooth tanh(qd / coulomb_smoothing) (rad/s or m/s)
+    coulomb_smoothing: float = 0.0
     # the description the exact geometry comes from (None: none, e.g. a chain rebuilt at other values)
     exact_source: RobotDescription | None = field(default=None, repr=False)
 
@@ -110,6 +112,14 @@ class Chain:
         from dataclasses import replace
 
         return replace(self, layout=ParamLayout(self.n, extras))
+
+    def with_coulomb_smoothing(self, velocity: float) -> "Chain":
+        """The same chain with Coulomb columns tanh(qd / velocity) (0: sign(qd))."""
+        from dataclasses import replace
+
+        if not velocity >= 0.0:
+            raise ValueError(f"the Coulomb smoothing velocity must be >= 0, got {velocity}")
+        return replace(self, coulomb_smoothing=float(velocity))
 
 
 # --- elementary transforms, generic over float and Fraction entries ---------

@@ -18,8 +18,9 @@ coordinates, is linear in that link's 10 parameters:
 
 (a the classical acceleration of the frame origin, s = (MX, MY, MZ)).
 Backward pass: joint k carries the wrenches of every link in its subtree,
-tau_k = S_kᵀ · W_j.  Extras add Ia·qdd_k, Fc·sign(qd_k), Fv·qd_k and a
-constant, each in its own column.
+tau_k = S_kᵀ · W_j.  Extras add Ia·qdd_k, Fc·sign(qd_k) (or the smooth
+Fc·tanh(qd_k / v_c), ``Chain.coulomb_smoothing``), Fv·qd_k and a constant,
+each in its own column.
 
 Two implementations of the inertial columns give the same numbers: numpy, all
 links and samples at once (the reference, always available), and a compiled
@@ -184,12 +185,23 @@ def regressor(chain: Chain, q, qd, qdd, include_extras: bool = True, backend: st
             if kind == "rotor_inertia":
                 Y[:, k, col] = qdd[:, k]
             elif kind == "coulomb":
-                Y[:, k, col] = np.sign(qd[:, k])
+                Y[:, k, col] = coulomb_column(qd[:, k], chain.coulomb_smoothing)
             elif kind == "viscous":
                 Y[:, k, col] = qd[:, k]
             elif kind == "offset":
                 Y[:, k, col] = 1.0
     return Y
+
+
+def coulomb_column(qd: np.ndarray, smoothing: float = 0.0) -> np.ndarray:
+    """The Coulomb friction signal: sign(qd), or tanh(qd / smoothing) when smoothing > 0.
+
+    The smooth form has no jump at zero velocity (measured torque never jumps
+    either: the contact deforms first); as smoothing -> 0 it tends to sign(qd).
+    """
+    if smoothing > 0.0:
+        return np.tanh(qd / smoothing)
+    return np.sign(qd)
 
 
 def random_states(chain: Chain, samples: int, rng):
