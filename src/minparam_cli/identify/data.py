@@ -88,113 +88,34 @@ class DataReport:
         }
 
 
-def _column_indices(header: list[str], n: int, opts: DataOptions, src: str) -> dict[str, list[int] | None]:
-    names = [h.strip() for h in header]
-    idx: dict[str, list[int] | None] = {}
-    for key in KEYS:
-        name = opts.columns.get(key, key)
-        if key == "t":
-            if name not in names:
-                raise DataError(f"{src}: missing time column '{name}' (use --columns t=NAME)")
-            idx[key] = [names.index(name)]
-            continue
-        wanted = [f"{name}{j}" for j in range(1, n + 1)]
-        found = [c for c in wanted if c in names]
-        if not found:
-            if key in ("q", "tau"):
-                raise DataError(f"{src}: missing columns {wanted[0]}..{wanted[-1]} (use --columns {key}=PREFIX)")
-            idx[key] = None
-            continue
-        if len(found) != n:
-            missing = [c for c in wanted if c not in names]
-            raise DataError(f"{src}: column(s) {missing} missing: the robot has {n} joints")
-        idx[key] = [names.index(c) for c in wanted]
-    return idx
+def _clean(table: np.ndarray, last: np.ndarray | None, report: DataReport) -> tuple[np.ndarray, np.ndarray | None]:
+    """Drop NaN, non-increasing times and repeated samples; ``last`` is the previous kept row.
 
-
-def _raw_chunks(path: Path, n: int, opts: DataOptions) -> Iterator[tuple[dict, dict]]:
-    """(arrays by key, column indices) chunk by chunk; arrays hold None for absent keys."""
-    src = str(path)
-    if not path.exists():
-        raise DataError(f"{src}: no such file")
-    if path.suffix.lower() == ".npz":
-        try:
-            with np.load(path, allow_pickle=False) as z:
-                arrays = {k: (np.asarray(z[opts.columns.get(k, k)], dtype=float) if opts.columns.get(k, k) in z.files else None) for k in KEYS}
-        except (OSError, ValueError) as e:
-            raise DataError(f"{src}: cannot read .npz ({e})") from e
-        for k in ("t", "q", "tau"):
-            if arrays[k] is None:
-                raise DataError(f"{src}: missing array '{opts.columns.get(k, k)}'")
-        N = len(arrays["t"])
-        for k in KEYS[1:]:
-            a = arrays[k]
-            if a is not None:
-                a = a.reshape(N, -1) if a.ndim != 2 else a
-                if a.shape != (N, n):
-                    raise DataError(f"{src}: array '{k}' has shape {a.shape}, expected ({N}, {n})")
-                arrays[k] = a
-        for s in range(0, N, opts.chunk_rows):
-            yield {k: (None if a is None else a[s : s + opts.chunk_rows]) for k, a in arrays.items()}
-        return
-    try:
-        fh = open(path, encoding="utf-8", errors="strict")
-    except OSError as e:
-        raise DataError(f"{src}: cannot read file ({e.strerror})") from e
-    with fh:
-        header_line = fh.readline()
-        if not header_line.strip():
-            raise DataError(f"{src}: empty file, expected a header row")
-        header = header_line.strip().split(",")
-        idx = _column_indices(header, n, opts, src)
-        line_no = 1
-        while True:
-            try:
-                chunk = np.loadtxt(fh, delimiter=",", max_rows=opts.chunk_rows, ndmin=2)
-            except ValueError as e:
-                raise DataError(f"{src}: non-numeric value after line {line_no} ({e})") from e
-            if chunk.size == 0:
-                break
-            if chunk.shape[1] != len(header):
-                raise DataError(f"{src}: rows have {chunk.shape[1]} values, the header has {len(header)}")
-            line_no += len(chunk)
-            yield {k: (None if ix is None else (chunk[:, ix[0]] if k == "t" else chunk[:, ix])) for k, ix in idx.items()}
-            if len(chunk) < opts.chunk_rows:
-                break
-
-
-def _clean(raw: dict, last: np.ndarray | None, report: DataReport) -> tuple[dict, np.ndarray | None]:
-    """Drop NaN, non-increasing times and repeated samples; ``last`` is the previous kept row."""
-    keys = [k for k in KEYS if raw[k] is not None]
-    t = raw["t"]
-    report.rows_read += len(t)
-    stacked = np.column_stack([raw[k] if raw[k].ndim == 2 else raw[k][:, None] for k in keys])
-    ok = np.all(np.isfinite(stacked), axis=1)
-    report.dropped["nan"] += int((~ok).sum())
-    stacked = stacked[ok]
+    ``table``: the used columns, time first.  Rows are copied only when some are dropped.
+    """
+    report.rows_read += len(table)
+    ok = np.isfinite(table).all(axis=1)
+    if not ok.all():
+        report.dropped["nan"] += int((~ok).sum())
+        table = table[ok]
     # compare every row with the row before it (the first with the previous chunk's last kept row)
-    first = last[None] if last is not None else np.full((1, stacked.shape[1]), np.nan)
-    prev_rows = np.vstack([first, stacked[:-1]]) if len(stacked) else stacked
-    repeated = np.all(stacked[:, 1:] == prev_rows[:, 1:], axis=1)
-    report.dropped["repeated_sample"] += int(repeated.sum())
-    stacked = stacked[~repeated]
+    if len(table):
+        repeated = np.empty(len(table), dtype=bool)
+        repeated[0] = last is not None and bool(np.all(table[0, 1:] == last[1:]))
+        np.all(table[1:, 1:] == table[:-1, 1:], axis=1, out=repeated[1:])
+        if repeated.any():
+            report.dropped["repeated_sample"] += int(repeated.sum())
+            table = table[~repeated]
     # time must increase: keep the running maximum rule
     t_prev = last[0] if last is not None else -np.inf
-    tt = stacked[:, 0]
-    running = np.maximum.accumulate(np.concatenate([[t_prev], tt]))[:-1]
-    increasing = tt > running
-    report.dropped["time_not_increasing"] += int((~increasing).sum())
-    stacked = stacked[increasing]
-    new_last = stacked[-1] if len(stacked) else last
-    out, c = {}, 0
-    for k in KEYS:
-        if raw[k] is None:
-            out[k] = None
-            continue
-        w = 1 if k == "t" else raw[k].shape[1]
-        out[k] = stacked[:, c] if k == "t" else stacked[:, c : c + w]
-        c += w
-    return out, new_last
+    tt = table[:, 0]
+    if len(tt) and not (tt[0] > t_prev and np.all(tt[1:] > tt[:-1])):
+        running = np.maximum.accumulate(np.concatenate([[t_prev], tt]))[:-1]
+        increasing = tt > running
+        report.dropped["time_not_increasing"] += int((~increasing).sum())
+        table = table[increasing]
+    new_last = table[-1].copy() if len(table) else last
+    return table, new_last
 
 
 def time_span(path: str | Path, opts: DataOptions) -> tuple[float, float]:
@@ -235,26 +156,30 @@ def time_span(path: str | Path, opts: DataOptions) -> tuple[float, float]:
 def iter_blocks(path: str | Path, n: int, opts: DataOptions, report: DataReport | None = None) -> Iterator[Block]:
     """Clean, filter and differentiate the file chunk by chunk; memory bounded by the chunk size."""
     from minparam_cli.identify.filtering import Processor
+    from minparam_cli.identify.reading import raw_chunks, split
 
     path = Path(path)
     report = report if report is not None else DataReport(str(path))
     last = None
     processor = None
     step = None
-    for raw in _raw_chunks(path, n, opts):
+    for table, layout in raw_chunks(path, n, opts):
         if step is None and opts.step_s:
             step = float(opts.step_s)
         if step is None:
             # the sampling step from the raw time stamps (sample-and-hold rows have proper stamps)
-            d = np.diff(raw["t"][np.isfinite(raw["t"])])
+            t = table[:, 0]
+            d = np.diff(t[np.isfinite(t)])
             d = d[d > 0]
             step = float(np.median(d)) if len(d) else None
-        clean, last = _clean(raw, last, report)
-        if len(clean["t"]) == 0:
+        table, last = _clean(table, last, report)
+        if len(table) == 0:
             continue
+        clean = split(table, layout)
         if processor is None:
             processor = Processor(clean, opts, report, step)
         yield from processor.push(clean)
+        del table, clean  # not alive while the next chunk is read: memory is one chunk, not two
     if processor is None:
         raise DataError(f"{path}: no usable samples (every row was dropped or the file has no data)")
     yield from processor.finish()

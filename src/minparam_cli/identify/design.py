@@ -58,6 +58,7 @@ class Design:
     base_names: tuple[str, ...]
     terms: tuple[Term, ...] = ()
     theta_model: np.ndarray | None = None  # base-parameter values giving the rigid model torque (load effects)
+    t0: float | None = None  # time origin of the drift column: the same for every block, training and held out
 
     @property
     def names(self) -> tuple[str, ...]:
@@ -77,14 +78,14 @@ class Design:
 
     def base_columns(self, b: Block) -> np.ndarray:
         Y = regressor(self.chain, b.q, b.dq, b.ddq)
-        return Y[:, :, list(self.kept)]
+        return np.take(Y, self.kept, axis=2)
 
     def signals(self, b: Block, Xb: np.ndarray | None = None) -> Signals:
         tau_model = None
         if self.theta_model is not None:
             Xb = self.base_columns(b) if Xb is None else Xb
             tau_model = Xb @ self.theta_model[: len(self.kept)]
-        return Signals(b.t, b.q, b.dq, b.ddq, tau_model)
+        return Signals(b.t, b.q, b.dq, b.ddq, tau_model, self.t0)
 
     def columns(self, b: Block) -> np.ndarray:
         Xb = self.base_columns(b)

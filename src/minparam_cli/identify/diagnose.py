@@ -2,11 +2,12 @@
 
 At every step, with Gautier's per-joint weights from the current fit:
 
-1. factor the current weighted design, X = Q R, residual r0;
+1. an orthonormal basis Q of the current weighted design's range (thin SVD,
+   rank-revealing), residual r0;
 2. for every candidate term E (an effect of the library on one joint or on all
    joints, and every grid value of its nonlinear parameter), its new part
    E⊥ = E − Q Qᵀ E, the refit g = argmin ‖r0 − E⊥ g‖ and the updated model
-   parameters θ' = θ − R⁻¹ Qᵀ E g (exact least squares for [X E], without
+   parameters θ' = θ − X⁺ E g (exact least squares for [X E], without
    refactoring);
 3. score each candidate on the held-out data: ΔBIC = N_h ln(RSS_h1/RSS_h0)
    + m ln N_h (m = the rank of E⊥, so columns already in the model cost
@@ -18,6 +19,10 @@ At every step, with Gautier's per-joint weights from the current fit:
 Columns that are combinations of the model's (rotor inertia of a joint whose
 axis is fixed in the base, for instance) have E⊥ = 0: they regroup with the
 base parameters and are never reported as effects.
+
+The sample is compressed once to per-joint triangular factors (``compressed``),
+and each step scores all its candidates together (``scoring``): a step costs
+O(K²) per candidate with K the number of catalogue columns, not O(samples).
 """
 
 from __future__ import annotations
@@ -26,9 +31,11 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from minparam_cli.identify.compressed import Compressed
 from minparam_cli.identify.data import Block
-from minparam_cli.identify.design import Design, Term, term_blocks, term_columns
+from minparam_cli.identify.design import Design, Term
 from minparam_cli.identify.effects import EFFECT_IDS, EFFECTS
+from minparam_cli.identify.scoring import score
 
 BIC_THRESHOLD = -10.0
 DEFAULT_MIN_GAIN = 0.02
@@ -65,28 +72,6 @@ class Diagnosis:
     stop_reason: str = ""
 
 
-def _flat(X: np.ndarray) -> np.ndarray:
-    return X.reshape(-1, X.shape[-1])
-
-
-def joint_sigma(X: np.ndarray, y: np.ndarray) -> np.ndarray:
-    """Gautier's weights: each joint's residual standard deviation after OLS (1 where it is zero)."""
-    theta, *_ = np.linalg.lstsq(_flat(X), y.reshape(-1), rcond=None)
-    res = y - X @ theta
-    sigma = np.sqrt(np.sum(res**2, axis=0) / max(len(y) - X.shape[-1] / y.shape[1], 1))
-    return np.where(sigma > 0, sigma, 1.0)
-
-
-def _holdout_errors(yh: np.ndarray, pred: np.ndarray) -> dict:
-    r = yh - pred
-    rss = np.sum(r**2, axis=0)
-    return {
-        "rms_per_joint": [float(x) for x in np.sqrt(rss / len(yh))],
-        "rms_total": float(np.sqrt(rss.sum() / r.size)),
-        "relative_error": float(np.sqrt(rss.sum() / np.sum(yh**2))),
-    }
-
-
 def candidates(design: Design, allowed: tuple[str, ...]) -> list[Term]:
     n = design.chain.n
     present = {(t.effect, j) for t in design.terms for j in t.joints}
@@ -110,128 +95,101 @@ def candidates(design: Design, allowed: tuple[str, ...]) -> list[Term]:
     return out
 
 
+def _basis(Xw: np.ndarray, rows: int) -> tuple[np.ndarray, np.ndarray]:
+    """Orthonormal basis Q of the weighted design's range and B with X⁺ = B Qᵀ (thin SVD, rank-revealing).
+
+    A design can be rank deficient (gain on every joint is a rescaling of the base parameters): Q
+    then spans only the range, so a candidate's new part E − QQᵀE is exact.  Tolerance as numpy's
+    lstsq on the uncompressed ``rows``.
+    """
+    U, s, Vt = np.linalg.svd(Xw, full_matrices=False)
+    r = int(np.sum(s > s.max(initial=0.0) * max(rows, Xw.shape[1]) * np.finfo(float).eps))
+    return U[:, :r], Vt[:r].T / s[:r]
+
+
 def diagnose(design: Design, train: Block, hold: Block, opts: DiagnosisOptions, progress=None) -> Diagnosis:
     """Add effects one at a time while the held-out data say they are real."""
-    n = design.chain.n
-    X = design.columns(train)
-    Xh = design.columns(hold)
-    y, yh = train.tau, hold.tau
-    s_train, s_hold = design.signals(train), design.signals(hold)
+    simpler = tuple(a for e in opts.effects for a in SIMPLER.get(e, ()) if a not in opts.effects)
+    data = Compressed.of(design, train, hold, tuple(opts.effects) + tuple(dict.fromkeys(simpler)))
     out = Diagnosis(design=design)
+    N, Nh = data.N * data.n, data.Nh * data.n  # training and held-out equations
 
     for step in range(opts.max_steps + 1):
-        sigma = joint_sigma(X, y)
-        Xw = _flat(X / sigma[None, :, None])
-        yw = (y / sigma).reshape(-1)
-        Q, R = np.linalg.qr(Xw)
-        theta = np.linalg.lstsq(R, Q.T @ yw, rcond=None)[0]
+        sel = data.selection(out.design)
+        sigma = data.joint_sigma(sel)
+        Xw, yw = data.stack(sel, sigma)
+        Q, back = _basis(Xw, N)
+        theta = back @ (Q.T @ yw)
         r0 = yw - Xw @ theta
         rss0 = float(r0 @ r0)
-        Xhw = _flat(Xh / sigma[None, :, None])
-        yhw = (yh / sigma).reshape(-1)
+        Xhw, yhw = data.stack(sel, sigma, hold=True)
         rh0 = yhw - Xhw @ theta
         rssh0 = float(rh0 @ rh0)
         if step == 0:
-            out.steps.append(Step(None, {"rss_train_weighted": rss0, "rss_holdout_weighted": rssh0}, _holdout_errors(yh, Xh @ theta), out.design, theta))
+            out.steps.append(Step(None, {"rss_train_weighted": rss0, "rss_holdout_weighted": rssh0}, data.holdout_errors(sel, theta), out.design, theta))
         if step == opts.max_steps:
             break
-        Nh, N = len(yhw), len(yw)
-        best = None
         cands = candidates(out.design, opts.effects)
         out.candidates_per_step = max(out.candidates_per_step, len(cands))
-        Q3 = Q.reshape(len(y), n, -1)  # rows of joint j: Q3[:, j, :]
-        r03 = r0.reshape(len(y), n)
-        Xh3 = Xhw.reshape(len(yh), n, -1)
-        rh03 = rh0.reshape(len(yh), n)
-        Rinv = np.linalg.pinv(R)
-        for i, term in enumerate(cands):
-            # E is block-sparse (joint j's columns live in joint j's rows): work block by block through
-            # small Gram matrices, E⊥ᵀE⊥ = EᵀE − (QᵀE)ᵀQᵀE and E⊥ᵀr0 = Eᵀr0 (Qᵀr0 = 0)
-            blocks = [blk / sigma[j] for blk, j in zip(term_blocks(term, s_train), term.joints)]
-            QtE = np.hstack([Q3[:, j, :].T @ blk for blk, j in zip(blocks, term.joints)])
-            EtE = np.zeros((QtE.shape[1],) * 2)
-            b = np.empty(QtE.shape[1])
-            c = 0
-            for blk, j in zip(blocks, term.joints):
-                w = blk.shape[1]
-                EtE[c : c + w, c : c + w] = blk.T @ blk
-                b[c : c + w] = blk.T @ r03[:, j]
-                c += w
-            norms2 = np.diag(EtE)
-            if not np.any(norms2 > 0):
-                continue
-            evals, evecs = np.linalg.eigh(EtE - QtE.T @ QtE)
-            keep = evals > norms2.max() * 1e-12  # singular values of E⊥ above 1e-6 of the largest column norm
-            m = int(keep.sum())
-            if m == 0:
-                continue  # already in the span of the model: it regroups
-            g = evecs[:, keep] @ ((evecs[:, keep].T @ b) / evals[keep])
-            rss1 = rss0 - float(g @ b)
-            rh1 = rh03 + Xh3 @ (Rinv @ (QtE @ g))
-            c = 0
-            for blk, j in zip(term_blocks(term, s_hold), term.joints):
-                w = blk.shape[1]
-                rh1[:, j] -= (blk / sigma[j]) @ g[c : c + w]
-                c += w
-            rssh1 = float(np.sum(rh1**2))
-            if rssh1 <= 0 or rssh0 <= 0:
-                continue
-            dbic = Nh * np.log(rssh1 / rssh0) + m * np.log(Nh)
-            if best is None or dbic < best[0]:
-                F = ((rss0 - rss1) / m) / (rss1 / max(N - Xw.shape[1] - m, 1)) if rss1 > 0 else np.inf
-                best = (dbic, term, m, F, rss1, rssh1)
-            if progress:
-                progress(i + 1, len(cands))
-        if best is None:
+        scores = score(data, sel, sigma, Q, back, r0, rh0, cands)
+        if progress:
+            progress(len(cands), len(cands))
+        ok = np.isfinite(scores.rss1) & (scores.m > 0) & (scores.rssh1 > 0) & (rssh0 > 0)
+        if not np.any(ok):
             break
-        dbic, term, m, F, rss1, rssh1 = best
+        dbic = np.where(ok, Nh * np.log(np.where(ok, scores.rssh1, 1.0) / rssh0) + scores.m * np.log(Nh), np.inf)
+        i = int(np.argmin(dbic))
+        term, m, rss1, rssh1 = cands[i], int(scores.m[i]), float(scores.rss1[i]), float(scores.rssh1[i])
+        dbic_i = float(dbic[i])
+        F = ((rss0 - rss1) / m) / (rss1 / max(N - Xw.shape[1] - m, 1)) if rss1 > 0 else np.inf
         gain = 1 - rssh1 / rssh0
-        if not (dbic < opts.bic_threshold and gain >= opts.min_gain):
+        if not (dbic_i < opts.bic_threshold and gain >= opts.min_gain):
             out.stop_reason = (
-                f"best remaining candidate {term.label()}: ΔBIC {dbic:.1f}, "
+                f"best remaining candidate {term.label()}: ΔBIC {dbic_i:.1f}, "
                 f"removes {100 * gain:.2f} % of the held-out residual energy (needs ΔBIC < {opts.bic_threshold:g} "
                 f"and {100 * opts.min_gain:g} %)"
             )
             break
-        from scipy.stats import f as f_dist
+        from scipy.special import fdtrc
 
-        p_value = float(f_dist.sf(F, m, max(N - Xw.shape[1] - m, 1))) if np.isfinite(F) else 0.0
+        p_value = float(fdtrc(m, max(N - Xw.shape[1] - m, 1), F)) if np.isfinite(F) else 0.0
         out.design = out.design.with_term(term)
-        X = np.concatenate([X, term_columns(term, s_train, n)], axis=2)
-        Xh = np.concatenate([Xh, term_columns(term, s_hold, n)], axis=2)
-        sig = joint_sigma(X, y)
-        theta_all, *_ = np.linalg.lstsq(_flat(X / sig[None, :, None]), (y / sig).reshape(-1), rcond=None)
-        stat = {"delta_bic_holdout": float(dbic), "holdout_gain": float(gain), "F": float(F), "p_value": p_value, "rank": m}
-        out.steps.append(Step(term, stat, _holdout_errors(yh, Xh @ theta_all), out.design, theta_all))
+        sel = data.selection(out.design)
+        sig = data.joint_sigma(sel)
+        theta_all, *_ = np.linalg.lstsq(*data.stack(sel, sig), rcond=None)
+        stat = {"delta_bic_holdout": dbic_i, "holdout_gain": float(gain), "F": float(F), "p_value": p_value, "rank": m}
+        out.steps.append(Step(term, stat, data.holdout_errors(sel, theta_all), out.design, theta_all))
     else:
         out.stop_reason = f"stopped after {opts.max_steps} steps"
     if not out.stop_reason:
         out.stop_reason = "no candidate left"
-    _simplify(out, design, train, hold)
+    _simplify(out, data)
     return out
 
 
-def _holdout_bic(design: Design, train: Block, hold: Block) -> tuple[float, np.ndarray, np.ndarray]:
-    """Held-out BIC of a design fitted on ``train`` (Gautier weights), with its theta and held-out prediction."""
-    X, Xh = design.columns(train), design.columns(hold)
-    sigma = joint_sigma(X, train.tau)
-    Xw = _flat(X / sigma[None, :, None])
-    theta, *_ = np.linalg.lstsq(Xw, (train.tau / sigma).reshape(-1), rcond=None)
-    rank = np.linalg.matrix_rank(Xw)
-    pred = Xh @ theta
-    rssh = float(np.sum(((hold.tau - pred) / sigma) ** 2))
-    Nh = hold.tau.size
-    return Nh * np.log(rssh) + rank * np.log(Nh), theta, pred
+def _holdout_bic(data: Compressed, design: Design) -> tuple[float, np.ndarray, dict]:
+    """Held-out BIC of a design fitted on the training part (Gautier weights), with its theta and held-out errors."""
+    sel = data.selection(design)
+    sigma = data.joint_sigma(sel)
+    Xw, yw = data.stack(sel, sigma)
+    theta, *_ = np.linalg.lstsq(Xw, yw, rcond=None)
+    sv = np.linalg.svd(Xw, compute_uv=False)
+    # the rank as np.linalg.matrix_rank gives it on the uncompressed rows (its tolerance grows with their number)
+    rank = int(np.sum(sv > sv.max(initial=0.0) * max(data.N * data.n, Xw.shape[1]) * np.finfo(float).eps))
+    Xhw, yhw = data.stack(sel, sigma, hold=True)
+    rssh = float(np.sum((yhw - Xhw @ theta) ** 2))
+    Nh = data.Nh * data.n
+    return Nh * np.log(rssh) + rank * np.log(Nh), theta, data.holdout_errors(sel, theta)
 
 
-def _simplify(out: Diagnosis, start: Design, train: Block, hold: Block) -> None:
+def _simplify(out: Diagnosis, data: Compressed) -> None:
     """Replace a term by a simpler one it contains when the held-out BIC prefers it."""
     from dataclasses import replace
 
     changed = True
     while changed:
         changed = False
-        current, _, _ = _holdout_bic(out.design, train, hold)
+        current, _, _ = _holdout_bic(data, out.design)
         for i, term in enumerate(out.design.terms):
             for alt in SIMPLER.get(term.effect, ()):
                 new = Term(alt, term.joints, None)
@@ -239,11 +197,11 @@ def _simplify(out: Diagnosis, start: Design, train: Block, hold: Block) -> None:
                     continue
                 terms = out.design.terms[:i] + (new,) + out.design.terms[i + 1 :]
                 cand = replace(out.design, terms=terms)
-                score, theta, pred = _holdout_bic(cand, train, hold)
-                if score < current:
+                score_, theta, errs = _holdout_bic(data, cand)
+                if score_ < current:
                     out.design = cand
-                    stat = {"replaces": term.label(), "delta_bic_holdout": float(score - current)}
-                    out.steps.append(Step(new, stat, _holdout_errors(hold.tau, pred), cand, theta))
+                    stat = {"replaces": term.label(), "delta_bic_holdout": float(score_ - current)}
+                    out.steps.append(Step(new, stat, errs, cand, theta))
                     changed = True
                     break
             if changed:

@@ -27,6 +27,7 @@ class Signals:
     dq: np.ndarray
     ddq: np.ndarray
     tau_model: np.ndarray | None = None  # rigid-body model torque, for load-dependent effects
+    t0: float | None = None  # time origin of the drift column (None: the first sample)
 
 
 @dataclass(frozen=True)
@@ -82,7 +83,7 @@ EFFECTS: dict[str, Effect] = {
         Effect("gain", "a drive gain or torque-constant error: the measured torque is the model torque scaled", ("G",),
                needs_model=True, build=lambda s, j, h: s.tau_model[:, j]),
         Effect("drift", "a slow linear drift of the torque signal (temperature, sensor drift)", ("D",),
-               build=lambda s, j, h: s.t - s.t[0]),
+               build=lambda s, j, h: s.t - (s.t[0] if s.t0 is None else s.t0)),
     )
 }
 

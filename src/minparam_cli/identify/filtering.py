@@ -68,6 +68,10 @@ class Processor:
             self.last_t = float(t[-1])
 
     def _decimate(self, b: Block) -> Block:
+        if self.k == 1:
+            self.count += len(b)
+            self.report.samples += len(b)
+            return b
         idx = np.flatnonzero((self.count + np.arange(len(b))) % self.k == 0)
         self.count += len(b)
         out = b.take(idx)

@@ -1,8 +1,8 @@
 """Least squares with memory independent of the number of samples.
 
 Each joint j keeps the triangular factor R_j of its augmented rows [X_j | y_j],
-updated block by block (incremental QR: R_j <- qr([R_j; A_block])).  From the
-R_j alone follow every quantity the report needs:
+updated block by block (``accumulate.Accumulator``).  From the R_j alone follow
+every quantity the report needs:
 
 * OLS:  min Σ_j ‖X_j θ − y_j‖²,  with ‖X_j θ − y_j‖ = ‖R_j [θ; −1]‖;
 * Gautier's weighted LS (Gautier 1997, "Dynamic identification of robots with
@@ -19,40 +19,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from minparam_cli.errors import ComputationError
+from minparam_cli.identify.accumulate import Accumulator
 
-
-class Accumulator:
-    """Streaming per-joint QR of [X_j | y_j]."""
-
-    def __init__(self, n: int, p: int):
-        self.n, self.p = n, p
-        self.R = [np.zeros((0, p + 1)) for _ in range(n)]
-        self.rows = np.zeros(n, dtype=int)
-
-    def add(self, X: np.ndarray, y: np.ndarray) -> None:
-        """X: (N, n, p) design rows, y: (N, n) measured torques."""
-        for j in range(self.n):
-            A = np.column_stack([X[:, j, :], y[:, j]])
-            self.R[j] = np.linalg.qr(np.vstack([self.R[j], A]), mode="r")
-            self.rows[j] += len(A)
-
-    def rss(self, theta: np.ndarray) -> np.ndarray:
-        v = np.concatenate([theta, [-1.0]])
-        return np.array([float(np.sum((R @ v) ** 2)) for R in self.R])
-
-    def y_norm2(self) -> np.ndarray:
-        """‖y_j‖² from the factors: the last column of R_j carries it."""
-        return np.array([float(np.sum(R[:, -1] ** 2)) for R in self.R])
-
-    def restrict(self, cols: list[int]) -> "Accumulator":
-        """The same data with only the columns ``cols`` of X (re-triangularised)."""
-        out = Accumulator(self.n, len(cols))
-        out.R = [np.linalg.qr(R[:, list(cols) + [self.p]], mode="r") for R in self.R]
-        out.rows = self.rows.copy()
-        return out
-
-    def stacked(self, weights: np.ndarray) -> np.ndarray:
-        return np.vstack([R / w for R, w in zip(self.R, weights)])
+__all__ = ["Accumulator", "Errors", "Fit", "errors", "independent_columns", "solve"]
 
 
 @dataclass(frozen=True)

@@ -1,16 +1,19 @@
 """`identify` as one pure stage: robot chain + data file(s) -> report dict.
 
-Pass 1 streams the data once: per-joint QR accumulators for the declared
-model (training and held-out parts), and a bounded, evenly thinned sample of
-at most ``diagnosis_cap`` samples kept in memory for the diagnosis.  If the
-diagnosis adds effects, pass 2 streams the data again with the final design.
-Memory is bounded by the chunk size and the cap, not by the file.
+The data are streamed once: per-joint QR accumulators of the declared model
+plus the slot columns of the effect library (training and held-out parts, see
+``slots``), and a bounded, evenly thinned sample of at most ``diagnosis_cap``
+samples kept in memory for the diagnosis.  The final design's factors follow
+from the accumulated ones by a linear map of the columns; only a design with
+an effect that has no slot (cogging, load-dependent Coulomb) streams the data
+a second time.  Memory is bounded by the chunk size and the cap, not by the
+file.
 """
 
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
@@ -20,7 +23,9 @@ from minparam_cli.errors import DataError
 from minparam_cli.identify.data import Block, DataOptions, DataReport, iter_blocks, time_span
 from minparam_cli.identify.design import Design
 from minparam_cli.identify.diagnose import DiagnosisOptions, diagnose
+from minparam_cli.identify.effects import EFFECTS
 from minparam_cli.identify.fit import Accumulator, errors, solve
+from minparam_cli.identify.slots import block_rows, final_maps, slot_sources
 
 DEFAULT_HOLDOUT = 0.3
 DIAGNOSIS_CAP = 12_000  # samples kept for the diagnosis (training part; half as many held out)
@@ -67,8 +72,11 @@ def _split_time(path: Path, opts: IdentifyOptions) -> float:
     return float(t0 + (1.0 - opts.holdout) * (t1 - t0))
 
 
-def _stream(design: Design, sources, n: int, opts: IdentifyOptions, keep: bool):
-    acc = {"train": Accumulator(n, design.p), "hold": Accumulator(n, design.p)}
+def _stream(design: Design, sources, n: int, opts: IdentifyOptions, keep: bool, slots=()):
+    """One pass over the data: per-joint factors of [design columns | slot columns | τ] (training and
+    held out), the thinned diagnosis sample, the data reports, and the design with its drift origin set."""
+    width = design.p + sum(len(EFFECTS[e].column_names) for e, _ in slots)
+    acc = {"train": Accumulator(n, width), "hold": Accumulator(n, width)}
     thin = {"train": _Thinned(opts.diagnosis_cap), "hold": _Thinned(opts.diagnosis_cap // 2)}
     reports = []
     for path, part, t_cut in sources:
@@ -76,21 +84,24 @@ def _stream(design: Design, sources, n: int, opts: IdentifyOptions, keep: bool):
         for b in iter_blocks(path, n, opts.data, rep):
             if not len(b):
                 continue
+            if design.t0 is None:  # drift is measured from the first sample, in every block and both parts
+                design = replace(design, t0=float(b.t[0]))
             if t_cut is None:
                 pieces = [(part, b)]
             else:
-                m = b.t < t_cut
-                pieces = [("train", b.take(m)), ("hold", b.take(~m))]
+                k = int(np.searchsorted(b.t, t_cut))  # times increase: the training part is a prefix
+                pieces = [("train", b.take(slice(0, k))), ("hold", b.take(slice(k, None)))]
             for name, piece in pieces:
                 if len(piece):
                     # the full regressor is n·10n numbers a sample: build it a few thousand samples at a time
                     for s in range(0, len(piece), REGRESSOR_ROWS):
                         sub = piece.take(slice(s, s + REGRESSOR_ROWS))
-                        acc[name].add(design.columns(sub), sub.tau)
+                        acc[name].add_rows(block_rows(design, slots, sub))
                     if keep:
                         thin[name].add(piece)
+            b = pieces = piece = sub = None  # not alive while the next block is read
         reports.append(rep)
-    return acc, thin, reports
+    return acc, thin, reports, design
 
 
 @dataclass
@@ -116,15 +127,17 @@ def identify(chain: Chain, data_path: str | Path, opts: IdentifyOptions, progres
             raise DataError(f"--holdout must be between 0 and 1, got {opts.holdout}")
         sources = [(data_path, None, _split_time(data_path, opts))]
 
-    acc, thin, reports = _stream(design, sources, n, opts, keep=opts.diagnose)
+    slots = slot_sources(opts.diagnosis.effects) if opts.diagnose else ()
+    acc_all, thin, reports, design = _stream(design, sources, n, opts, keep=opts.diagnose, slots=slots)
     for part in ("train", "hold"):
-        if acc[part].rows.sum() <= (design.p if part == "train" else 0):
-            raise DataError(f"{data_path}: the {part} part has too few samples ({int(acc[part].rows[0])}) for {design.p} parameters")
+        if acc_all[part].rows.sum() <= (design.p if part == "train" else 0):
+            raise DataError(f"{data_path}: the {part} part has too few samples ({int(acc_all[part].rows[0])}) for {design.p} parameters")
+    acc = {k: (a.restrict(list(range(design.p))) if slots else a) for k, a in acc_all.items()}
     fit0 = solve(acc["train"], design.names, opts.weighted)
     before = errors(acc["hold"], fit0.theta, fit0.columns)
     theta_model = np.zeros(design.p)
     theta_model[list(fit0.columns)] = fit0.theta
-    design = Design(chain, base.kept, base.base_names, theta_model=theta_model)
+    design = replace(design, theta_model=theta_model)
 
     steps_out = [{"effect": None, "joints": [], "statistic": None, **_errs(before)}]
     stop_reason = "diagnosis off (--no-diagnose)"
@@ -141,7 +154,11 @@ def identify(chain: Chain, data_path: str | Path, opts: IdentifyOptions, progres
                      "bic_threshold": opts.diagnosis.bic_threshold, "min_gain": opts.diagnosis.min_gain}
         if d.design.terms:
             final_design = d.design
-            acc2, _, _ = _stream(final_design, sources, n, opts, keep=False)
+            maps = final_maps(final_design, slots)
+            if maps is not None:  # every added effect has slots: no second pass over the file
+                acc2 = {k: a.transform(maps) for k, a in acc_all.items()}
+            else:
+                acc2, _, _, _ = _stream(final_design, sources, n, opts, keep=False)
             final_fit = solve(acc2["train"], final_design.names, opts.weighted)
             after = errors(acc2["hold"], final_fit.theta, final_fit.columns)
         for s in d.steps[1:]:
@@ -189,8 +206,6 @@ def _finite(x: float):
 
 
 def _explain(effect: str) -> str:
-    from minparam_cli.identify.effects import EFFECTS
-
     return EFFECTS[effect].explanation
 
 

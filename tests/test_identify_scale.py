@@ -1,0 +1,199 @@
+"""identify at scale: the fast factor update, the single streaming pass, the compressed diagnosis.
+
+Each shortcut is checked against the direct computation it replaces.
+"""
+
+from __future__ import annotations
+
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from minparam_cli.identify import accumulate, stage
+from minparam_cli.identify.accumulate import Accumulator
+from minparam_cli.identify.compressed import Compressed
+from minparam_cli.identify.design import Design, Term
+from minparam_cli.identify.diagnose import _basis, diagnose
+from minparam_cli.identify.effects import EFFECT_IDS
+from minparam_cli.identify.fit import independent_columns, solve
+from minparam_cli.identify.scoring import score
+from minparam_cli.identify.slots import final_maps, slot_sources
+
+
+def _rows(rng, N, n=3):
+    """Rows with the awkward cases: an exactly dependent column, one that is zero until half-way,
+    one that is zero for a joint throughout, and columns of very different scales."""
+    t = np.arange(N) / 100.0
+    X = rng.standard_normal((N, n, 6)) * np.array([1.0, 1e3, 1e-3, 1.0, 1.0, 1.0])
+    X[:, :, 0] += np.sin(t)[:, None]
+    X[:, :, 3] = X[:, :, 0] - 2.0 * X[:, :, 2]  # dependent
+    X[: N // 2, :, 4] = 0.0  # unseen, then seen
+    X[:, 1, 5] = 0.0  # structurally zero on joint 2
+    y = X @ np.array([1.0, 2e-3, 5.0, 0.0, -1.0, 0.5]) + 0.01 * rng.standard_normal((N, n))
+    return X, y
+
+
+def _accumulate(X, y, block, fast=True, monkeypatch=None):
+    if not fast:
+        monkeypatch.setattr(accumulate, "_fast", lambda R, A: None)
+    acc = Accumulator(X.shape[1], X.shape[2])
+    for s in range(0, len(y), block):
+        acc.add(X[s : s + block], y[s : s + block])
+    return acc
+
+
+def test_fast_update_equals_householder(monkeypatch):
+    X, y = _rows(np.random.default_rng(5), 20_000)
+    fast = _accumulate(X, y, 1000)
+    calls = {"fast": 0}
+    real = accumulate._fast
+
+    def counting(R, A):
+        out = real(R, A)
+        calls["fast"] += out is not None
+        return out
+
+    monkeypatch.setattr(accumulate, "_fast", counting)
+    _accumulate(X, y, 1000)
+    assert calls["fast"] > 30  # the fast path did the work
+    slow = _accumulate(X, y, 1000, fast=False, monkeypatch=monkeypatch)
+    for Rf, Rs in zip(fast.R, slow.R):
+        Gf, Gs = Rf.T @ Rf, Rs.T @ Rs
+        scale = np.sqrt(np.outer(np.diag(Gs), np.diag(Gs))) + 1e-300
+        assert np.max(np.abs(Gf - Gs) / scale) < 1e-12
+    assert independent_columns(fast) == independent_columns(slow) == [0, 1, 2, 4, 5]
+    names = tuple(f"c{i}" for i in range(6))
+    a, b = solve(fast, names), solve(slow, names)
+    assert np.allclose(a.theta, b.theta, rtol=1e-10) and np.allclose(a.std_percent, b.std_percent, rtol=1e-8)
+    assert fast.R[1][:, 5].tolist() == [0.0] * len(fast.R[1])
+
+
+def _panda_sample(tmp_path: Path, samples: int = 12_000) -> Path:
+    from minparam_cli.chain import build_chain
+    from minparam_cli.describe import load_description
+    from minparam_cli.dynamics.regressor import regressor
+    from minparam_cli.identify.inertia import random_inertia
+
+    chain = build_chain(load_description(Path("robots/panda.yaml")))
+    rng = np.random.default_rng(1)
+    phi = random_inertia(chain.n, chain.length_scale, rng).phi
+    w = 2 * np.pi * 0.1 * np.arange(1, 6)
+    a, b = rng.uniform(-0.3, 0.3, (2, chain.n, 5))
+    t = np.arange(samples) / 200.0
+    wt = np.outer(t, w)
+    q = (np.sin(wt) / w) @ a.T - (np.cos(wt) / w) @ b.T
+    dq = np.cos(wt) @ a.T + np.sin(wt) @ b.T
+    ddq = (-np.sin(wt) * w) @ a.T + (np.cos(wt) * w) @ b.T
+    tau = regressor(chain, q, dq, ddq) @ phi + 0.3 * np.sign(dq) + 0.5 * dq + 0.05 * np.sin(q) + 0.01 * rng.standard_normal(q.shape)
+    n = chain.n
+    header = ",".join(["t"] + [f"{k}{j}" for k in ("q", "dq", "ddq", "tau") for j in range(1, n + 1)])
+    path = tmp_path / "panda.csv"
+    np.savetxt(path, np.hstack([t[:, None], q, dq, ddq, tau]), delimiter=",", header=header, comments="", fmt="%.12g")
+    return path
+
+
+@pytest.fixture(scope="module")
+def panda_setup(tmp_path_factory):
+    from minparam_cli.base.qr import derive_qr
+    from minparam_cli.pipeline import DeriveOptions, load_chain
+
+    path = _panda_sample(tmp_path_factory.mktemp("scale"))
+    _, chain = load_chain(Path("robots/panda.yaml"), DeriveOptions())
+    base = derive_qr(chain, seed=0)
+    opts = stage.IdentifyOptions()
+    sources = [(path, None, stage._split_time(path, opts))]
+    slots = slot_sources(EFFECT_IDS)
+    acc, thin, _, design = stage._stream(Design(chain, base.kept, base.base_names), sources, chain.n, opts, keep=True, slots=slots)
+    fit0 = solve(acc["train"].restrict(list(range(design.p))), design.names)
+    theta = np.zeros(design.p)
+    theta[list(fit0.columns)] = fit0.theta
+    return replace(design, theta_model=theta), acc, thin, sources, slots, opts
+
+
+def test_final_fit_from_the_slots_equals_a_second_pass(panda_setup):
+    design, acc, _, sources, slots, opts = panda_setup
+    final = design
+    for term in (Term("asymmetric_coulomb", (0, 1, 2, 3, 4, 5, 6)), Term("coulomb", (1,)), Term("stribeck", (2,), 0.05),
+                 Term("spring", (1,)), Term("gain", (0, 1, 2, 3, 4, 5, 6)), Term("drift", (3,)), Term("viscous", (4,))):
+        final = final.with_term(term)
+    maps = final_maps(final, slots)
+    assert maps is not None
+    again, _, _, _ = stage._stream(final, sources, design.chain.n, opts, keep=False)
+    for part in ("train", "hold"):
+        a = solve(acc[part].transform(maps), final.names)
+        b = solve(again[part], final.names)
+        assert a.columns == b.columns
+        assert np.allclose(a.theta, b.theta, rtol=1e-8, atol=1e-10 * np.max(np.abs(b.theta)))
+    assert final_maps(final.with_term(Term("cogging", (1,), 5.0)), slots) is None  # no slot: a second pass
+
+
+def test_compressed_scores_equal_direct_least_squares(panda_setup):
+    design, _, thin, _, _, _ = panda_setup
+    train, hold = thin["train"].block(), thin["hold"].block()
+    model = design.with_term(Term("gain", (0, 1, 2, 3, 4, 5, 6)))  # rank deficient: gain on every joint rescales θ
+    data = Compressed.of(model, train, hold, EFFECT_IDS)
+    sel = data.selection(model)
+    sigma = data.joint_sigma(sel)
+    Xw, yw = data.stack(sel, sigma)
+    Q, back = _basis(Xw, data.N * data.n)
+    theta = back @ (Q.T @ yw)
+    Xhw, yhw = data.stack(sel, sigma, hold=True)
+    rh0 = yhw - Xhw @ theta
+    cands = [Term("viscous", (0, 1, 2, 3, 4, 5, 6)), Term("coulomb", (2,)), Term("cogging", (3,), 7.0), Term("spring", (1,)),
+             Term("stribeck", (0, 1, 2, 3, 4, 5, 6), 0.1), Term("rotor_inertia", (0,))]
+    got = score(data, sel, sigma, Q, back, yw - Xw @ theta, rh0, cands)
+    y, yh = train.tau, hold.tau
+    for k, term in enumerate(cands):
+        full = model.with_term(term)
+        X, Xh = full.columns(train), full.columns(hold)
+        Xs = (X / sigma[None, :, None]).reshape(-1, full.p)
+        th, *_ = np.linalg.lstsq(Xs, (y / sigma).reshape(-1), rcond=None)
+        rssh = np.sum(((yh - Xh @ th) / sigma) ** 2)
+        rss = np.sum(((y - X @ th) / sigma) ** 2)
+        assert got.rssh1[k] == pytest.approx(rssh, rel=1e-9) and got.rss1[k] == pytest.approx(rss, rel=1e-9)
+    # sin q2, cos q2 are in the gravity columns of joint 2; the rotor inertia of joint 1 regroups with Izz1
+    assert got.m.tolist() == [7, 1, 2, 1, 7, 0]
+
+
+def test_diagnosis_finds_the_hidden_effects_and_drift_has_one_origin(panda_setup):
+    design, _, thin, _, _, _ = panda_setup
+    d = diagnose(design, thin["train"].block(), thin["hold"].block(), stage.DiagnosisOptions())
+    assert {(t.effect, t.joints) for t in d.design.terms} >= {("viscous", tuple(range(7)))}
+    hold = thin["hold"].block()
+    drift = Design(design.chain, design.kept, design.base_names, terms=(Term("drift", (0,)),), t0=design.t0).columns(hold)[:, 0, -1]
+    assert np.array_equal(drift, hold.t - design.t0)  # the held-out part measures drift from the record's start too
+
+
+def test_background_parsing_gives_the_same_chunks_and_errors(tmp_path, monkeypatch):
+    from minparam_cli.errors import DataError
+    from minparam_cli.identify import reading
+    from minparam_cli.identify.data import DataOptions, DataReport, load_all
+
+    rng = np.random.default_rng(2)
+    N = 3000
+    t = np.arange(N) / 100.0
+    q, dq, tau = rng.standard_normal((3, N, 2))
+    q[10, 1] = np.nan
+    path = tmp_path / "d.csv"
+    header = "t,q1,q2,dq1,dq2,ddq1,ddq2,tau1,tau2"
+    np.savetxt(path, np.hstack([t[:, None], q, dq, dq, tau]), delimiter=",", header=header, comments="")
+    opts = DataOptions(chunk_rows=700)
+    runs = []
+    for limit in (1 << 40, 0):  # sequential, then in the second process
+        monkeypatch.setattr(reading, "BACKGROUND_BYTES", limit)
+        rep = DataReport(str(path))
+        runs.append((load_all(path, 2, opts, rep), rep.as_dict()))
+    (a, ra), (b, rb) = runs
+    assert ra == rb and all(np.array_equal(getattr(a, k), getattr(b, k)) for k in ("t", "q", "dq", "ddq", "tau"))
+    lines = path.read_text().splitlines()
+    lines[2001] = lines[2001].replace(",", ",x", 1)  # a bad value in the third chunk
+    path.write_text("\n".join(lines) + "\n")
+    messages = []
+    for limit in (1 << 40, 0):
+        monkeypatch.setattr(reading, "BACKGROUND_BYTES", limit)
+        with pytest.raises(DataError) as err:
+            load_all(path, 2, opts)
+        messages.append(str(err.value))
+    assert messages[0] == messages[1] and "non-numeric value after line 1401" in messages[0]
