@@ -152,6 +152,21 @@ def test_panda_real_data_rigid_and_friction_reference_figures():
 
 
 @pytest.mark.skipif(not PANDA_CSV.exists(), reason="../shared/data/panda-gaz2019 is absent (GPL data, not shipped)")
+def test_panda_smooth_coulomb_plus_stribeck_reference_figure():
+    """Reference (issue 5): 0.98 % with a smooth Coulomb plus Stribeck term; and smoothing must beat sign."""
+    import json
+
+    runner = CliRunner()
+    common = ["identify", "robots/panda.yaml", str(PANDA_CSV), "--friction", "coulomb,viscous,offset", "-f", "json", "-q"]
+    sharp = json.loads(runner.invoke(app, common + ["--no-diagnose"]).output)
+    smooth = json.loads(runner.invoke(app, common + ["--coulomb-smoothing", "0.02", "--effects", "stribeck"]).output)
+    assert smooth["coulomb_model"] == "tanh(dq / 0.02)"
+    assert [e["effect"] for e in smooth["effects"]] == ["stribeck"]
+    assert smooth["after"]["relative_error"] < 0.0099
+    assert smooth["after"]["relative_error"] < sharp["after"]["relative_error"]
+
+
+@pytest.mark.skipif(not PANDA_CSV.exists(), reason="../shared/data/panda-gaz2019 is absent (GPL data, not shipped)")
 def test_panda_diagnosis_traces_the_residual_to_friction(tmp_path):
     import json
 
@@ -175,6 +190,8 @@ def test_panda_diagnosis_traces_the_residual_to_friction(tmp_path):
         ("--cutoff", "-1", "positive"),
         ("--friction", "sticky", "sticky"),
         ("--min-gain", "1.5", "[0, 1)"),
+        ("--coulomb-smoothing", "-0.1", ">= 0"),
+        ("--coulomb-smoothing", "nan", ">= 0"),
     ],
 )
 def test_bad_identify_options(tmp_path, option, value, needle):
@@ -190,3 +207,20 @@ def test_plot_folder_must_exist(tmp_path):
     p = write_csv(tmp_path / "d.csv", t, q, dq, q.copy(), ddq)
     r = CliRunner().invoke(app, ["identify", "robots/planar2r.yaml", str(p), "--plot", str(tmp_path / "nope")])
     assert r.exit_code == 2 and "not a folder" in r.output
+
+
+def test_smooth_asymmetric_coulomb_columns_sum_to_the_smooth_coulomb_column():
+    """The single-pass fit derives coulomb from the two asymmetric slots: that must hold smoothed too."""
+    import numpy as np
+
+    from minparam_cli.identify.effects import EFFECTS, Signals
+
+    rng = np.random.default_rng(0)
+    dq = rng.standard_normal((50, 3)) * 0.1
+    dq[0, 1] = 0.0
+    z = np.zeros_like(dq)
+    for smoothing in (0.0, 0.05):
+        s = Signals(np.arange(50.0), z, dq, z, coulomb_smoothing=smoothing)
+        for j in range(3):
+            asym = EFFECTS["asymmetric_coulomb"].columns(s, j)
+            assert np.allclose(asym.sum(axis=1), EFFECTS["coulomb"].columns(s, j)[:, 0], atol=1e-15)

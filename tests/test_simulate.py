@@ -391,6 +391,12 @@ def test_cli_negative_position_noise(app, tmp_path):
     assert_one_line_error(r, "--noise-q must be a number >= 0")
 
 
+def test_cli_negative_coulomb_smoothing(app, tmp_path):
+    r = run(app, PLANAR, "--coulomb-smoothing", "-1", "-o", str(tmp_path / "d.csv"))
+    assert_one_line_error(r, "--coulomb-smoothing must be a number >= 0")
+    assert not (tmp_path / "d.csv").exists()
+
+
 def test_cli_negative_seed(app, tmp_path):
     r = run(app, PLANAR, "--seed", "-1", "-o", str(tmp_path / "d.csv"))
     assert_one_line_error(r, "--seed must be >= 0")

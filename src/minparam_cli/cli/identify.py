@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import math
 from enum import Enum
 from pathlib import Path
 from typing import Optional
@@ -63,6 +64,7 @@ def identify(
     decimate: Optional[int] = typer.Option(None, "--decimate", min=1, help="Keep one sample in K (default: about 10x the cut-off)."),
     friction: str = typer.Option("", "--friction", help="Declare friction in the model: any of coulomb,viscous,offset."),
     rotor_inertia: bool = typer.Option(False, "--rotor-inertia", help="Declare rotor inertia in the model."),
+    coulomb_smoothing: float = typer.Option(0.0, "--coulomb-smoothing", help="Smooth Coulomb friction: tanh(dq/V) for sign(dq), V in rad/s (m/s), in the declared Fc columns and the diagnosis' friction effects; 0: sign."),
     gravity: Optional[str] = typer.Option(None, "--gravity", help="Gravity X,Y,Z in m/s² (overrides the file)."),
     effects: str = typer.Option("", "--effects", help="Restrict the diagnosis to these effect ids (default: the whole library)."),
     no_diagnose: bool = typer.Option(False, "--no-diagnose", help="Fit the declared model only."),
@@ -75,12 +77,12 @@ def identify(
     quiet: bool = typer.Option(False, "--quiet", "-q", help="No progress bar."),
 ):
     _identify(robot, data, validate, holdout, columns, cutoff, force_filter, rate, decimate, friction, rotor_inertia,
-              gravity, effects, no_diagnose, min_gain, ols, fmt, output, plot, seed, quiet)
+              gravity, effects, no_diagnose, min_gain, ols, fmt, output, plot, seed, quiet, coulomb_smoothing)
 
 
 @guarded
 def _identify(robot, data, validate, holdout, columns, cutoff, force_filter, rate, decimate, friction, rotor_inertia,
-              gravity, effects, no_diagnose, min_gain, ols, fmt, output, plot, seed, quiet):
+              gravity, effects, no_diagnose, min_gain, ols, fmt, output, plot, seed, quiet, coulomb_smoothing=0.0):
     from minparam_cli.identify.data import DataOptions
     from minparam_cli.identify.diagnose import DiagnosisOptions
     from minparam_cli.identify.effects import EFFECT_IDS
@@ -104,10 +106,13 @@ def _identify(robot, data, validate, holdout, columns, cutoff, force_filter, rat
         raise typer.BadParameter("must be positive", param_hint="--rate")
     if not 0 <= min_gain < 1:
         raise typer.BadParameter("must be in [0, 1)", param_hint="--min-gain")
+    if not (math.isfinite(coulomb_smoothing) and coulomb_smoothing >= 0):
+        raise typer.BadParameter("must be a finite velocity >= 0 (0: sign)", param_hint="--coulomb-smoothing")
     if plot is not None and not plot.is_dir():
         raise typer.BadParameter(f"{plot} is not a folder", param_hint="--plot")
     g = parse_floats(gravity, 3, "--gravity") if gravity is not None else None
     _, chain = load_chain(robot, DeriveOptions(friction=kinds, rotor_inertia=rotor_inertia, gravity=g))
+    chain = chain.with_coulomb_smoothing(coulomb_smoothing)
     opts = IdentifyOptions(
         data=DataOptions(columns=_columns(columns), cutoff_hz=cutoff, force_filter=force_filter,
                          decimate=decimate, step_s=(1.0 / rate if rate else None)),

@@ -73,15 +73,16 @@ def simulate(
     no_ddq: bool = typer.Option(False, "--no-ddq", help="Leave out the ddq columns (identify then differentiates dq)."),
     output: Optional[Path] = typer.Option(None, "--output", "-o", help="Write here (atomically): .csv or .npz. Default: CSV on stdout."),
     truth: Optional[Path] = typer.Option(None, "--truth", help="Also write the truth record (JSON) here."),
+    coulomb_smoothing: float = typer.Option(0.0, "--coulomb-smoothing", help="Smooth Coulomb friction: tanh(dq/V) for sign(dq) in the injected friction effects, V in rad/s (m/s); 0: sign."),
     quiet: bool = typer.Option(False, "--quiet", "-q", help="No summary or notes on stderr."),
 ):
     _simulate(robot, trajectory, effects, strength, noise, noise_q, seed, duration, rate, harmonics, base_frequency,
-              random_inertia, no_ddq, output, truth, quiet)
+              random_inertia, no_ddq, output, truth, quiet, coulomb_smoothing)
 
 
 @guarded
 def _simulate(robot, trajectory, effects, strength, noise, noise_q, seed, duration, rate, harmonics, base_frequency,
-              random_inertia, no_ddq, output, truth, quiet):
+              random_inertia, no_ddq, output, truth, quiet, coulomb_smoothing=0.0):
     from minparam_cli.chain import build_chain
     from minparam_cli.describe import load_description
     from minparam_cli.identify.simulate import SimulationOptions, parse_effects, simulate as run, truth_record, validate_options
@@ -101,6 +102,7 @@ def _simulate(robot, trajectory, effects, strength, noise, noise_q, seed, durati
     opts = SimulationOptions(
         duration=duration, rate=rate, harmonics=harmonics, base_frequency=base_frequency, effects=specs,
         strength=strength, noise=noise, noise_q=noise_q, random_inertia=random_inertia,
+        coulomb_smoothing=coulomb_smoothing,
     )
     validate_options(opts)
     if chain.phi_nominal is None and not random_inertia and not quiet:

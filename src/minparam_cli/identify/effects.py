@@ -6,6 +6,10 @@ with a nonlinear parameter (Stribeck velocity, cogging order) are searched on
 a grid.  The same functions inject effects in ``simulate``, so the diagnosis
 and the test bed cannot disagree on what an effect is.
 
+``--coulomb-smoothing v_c`` replaces every sign(q̇) of the friction effects
+(coulomb, asymmetric_coulomb, stribeck, load_coulomb) by tanh(q̇/v_c), the
+same smooth Coulomb as the declared Fc columns (``Chain.coulomb_smoothing``).
+
 Columns for joint j live in row j only (the torque of joint j), except that
 ``gain`` and ``load_coulomb`` read the model torque of that joint.
 """
@@ -28,6 +32,13 @@ class Signals:
     ddq: np.ndarray
     tau_model: np.ndarray | None = None  # rigid-body model torque, for load-dependent effects
     t0: float | None = None  # time origin of the drift column (None: the first sample)
+    coulomb_smoothing: float = 0.0  # > 0: every sign(q̇) of the friction effects becomes tanh(q̇ / this)
+
+    def sgn(self, j) -> np.ndarray:
+        """The Coulomb signal of joint(s) j: sign(q̇), or its smooth version tanh(q̇ / v_c)."""
+        if self.coulomb_smoothing > 0.0:
+            return np.tanh(self.dq[:, j] / self.coulomb_smoothing)
+        return np.sign(self.dq[:, j])
 
 
 @dataclass(frozen=True)
@@ -52,15 +63,19 @@ STRIBECK_GRID = (0.005, 0.01, 0.02, 0.05, 0.1, 0.2, 0.5)
 COGGING_GRID = tuple(float(k) for k in range(2, 61))
 
 
-def _sign(v):
-    return np.sign(v)
+def _asymmetric(s: Signals, j) -> np.ndarray:
+    """[q̇ > 0] and −[q̇ < 0] (smooth: (1 + g)/2 and −(1 − g)/2, g = tanh(q̇/v_c)); they sum to the Coulomb signal."""
+    if s.coulomb_smoothing > 0.0:
+        g = s.sgn(j)
+        return np.stack([0.5 * (1.0 + g), -0.5 * (1.0 - g)], axis=1)
+    return np.stack([(s.dq[:, j] > 0).astype(float), -(s.dq[:, j] < 0).astype(float)], axis=1)
 
 
 EFFECTS: dict[str, Effect] = {
     e.id: e
     for e in (
         Effect("coulomb", "dry friction of constant size against the motion: Fc·sign(q̇)", ("Fc",),
-               build=lambda s, j, h: _sign(s.dq[:, j])),
+               build=lambda s, j, h: s.sgn(j)),
         Effect("viscous", "friction proportional to velocity (lubricant, motor back-EMF): Fv·q̇", ("Fv",),
                build=lambda s, j, h: s.dq[:, j]),
         Effect("offset", "a constant torque: sensor or current offset, unmodelled static load", ("OFF",),
@@ -69,9 +84,9 @@ EFFECTS: dict[str, Effect] = {
                build=lambda s, j, h: s.ddq[:, j]),
         Effect("stribeck", "friction that drops from breakaway to Coulomb level at low speed: Fs·exp(-(q̇/vs)²)·sign(q̇)",
                ("Fs",), STRIBECK_GRID, "vs",
-               build=lambda s, j, h: np.exp(-((s.dq[:, j] / h) ** 2)) * _sign(s.dq[:, j])),
+               build=lambda s, j, h: np.exp(-((s.dq[:, j] / h) ** 2)) * s.sgn(j)),
         Effect("asymmetric_coulomb", "dry friction of different size in the two directions", ("Fcp", "Fcn"),
-               build=lambda s, j, h: np.stack([(s.dq[:, j] > 0).astype(float), -(s.dq[:, j] < 0).astype(float)], axis=1)),
+               build=lambda s, j, h: _asymmetric(s, j)),
         Effect("spring", "a position-dependent torque: spring, cable or gravity compensator, or a gravity model error",
                ("Kq", "Ks", "Kc"),
                build=lambda s, j, h: np.stack([s.q[:, j], np.sin(s.q[:, j]), np.cos(s.q[:, j])], axis=1)),
@@ -79,7 +94,7 @@ EFFECTS: dict[str, Effect] = {
                COGGING_GRID, "k",
                build=lambda s, j, h: np.stack([np.sin(h * s.q[:, j]), np.cos(h * s.q[:, j])], axis=1)),
         Effect("load_coulomb", "gear friction that grows with the load the joint carries: sign(q̇)·|τ_model|", ("Fl",),
-               needs_model=True, build=lambda s, j, h: _sign(s.dq[:, j]) * np.abs(s.tau_model[:, j])),
+               needs_model=True, build=lambda s, j, h: s.sgn(j) * np.abs(s.tau_model[:, j])),
         Effect("gain", "a drive gain or torque-constant error: the measured torque is the model torque scaled", ("G",),
                needs_model=True, build=lambda s, j, h: s.tau_model[:, j]),
         Effect("drift", "a slow linear drift of the torque signal (temperature, sensor drift)", ("D",),

@@ -80,6 +80,7 @@ class SimulationOptions:
     noise_q: float = 0.0  # std of the position noise, rad or m
     random_inertia: bool = False  # ignore the description's inertial values
     margin: float = LIMIT_MARGIN  # fraction of each joint range kept free at both ends
+    coulomb_smoothing: float = 0.0  # > 0: injected friction uses tanh(q̇ / this) for sign(q̇)
 
 
 @dataclass(frozen=True)
@@ -235,7 +236,8 @@ def validate_options(options: SimulationOptions) -> int:
             f"the highest harmonic ({o.harmonics} x {o.base_frequency:g} Hz = {top:g} Hz) must be below half "
             f"the --rate ({o.rate / 2:g} Hz)"
         )
-    for value, flag, unit in ((o.noise, "--noise", "N·m"), (o.noise_q, "--noise-q", "rad"), (o.strength, "--strength", "")):
+    for value, flag, unit in ((o.noise, "--noise", "N·m"), (o.noise_q, "--noise-q", "rad"), (o.strength, "--strength", ""),
+                              (o.coulomb_smoothing, "--coulomb-smoothing", "rad/s")):
         if not (math.isfinite(value) and value >= 0):
             raise InputError(f"{flag} must be a number >= 0{' ' + unit if unit else ''}, got {value:g}")
     if not 0 <= o.margin < 0.5:
@@ -334,7 +336,7 @@ def simulate(chain: Chain, options: SimulationOptions, rng: np.random.Generator)
         phi, source = np.array(chain.phi_nominal, dtype=float), "description"
 
     tau_rigid = rigid_torque(chain, q, dq, ddq, phi)
-    signals = Signals(t=t, q=q, dq=dq, ddq=ddq, tau_model=tau_rigid)
+    signals = Signals(t=t, q=q, dq=dq, ddq=ddq, tau_model=tau_rigid, coulomb_smoothing=options.coulomb_smoothing)
     rms_rigid = _rms(tau_rigid)
     tau_effects = np.zeros_like(tau_rigid)
     injected = []
@@ -395,6 +397,7 @@ def truth_record(sim: Simulation, robot: str, seed: int, robot_name: str = "", i
         "effects": effects,
         "noise": o.noise,
         "noise_q": o.noise_q,
+        "coulomb_smoothing": o.coulomb_smoothing,
         "strength": o.strength,
         "inertia_source": sim.inertia_source,
         "phi": [float(x) for x in sim.phi],

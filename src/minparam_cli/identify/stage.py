@@ -178,6 +178,7 @@ def identify(chain: Chain, data_path: str | Path, opts: IdentifyOptions, progres
         "samples_holdout": int(acc["hold"].rows[0]),
         "dropped": rep0.as_dict()["dropped"],
         "preprocessing": rep0.as_dict(),
+        "coulomb_model": "sign(dq)" if chain.coulomb_smoothing == 0 else f"tanh(dq / {chain.coulomb_smoothing:g})",
         "method": final_fit.method,
         "condition_number": final_fit.cond,
         "sigma_per_joint": [float(x) for x in final_fit.sigma],

@@ -22,6 +22,7 @@ def render_identify(r: dict) -> str:
         ("derived", ", ".join(pre["derived"]) or "-"),
         ("decimation", f"keep 1 sample in {pre['decimation']}"),
         ("fit", f"{r['method'].upper()}, condition number {r['condition_number']:.4g}"),
+        ("coulomb", r.get("coulomb_model", "sign(dq)")),
     ]
     out = [columns(head), ""]
     n = len(r["before"]["rms_per_joint"])
