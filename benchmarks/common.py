@@ -39,6 +39,19 @@ def run_process(cmd: list[str], repeats: int = 7) -> tuple[float, float]:
     return statistics.median(times), max(peaks)
 
 
+def run_processes_alternating(cmds: list[list[str]], repeats: int = 21) -> list[tuple[float, float]]:
+    """Like run_process for several commands, run in turn (a, b, a, b, ...) so that drift in the
+    machine's speed hits them alike; median wall time (s) and max peak RSS (MB) of each."""
+    times: list[list[float]] = [[] for _ in cmds]
+    peaks: list[list[float]] = [[] for _ in cmds]
+    for _ in range(repeats):
+        for i, cmd in enumerate(cmds):
+            t, m = run_process(cmd, repeats=1)
+            times[i].append(t)
+            peaks[i].append(m)
+    return [(statistics.median(t), max(m)) for t, m in zip(times, peaks)]
+
+
 def best_of(fn, repeats: int = 7) -> float:
     """Median in-process time (s) of fn()."""
     out = []
