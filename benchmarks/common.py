@@ -66,6 +66,24 @@ def peak_rss_mb() -> float:
     return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
 
 
-def minparam_cmd() -> list[str]:
-    exe = Path(sys.executable).with_name("minparam")
-    return [str(exe)] if exe.exists() else [sys.executable, "-m", "minparam_cli"]
+def minparam_cmd(python: str | None = None) -> list[str]:
+    """The ``minparam`` console script beside ``python`` (default: this interpreter)."""
+    python = python or sys.executable
+    exe = Path(python).with_name("minparam")
+    return [str(exe)] if exe.exists() else [python, "-m", "minparam_cli"]
+
+
+def startup_hooks(python: str) -> list[str]:
+    """The .pth files of ``python``'s site-packages that run code at every start-up (``import``
+    lines), other than setuptools' own: a peer installed beside minparam (pinocchio's cmeel.pth
+    is one) adds the same time to every process, which flatters a ratio of start-up times."""
+    code = "import site, sys; print('\\n'.join(site.getsitepackages()))"
+    dirs = subprocess.run([python, "-c", code], capture_output=True, text=True, check=True).stdout.split()
+    hooks = []
+    for d in dirs:
+        for pth in sorted(Path(d).glob("*.pth")):
+            if pth.name == "distutils-precedence.pth":
+                continue
+            if any(line.startswith("import") for line in pth.read_text(errors="replace").splitlines()):
+                hooks.append(pth.name)
+    return hooks

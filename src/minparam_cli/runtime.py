@@ -11,10 +11,20 @@ about half the time of the 100-sample base-set computation (354 faults per
 regressor call, 0 after tuning).  Raising the thresholds keeps freed blocks in
 the heap for reuse; peak memory is unchanged, the process just keeps it until
 exit.  Linux with glibc only; elsewhere it does nothing and says so.
+
+``freeze_before_exit``: when the interpreter shuts down it clears every
+module and runs full garbage collections over everything still alive: the
+tens of thousands of objects numpy, click, typer and PyYAML create at import.
+That took about 20 ms of a 270 ms ``minparam derive`` on the benchmark VM.
+``gc.freeze()`` moves the live objects to the collector's permanent
+generation, which those collections skip; the memory goes back to the system
+with the process, as it would anyway.  Nothing is skipped: atexit handlers,
+flushes and finalizers still run.
 """
 
 from __future__ import annotations
 
+import gc
 import os
 import sys
 
@@ -46,3 +56,8 @@ def tune_allocator() -> bool:
     ok = mallopt(M_MMAP_THRESHOLD, MMAP_THRESHOLD_BYTES) == 1
     ok = mallopt(M_TRIM_THRESHOLD, TRIM_THRESHOLD_BYTES) == 1 and ok
     return ok
+
+
+def freeze_before_exit() -> None:
+    """Spare the interpreter's shutdown a full collection over every object alive now."""
+    gc.freeze()

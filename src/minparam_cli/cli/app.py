@@ -109,4 +109,6 @@ def main() -> int:
         app(standalone_mode=True)
     except SystemExit as e:
         return int(e.code or 0) if not isinstance(e.code, str) else 1
+    finally:
+        runtime.freeze_before_exit()  # see runtime.py: the process ends right after this
     return 0
