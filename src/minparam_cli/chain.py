@@ -32,6 +32,11 @@ REVOLUTE, PRISMATIC = "revolute", "prismatic"
 
 @dataclass(frozen=True, eq=False)
 class Chain:
+    """The kinematic chain of one robot (frozen): joint transforms, axes, gravity, parameter layout.
+
+    Arrays are per joint in chain order; see the module docstring for the frame convention.
+    """
+
     name: str
     source: str
     convention: str

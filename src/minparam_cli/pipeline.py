@@ -20,6 +20,8 @@ METHODS = ("qr", "projection")
 
 @dataclass(frozen=True)
 class DeriveOptions:
+    """What ``derive`` computes for each robot file: method, extras, gravity override, sampling."""
+
     method: str = "qr"
     friction: tuple[str, ...] = ()
     rotor_inertia: bool = False

@@ -66,6 +66,8 @@ class JointRecord:
 
 @dataclass(frozen=True)
 class RobotDescription:
+    """A whole robot file: its joints in chain order, gravity (and where it came from), units, tool."""
+
     name: str
     source: str
     convention: str  # "dh" | "mdh" | "urdf"
