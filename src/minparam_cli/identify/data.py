@@ -18,6 +18,8 @@ Everything dropped is counted and reported, with the reason.
 
 from __future__ import annotations
 
+import math
+
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Iterator
@@ -119,7 +121,11 @@ def _clean(table: np.ndarray, last: np.ndarray | None, report: DataReport) -> tu
 
 
 def time_span(path: str | Path, opts: DataOptions) -> tuple[float, float]:
-    """First and last time stamp of a data file without reading it all (CSV: first and last line)."""
+    """First and last usable time stamp of a data file without reading it all (CSV: its head and tail).
+
+    The last is the largest finite time in the tail, so that a final row the cleaning drops (a NaN
+    row, a time stamp that jumps back) does not move the hold-out split.
+    """
     path = Path(path)
     name = opts.columns.get("t", "t")
     if path.suffix.lower() == ".npz":
@@ -135,22 +141,44 @@ def time_span(path: str | Path, opts: DataOptions) -> tuple[float, float]:
     try:
         with open(path, "rb") as fh:
             header = fh.readline().decode("utf-8", "replace").strip().split(",")
-            first = fh.readline().decode("utf-8", "replace")
+            raw = fh.read(TAIL_BYTES)
+            head = raw.decode("utf-8", "replace").splitlines()
+            if len(raw) == TAIL_BYTES:
+                head = head[:-1]  # it may be cut
             fh.seek(0, 2)
             size = fh.tell()
-            fh.seek(max(0, size - 65536))
-            tail = [ln for ln in fh.read().decode("utf-8", "replace").splitlines() if ln.strip()]
+            start = max(0, size - TAIL_BYTES)
+            fh.seek(start)
+            tail = fh.read().decode("utf-8", "replace").splitlines()
     except OSError as e:
         raise DataError(f"{path}: cannot read file ({e.strerror})") from e
+    if start > 0:
+        tail = tail[1:]  # the window starts inside a line: its first fragment is not a row
     names = [h.strip() for h in header]
     if name not in names:
         raise DataError(f"{path}: missing time column '{name}' (use --columns t=NAME)")
     k = names.index(name)
+    first = next((t for t in (_time_of(line, k) for line in head) if t is not None), None)
+    last = max((t for t in (_time_of(line, k) for line in tail) if t is not None), default=None)
+    if first is None or last is None:
+        raise DataError(f"{path}: cannot read the first and last time stamps (no row with a finite time)")
+    return first, last
+
+
+TAIL_BYTES = 65536
+
+
+def _time_of(line: str, k: int) -> float | None:
+    """The finite time stamp of a data row, or None (blank, comment, too short, not a number); a row
+    of the wrong width is the reader's to report, with its line."""
+    values = line.split("#", 1)[0].split(",")
+    if len(values) <= k:
+        return None
     try:
-        t0, t1 = float(first.split(",")[k]), float(tail[-1].split(",")[k])
-    except (ValueError, IndexError) as e:
-        raise DataError(f"{path}: cannot read the first and last time stamps ({e})") from e
-    return t0, t1
+        t = float(values[k])
+    except ValueError:
+        return None
+    return t if math.isfinite(t) else None
 
 
 def iter_blocks(path: str | Path, n: int, opts: DataOptions, report: DataReport | None = None) -> Iterator[Block]:

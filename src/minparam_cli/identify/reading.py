@@ -1,14 +1,15 @@
 """Reading a data file chunk by chunk: the used columns (t, q, [dq], [ddq], tau) as one table.
 
 CSV is parsed by numpy's loadtxt (about 45 MB/s).  A file larger than
-BACKGROUND_BYTES is parsed by a second process, up to two chunks ahead of the
-chunk being processed, so that parsing runs on the other core beside the
+BACKGROUND_BYTES is parsed by a second process, one chunk ahead of the chunk
+being processed, so that parsing runs on the other core beside the
 regressor and the factor updates.  The chunks, their values and the error
 messages are the same either way.
 """
 
 from __future__ import annotations
 
+import contextlib
 import sys
 import warnings
 from pathlib import Path
@@ -16,10 +17,11 @@ from typing import Iterator
 
 import numpy as np
 
-from minparam_cli.errors import DataError
+from minparam_cli.errors import ComputationError, DataError
 from minparam_cli.identify.data import KEYS, DataOptions
 
 BACKGROUND_BYTES = 64 * 2**20
+PR_SET_PDEATHSIG = 1  # linux/prctl.h
 
 
 def _column_indices(header: list[str], n: int, opts: DataOptions, src: str) -> dict[str, list[int] | None]:
@@ -95,7 +97,13 @@ def raw_chunks(path: Path, n: int, opts: DataOptions) -> Iterator[tuple[np.ndarr
     except OSError as e:
         raise DataError(f"{src}: cannot read file ({e.strerror})") from e
     with fh:
-        header_line = fh.readline()
+        try:
+            header_line = fh.readline()
+        except UnicodeDecodeError as e:  # the decoder reads ahead: the bad byte may be in a data row
+            header_line = _header_bytes(path).decode("utf-8", "replace")
+            if "\ufffd" in header_line:
+                raise DataError(f"{src}: line 1 (the header) is not UTF-8 text") from e
+            raise _bad_row(path, 2, header_line.strip().split(","), e) from e
         if not header_line.strip():
             raise DataError(f"{src}: empty file, expected a header row")
         header = header_line.strip().split(",")
@@ -109,8 +117,8 @@ def raw_chunks(path: Path, n: int, opts: DataOptions) -> Iterator[tuple[np.ndarr
             while True:
                 try:
                     chunk = next(chunks)
-                except ValueError as e:
-                    raise DataError(f"{src}: non-numeric value after line {line_no} ({e})") from e
+                except ValueError as e:  # loadtxt's row numbers count from the chunk: find the file line
+                    raise _bad_row(path, line_no + 1, header, e) from e
                 if chunk.size == 0:
                     break
                 if chunk.shape[1] != len(header):
@@ -123,6 +131,54 @@ def raw_chunks(path: Path, n: int, opts: DataOptions) -> Iterator[tuple[np.ndarr
                     break
         finally:
             chunks.close()
+
+
+MAX_LINE_BYTES = 2**20
+
+
+def _header_bytes(path: Path) -> bytes:
+    with open(path, "rb") as fh:
+        return fh.readline(MAX_LINE_BYTES)
+
+
+def _bad_row(path: Path, start_line: int, header: list[str], err: ValueError) -> DataError:
+    """The first line at or after ``start_line`` (1-based, in the file) that loadtxt refuses,
+    described in one line: not UTF-8, a wrong number of values, or a value that is not a number.
+    Only on the error path: it reads the file again up to that line."""
+    src = str(path)
+    width = len(header)
+    try:
+        with open(path, "rb") as fh:
+            no = 0
+            while True:
+                raw = fh.readline(MAX_LINE_BYTES)
+                if not raw:
+                    break
+                no += 1
+                if len(raw) == MAX_LINE_BYTES and not raw.endswith(b"\n"):
+                    return DataError(f"{src}: line {no} is longer than {MAX_LINE_BYTES} bytes")
+                if no < start_line:
+                    continue
+                try:
+                    text = raw.decode("utf-8").split("#", 1)[0].strip()  # loadtxt: '#' starts a comment
+                except UnicodeDecodeError:
+                    return DataError(f"{src}: line {no} is not UTF-8 text")
+                if not text:
+                    continue
+                values = text.split(",")
+                if len(values) != width:
+                    return DataError(f"{src}: line {no} has {len(values)} values, the header has {width}")
+                for c, v in enumerate(values):
+                    try:
+                        float(v)
+                    except ValueError:
+                        shown = v.strip() if len(v.strip()) <= 40 else v.strip()[:40] + "..."
+                        return DataError(
+                            f"{src}: non-numeric value {shown!r} on line {no}, column {c + 1} ({header[c].strip()})"
+                        )
+    except OSError:
+        pass
+    return DataError(f"{src}: unreadable row after line {start_line - 1} ({err})")
 
 
 def _loadtxt(fh, rows: int) -> np.ndarray:
@@ -143,35 +199,54 @@ def _sequential(fh, rows: int) -> Iterator[np.ndarray]:
 
 
 def _parse_worker(path: str, rows: int, out) -> None:
-    """The second process: parse the file's chunks in order into ``out`` (a queue); an error ends it."""
+    """The second process: parse the file's chunks in order into ``out`` (a pipe's sending end);
+    an error ends it.  It dies with the reading process, and leaves Ctrl-C to that process."""
+    import os
+    import signal
+
+    signal.signal(signal.SIGINT, signal.SIG_IGN)  # the reading process handles Ctrl-C and ends this one
+    parent = os.getppid()
+    try:
+        import ctypes
+
+        ctypes.CDLL(None).prctl(PR_SET_PDEATHSIG, signal.SIGKILL)  # killed when the reading process dies
+    except (OSError, AttributeError):  # not Linux/glibc: the reading process's own cleanup still ends it
+        pass
+    if os.getppid() != parent:  # the reading process died before prctl took effect
+        return
     try:
         with open(path, encoding="utf-8", errors="strict") as fh:
             fh.readline()
             for chunk in _sequential(fh, rows):
-                out.put(chunk)
+                out.send(chunk)
     except ValueError as e:
-        out.put(("ValueError", str(e)))
+        out.send(("ValueError", str(e)))
     except Exception as e:  # noqa: BLE001 - reported by the reading process
-        out.put(("OSError", str(e)))
+        out.send(("OSError", str(e)))
 
 
 def _background(path: Path, rows: int) -> Iterator[np.ndarray]:
-    """The same chunks as ``_sequential``, parsed one or two ahead by a second process."""
+    """The same chunks as ``_sequential``, parsed one ahead by a second process.
+
+    A one-way pipe, whose sending end only the second process holds: if that process dies (killed,
+    out of memory) the read ends at once with EOF instead of waiting for a message that never comes.
+    """
     import multiprocessing as mp
-    import queue
 
     ctx = mp.get_context("fork")
-    out = ctx.Queue(maxsize=1)  # one parsed chunk waits while the next is parsed: memory stays bounded
-    proc = ctx.Process(target=_parse_worker, args=(str(path), rows, out), daemon=True)
+    recv, send = ctx.Pipe(duplex=False)  # the child's send waits until the last chunk is taken
+    proc = ctx.Process(target=_parse_worker, args=(str(path), rows, send), daemon=True)
     proc.start()
+    send.close()
     try:
         while True:
             try:
-                item = out.get(timeout=1.0)
-            except queue.Empty:
-                if not proc.is_alive():
-                    raise DataError(f"{path}: the parsing process ended unexpectedly (exit code {proc.exitcode})") from None
-                continue
+                item = recv.recv()
+            except (EOFError, OSError):
+                proc.join()
+                raise ComputationError(
+                    f"{path}: the parsing process ended unexpectedly (exit code {proc.exitcode})"
+                ) from None
             if isinstance(item, tuple):
                 if item[0] == "ValueError":
                     raise ValueError(item[1])
@@ -182,7 +257,24 @@ def _background(path: Path, rows: int) -> Iterator[np.ndarray]:
             if last:
                 return
     finally:
-        if proc.is_alive():
-            proc.terminate()
-        proc.join()
-        out.close()
+        with _no_interrupt():  # a second Ctrl-C must not cut the cleanup short (and print a traceback)
+            recv.close()
+            if proc.is_alive():
+                proc.terminate()
+            proc.join()
+
+
+@contextlib.contextmanager
+def _no_interrupt():
+    """Ctrl-C ignored for the duration (main thread only; elsewhere nothing changes)."""
+    import signal
+    import threading
+
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    old = signal.signal(signal.SIGINT, signal.SIG_IGN)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, old)

@@ -96,12 +96,27 @@ def _stream(design: Design, sources, n: int, opts: IdentifyOptions, keep: bool, 
                     # the full regressor is n·10n numbers a sample: build it a few thousand samples at a time
                     for s in range(0, len(piece), REGRESSOR_ROWS):
                         sub = piece.take(slice(s, s + REGRESSOR_ROWS))
-                        acc[name].add_rows(block_rows(design, slots, sub))
+                        acc[name].add_rows(_finite_rows(design, slots, sub, path))
                     if keep:
                         thin[name].add(piece)
             b = pieces = piece = sub = None  # not alive while the next block is read
         reports.append(rep)
     return acc, thin, reports, design
+
+
+def _finite_rows(design: Design, slots, b: Block, path: Path) -> np.ndarray:
+    """block_rows, refused with the time of the first sample whose row overflowed: a finite but huge
+    value (a corrupt dq of 1e200, say) would otherwise turn the whole fit into NaN."""
+    with np.errstate(over="ignore", invalid="ignore"):
+        rows = block_rows(design, slots, b)
+    ok = np.isfinite(rows).all(axis=(1, 2))
+    if not ok.all():
+        i = int(np.argmin(ok))
+        raise DataError(
+            f"{path}: the sample at t = {b.t[i]:.6g} s gives a non-finite regressor row "
+            "(a value of q, dq, ddq or tau there is too large to use)"
+        )
+    return rows
 
 
 @dataclass

@@ -1,0 +1,204 @@
+"""The data reader on broken files and broken processes: a bad row is named by its file line, in
+both readers; the second (parsing) process never hangs, outlives or out-talks the reading one."""
+
+from __future__ import annotations
+
+import os
+import signal
+import struct
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+from conftest import ROOT
+
+
+def _bad_copy(path, line_no, new_line):
+    lines = path.read_bytes().split(b"\n")
+    lines[line_no - 1] = new_line
+    path.write_bytes(b"\n".join(lines))
+
+
+@pytest.mark.parametrize(
+    "line, expected",
+    [
+        (b"1,2,3", "line {no} has 3 values, the header has 9"),
+        (b"1,2,3,4,5,6,7,8,9,10", "line {no} has 10 values, the header has 9"),
+        (b"1,2,3,\xe9,5,6,7,8,9", "line {no} is not UTF-8 text"),
+        (b"1,2,3,4,5,6,7,8,abc", "non-numeric value 'abc' on line {no}, column 9 (tau2)"),
+    ],
+    ids=["too few values", "too many values", "not utf-8", "not a number"],
+)
+@pytest.mark.parametrize("no", [2, 1500, 3001])  # first row, inside the third chunk, last row
+def test_a_bad_row_is_named_by_its_file_line_in_both_readers(tmp_path, monkeypatch, line, expected, no):
+    from minparam_cli.errors import DataError
+    from minparam_cli.identify import reading
+    from minparam_cli.identify.data import DataOptions, load_all
+
+    N = 3000
+    t = np.arange(N) / 100.0
+    path = tmp_path / "d.csv"
+    np.savetxt(path, np.hstack([t[:, None], np.ones((N, 8))]), delimiter=",", header="t,q1,q2,dq1,dq2,ddq1,ddq2,tau1,tau2", comments="")
+    _bad_copy(path, no, line)
+    for limit in (1 << 40, 0):  # sequential, then in the second process
+        monkeypatch.setattr(reading, "BACKGROUND_BYTES", limit)
+        with pytest.raises(DataError) as err:
+            load_all(path, 2, DataOptions(chunk_rows=700))
+        assert str(err.value) == f"{path}: " + expected.format(no=no)
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="the second process is Linux-only")
+def test_a_parsing_process_that_dies_mid_message_is_an_error_not_a_hang(tmp_path, monkeypatch):
+    """The child killed while it sends a chunk (out of memory, kill -9): the read ends with EOF."""
+    from minparam_cli.errors import ComputationError
+    from minparam_cli.identify import reading
+    from minparam_cli.identify.data import DataOptions, load_all
+
+    def dying_worker(path, rows, out):
+        os.write(out.fileno(), struct.pack("!i", 50_000_000) + b"x" * 1000)  # a message cut short
+        os.kill(os.getpid(), signal.SIGKILL)
+
+    N = 2000
+    path = tmp_path / "d.csv"
+    np.savetxt(path, np.hstack([np.arange(N)[:, None] / 100.0, np.ones((N, 8))]), delimiter=",", header="t,q1,q2,dq1,dq2,ddq1,ddq2,tau1,tau2", comments="")
+    monkeypatch.setattr(reading, "BACKGROUND_BYTES", 0)
+    monkeypatch.setattr(reading, "_parse_worker", dying_worker)
+    signal.alarm(60)  # a hang fails the test instead of the suite
+    try:
+        with pytest.raises(ComputationError, match="the parsing process ended unexpectedly"):
+            load_all(path, 2, DataOptions(chunk_rows=700))
+    finally:
+        signal.alarm(0)
+
+
+ORPHAN_PROBE = """
+import os, sys, time
+import numpy as np
+from minparam_cli.identify import reading
+from minparam_cli.identify.data import DataOptions
+from minparam_cli.identify.reading import raw_chunks
+
+def slow(fh, rows):
+    while True:
+        time.sleep(0.05)
+        yield np.ones((rows, 9))
+
+reading.BACKGROUND_BYTES = 0
+reading._sequential = slow  # the child parses forever, slowly
+chunks = raw_chunks(__import__("pathlib").Path(sys.argv[1]), 2, DataOptions(chunk_rows=10))
+next(chunks)
+import multiprocessing
+print(multiprocessing.active_children()[0].pid, flush=True)
+try:
+    for _ in chunks:
+        time.sleep(0.2)  # the reading process's own work: Ctrl-C lands here, not in the reader
+except KeyboardInterrupt:
+    time.sleep(0.5)  # the child got the same Ctrl-C: time for it to speak, if it were to
+    chunks.close()
+    print("interrupted", flush=True)
+"""
+
+
+def _gone(pid: int, within: float = 10.0) -> bool:
+    deadline = time.monotonic() + within
+    while time.monotonic() < deadline:
+        try:
+            state = Path(f"/proc/{pid}/status").read_text()
+        except FileNotFoundError:
+            return True
+        if "\nState:\tZ" in state:  # a zombie has ended; only its exit status waits
+            return True
+        time.sleep(0.05)
+    return False
+
+
+def _probe_csv(tmp_path):
+    path = tmp_path / "d.csv"
+    path.write_text("t,q1,q2,dq1,dq2,ddq1,ddq2,tau1,tau2\n" + "0,1,1,1,1,1,1,1,1\n" * 100)
+    return path
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="the second process is Linux-only")
+@pytest.mark.parametrize("sig", [signal.SIGKILL, signal.SIGTERM], ids=["SIGKILL", "SIGTERM"])
+def test_the_parsing_process_dies_with_the_reading_process(tmp_path, sig):
+    proc = subprocess.Popen([sys.executable, "-c", ORPHAN_PROBE, str(_probe_csv(tmp_path))], stdout=subprocess.PIPE, text=True, cwd=ROOT)
+    child = int(proc.stdout.readline())
+    proc.send_signal(sig)
+    proc.wait(timeout=30)
+    assert _gone(child), "the parsing process outlived the reading process"
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="the second process is Linux-only")
+def test_ctrl_c_ends_both_processes_quietly(tmp_path):
+    """Ctrl-C reaches the whole process group: the child stays quiet, the reader cleans up."""
+    proc = subprocess.Popen(
+        [sys.executable, "-c", ORPHAN_PROBE, str(_probe_csv(tmp_path))],
+        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, cwd=ROOT, start_new_session=True,
+    )
+    child = int(proc.stdout.readline())
+    os.killpg(proc.pid, signal.SIGINT)
+    out, err = proc.communicate(timeout=30)
+    assert out.strip() == "interrupted" and err == ""
+    assert _gone(child)
+
+
+def _write_rows(path, t, width=9, tail=b""):
+    rows = np.hstack([t[:, None], np.ones((len(t), width - 1))])
+    np.savetxt(path, rows, delimiter=",", header="t,q1,q2,dq1,dq2,ddq1,ddq2,tau1,tau2", comments="", fmt="%.9f")
+    with open(path, "ab") as fh:
+        fh.write(tail)
+    return path
+
+
+@pytest.mark.parametrize(
+    "tail",
+    [b"5.0,1,1,1,1,1,1,1,1\n", b"nan,nan,nan,nan,nan,nan,nan,nan,nan\n", b"0,1,1,1,1,1,1,1,1\n", b"\n\n", b"# the end\n"],
+    ids=["time jumps back", "nan row", "time reset", "blank lines", "comment"],
+)
+def test_a_last_row_the_cleaning_drops_does_not_move_the_hold_out_split(tmp_path, tail):
+    from minparam_cli.identify.data import DataOptions, time_span
+
+    t = np.arange(3000) / 100.0
+    clean = time_span(_write_rows(tmp_path / "clean.csv", t), DataOptions())
+    assert clean == (0.0, 29.99)
+    assert time_span(_write_rows(tmp_path / "bad.csv", t, tail=tail), DataOptions()) == clean
+
+
+def test_the_tail_window_never_reads_a_cut_line_as_a_row(tmp_path):
+    """The last 64 KiB start inside a line: '3.123456789,...' cut to '23456789,...' is not a time."""
+    from minparam_cli.identify.data import TAIL_BYTES, DataOptions, time_span
+
+    t = 0.001 + np.arange(3000) / 100.0
+    for k in range(200):  # trailing blank lines shift the window a byte at a time
+        path = _write_rows(tmp_path / "d.csv", t, tail=b"\n" * k)
+        data = path.read_bytes()
+        start = len(data) - TAIL_BYTES
+        line_start = data.rfind(b"\n", 0, start) + 1
+        if data.index(b".", line_start) < start < data.index(b",", line_start):
+            break
+    else:
+        pytest.fail("no file length puts the window inside a time stamp")
+    assert time_span(path, DataOptions()) == (t[0], round(t[-1], 9))
+
+
+def test_a_huge_value_is_a_one_line_error_naming_the_time(tmp_path):
+    """A finite but absurd velocity overflows the regressor; the fit must not run on NaN."""
+    from typer.testing import CliRunner
+
+    from minparam_cli.cli.app import app
+
+    N = 4000
+    t = np.arange(N) / 500.0
+    q = np.stack([0.5 * np.sin(2 * np.pi * 0.3 * t), 0.4 * np.sin(2 * np.pi * 0.7 * t)], axis=1)
+    dq = np.gradient(q, t, axis=0)
+    dq[2000, 1] = 1e200
+    path = tmp_path / "d.csv"
+    rows = np.hstack([t[:, None], q, dq, np.cos(q)])
+    np.savetxt(path, rows, delimiter=",", header="t,q1,q2,dq1,dq2,tau1,tau2", comments="")
+    r = CliRunner().invoke(app, ["identify", "robots/planar2r.yaml", str(path), "--no-diagnose"])
+    assert r.exit_code == 2, r.output
+    assert len(r.output.strip().splitlines()) == 1 and "Traceback" not in r.output and "Warning" not in r.output
+    assert "gives a non-finite regressor row" in r.output and "t = " in r.output
