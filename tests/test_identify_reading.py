@@ -89,10 +89,10 @@ def slow(fh, rows):
 reading.BACKGROUND_BYTES = 0
 reading._sequential = slow  # the child parses forever, slowly
 chunks = raw_chunks(__import__("pathlib").Path(sys.argv[1]), 2, DataOptions(chunk_rows=10))
-next(chunks)
 import multiprocessing
-print(multiprocessing.active_children()[0].pid, flush=True)
 try:
+    next(chunks)
+    print(multiprocessing.active_children()[0].pid, flush=True)  # inside try: Ctrl-C may follow at once
     for _ in chunks:
         time.sleep(0.2)  # the reading process's own work: Ctrl-C lands here, not in the reader
 except KeyboardInterrupt:
