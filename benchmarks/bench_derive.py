@@ -135,7 +135,7 @@ def regressor_rows() -> list[list]:
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--python", default=sys.executable, help="interpreter of the install to time as a whole process")
-    ap.add_argument("--repeats", type=int, default=21, help="alternating runs of each command (default 21)")
+    ap.add_argument("--repeats", type=int, default=41, help="alternating runs of each command (default 41)")
     args = ap.parse_args()
     py = args.python
     rows = []
