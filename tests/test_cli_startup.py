@@ -13,7 +13,7 @@ from conftest import ROOT
 from typer.testing import CliRunner
 
 from minparam_cli.cli import app as app_module
-from minparam_cli.cli.app import COMMANDS, build_app, commands_for, main
+from minparam_cli.cli.app import COMMANDS, build_app, commands_for, entry, main
 
 # every command line whose output must not depend on how many commands are registered
 HELP_LINES = [[name, "--help"] for name in COMMANDS] + [
@@ -78,6 +78,14 @@ def test_main_runs_derive_with_only_derive_registered(monkeypatch, capsys):
     assert main() == 0
     rep = json.loads(capsys.readouterr().out)
     assert rep["n_base"] == 36 and rep["exact"] is False
+    assert gc.get_freeze_count() == 0  # main() leaves its caller's collector alone
+
+
+def test_the_console_script_freezes_before_exit(monkeypatch, capsys):
+    monkeypatch.setattr(sys, "argv", ["minparam", "derive", "robots/puma560.yaml", "--format", "json"])
+    gc.unfreeze()
+    assert entry() == 0
+    assert json.loads(capsys.readouterr().out)["n_base"] == 36
     assert gc.get_freeze_count() > 0  # the shutdown's collections skip what was alive at the end (runtime.py)
 
 

@@ -29,8 +29,11 @@ def _bad_copy(path, line_no, new_line):
         (b"1,2,3,4,5,6,7,8,9,10", "line {no} has 10 values, the header has 9"),
         (b"1,2,3,\xe9,5,6,7,8,9", "line {no} is not UTF-8 text"),
         (b"1,2,3,4,5,6,7,8,abc", "non-numeric value 'abc' on line {no}, column 9 (tau2)"),
+        (b"1_000,2,3,4,5,6,7,8,9", "non-numeric value '1_000' on line {no}, column 1 (t)"),  # float() takes it
+        (b"1,2,3,4,5,6,7,8,\xef\xbc\x99", "non-numeric value '\uff19' on line {no}, column 9 (tau2)"),  # full-width 9
+        (b"   ", "line {no} holds only whitespace"),
     ],
-    ids=["too few values", "too many values", "not utf-8", "not a number"],
+    ids=["too few values", "too many values", "not utf-8", "not a number", "underscore", "full-width digit", "whitespace"],
 )
 @pytest.mark.parametrize("no", [2, 1500, 3001])  # first row, inside the third chunk, last row
 def test_a_bad_row_is_named_by_its_file_line_in_both_readers(tmp_path, monkeypatch, line, expected, no):
@@ -202,3 +205,50 @@ def test_a_huge_value_is_a_one_line_error_naming_the_time(tmp_path):
     assert r.exit_code == 2, r.output
     assert len(r.output.strip().splitlines()) == 1 and "Traceback" not in r.output and "Warning" not in r.output
     assert "gives a non-finite regressor row" in r.output and "t = " in r.output
+
+
+def test_reading_goes_on_after_the_thread_that_started_it_ends(tmp_path, monkeypatch):
+    """A library caller may start reading in one thread and go on in another: the second process
+    must not be tied to the first thread's life."""
+    import threading
+
+    from minparam_cli.identify import reading
+    from minparam_cli.identify.data import DataOptions
+
+    N = 3000
+    path = tmp_path / "d.csv"
+    np.savetxt(path, np.hstack([np.arange(N)[:, None] / 100.0, np.ones((N, 8))]), delimiter=",", header="t,q1,q2,dq1,dq2,ddq1,ddq2,tau1,tau2", comments="")
+    monkeypatch.setattr(reading, "BACKGROUND_BYTES", 0)
+    chunks = reading.raw_chunks(path, 2, DataOptions(chunk_rows=700))
+    first = []
+    worker = threading.Thread(target=lambda: first.append(next(chunks)))
+    worker.start()
+    worker.join()
+    rows = len(first[0][0]) + sum(len(table) for table, _ in chunks)
+    assert rows == N
+
+
+def test_the_time_span_of_a_file_with_carriage_returns_only(tmp_path):
+    from minparam_cli.identify.data import DataOptions, time_span
+
+    lines = ["t,q1,q2,dq1,dq2,ddq1,ddq2,tau1,tau2"] + [f"{i / 100},1,1,1,1,1,1,1,1" for i in range(3000)]
+    for newline in ("\n", "\r\n", "\r"):
+        path = tmp_path / "d.csv"
+        path.write_bytes(newline.join(lines).encode() + newline.encode())
+        assert time_span(path, DataOptions()) == (0.0, 29.99), repr(newline)
+
+
+def test_a_long_comment_line_is_not_the_bad_row(tmp_path):
+    """numpy skips a comment of any length; the line named is the one it refused."""
+    from minparam_cli.errors import DataError
+    from minparam_cli.identify.data import DataOptions, load_all
+    from minparam_cli.identify.reading import MAX_LINE_CHARS
+
+    N = 3000
+    path = tmp_path / "d.csv"
+    np.savetxt(path, np.hstack([np.arange(N)[:, None] / 100.0, np.ones((N, 8))]), delimiter=",", header="t,q1,q2,dq1,dq2,ddq1,ddq2,tau1,tau2", comments="")
+    _bad_copy(path, 50, b"# " + b"c" * (MAX_LINE_CHARS + 10))
+    _bad_copy(path, 1500, b"1,2,3,4,x,6,7,8,9")
+    with pytest.raises(DataError) as err:
+        load_all(path, 2, DataOptions(chunk_rows=700))
+    assert str(err.value).endswith("non-numeric value 'x' on line 1500, column 5 (dq2)")

@@ -1,3 +1,3 @@
-from minparam_cli.cli.app import main
+from minparam_cli.cli.app import entry
 
-raise SystemExit(main())
+raise SystemExit(entry())

@@ -18,8 +18,12 @@ tens of thousands of objects numpy, click, typer and PyYAML create at import.
 That took about 20 ms of a 270 ms ``minparam derive`` on the benchmark VM.
 ``gc.freeze()`` moves the live objects to the collector's permanent
 generation, which those collections skip; the memory goes back to the system
-with the process, as it would anyway.  Nothing is skipped: atexit handlers,
-flushes and finalizers still run.
+with the process, as it would anyway.  atexit handlers, flushes and the
+finalizers of objects freed by reference counting still run; objects held
+only by reference cycles at that point are not collected, so their
+``__del__`` does not run (Python does not promise it at exit either).  The
+console script calls it right before the process exits, never ``main()``
+itself: a long-lived caller would keep those cycles for good.
 """
 
 from __future__ import annotations

@@ -109,6 +109,14 @@ def main() -> int:
         app(standalone_mode=True)
     except SystemExit as e:
         return int(e.code or 0) if not isinstance(e.code, str) else 1
-    finally:
-        runtime.freeze_before_exit()  # see runtime.py: the process ends right after this
     return 0
+
+
+def entry() -> int:
+    """The ``minparam`` console script: ``main()``, then ready the process for a quick exit.
+
+    Only here, never in ``main()``: a caller that runs ``main()`` in its own process goes on
+    living, and would keep every reference cycle alive at the freeze (see runtime.py)."""
+    code = main()
+    runtime.freeze_before_exit()
+    return code

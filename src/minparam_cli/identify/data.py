@@ -140,11 +140,12 @@ def time_span(path: str | Path, opts: DataOptions) -> tuple[float, float]:
         return float(t.min()), float(t.max())
     try:
         with open(path, "rb") as fh:
-            header = fh.readline().decode("utf-8", "replace").strip().split(",")
             raw = fh.read(TAIL_BYTES)
-            head = raw.decode("utf-8", "replace").splitlines()
+            head = raw.decode("utf-8", "replace").splitlines()  # \n, \r\n or \r, as the reader
             if len(raw) == TAIL_BYTES:
                 head = head[:-1]  # it may be cut
+            header = (head[0] if head else "").strip().split(",")
+            head = head[1:]
             fh.seek(0, 2)
             size = fh.tell()
             start = max(0, size - TAIL_BYTES)

@@ -10,7 +10,9 @@ messages are the same either way.
 from __future__ import annotations
 
 import contextlib
+import signal
 import sys
+import threading
 import warnings
 from pathlib import Path
 from typing import Iterator
@@ -21,7 +23,6 @@ from minparam_cli.errors import ComputationError, DataError
 from minparam_cli.identify.data import KEYS, DataOptions
 
 BACKGROUND_BYTES = 64 * 2**20
-PR_SET_PDEATHSIG = 1  # linux/prctl.h
 
 
 def _column_indices(header: list[str], n: int, opts: DataOptions, src: str) -> dict[str, list[int] | None]:
@@ -133,57 +134,98 @@ def raw_chunks(path: Path, n: int, opts: DataOptions) -> Iterator[tuple[np.ndarr
             chunks.close()
 
 
-MAX_LINE_BYTES = 2**20
+MAX_LINE_CHARS = 2**20
 
 
 def _header_bytes(path: Path) -> bytes:
     with open(path, "rb") as fh:
-        return fh.readline(MAX_LINE_BYTES)
+        return fh.readline(MAX_LINE_CHARS)
 
 
 def _bad_row(path: Path, start_line: int, header: list[str], err: ValueError) -> DataError:
     """The first line at or after ``start_line`` (1-based, in the file) that loadtxt refuses,
-    described in one line: not UTF-8, a wrong number of values, or a value that is not a number.
-    Only on the error path: it reads the file again up to that line."""
+    described in one line: not UTF-8, only whitespace, a wrong number of values, or a value that
+    is not a number.  numpy itself judges each line, so the verdict is loadtxt's; this only finds
+    the line.  Only on the error path: it reads the file again up to that line."""
     src = str(path)
-    width = len(header)
     try:
-        with open(path, "rb") as fh:
-            no = 0
-            while True:
-                raw = fh.readline(MAX_LINE_BYTES)
-                if not raw:
-                    break
-                no += 1
-                if len(raw) == MAX_LINE_BYTES and not raw.endswith(b"\n"):
-                    return DataError(f"{src}: line {no} is longer than {MAX_LINE_BYTES} bytes")
-                if no < start_line:
-                    continue
-                try:
-                    text = raw.decode("utf-8").split("#", 1)[0].strip()  # loadtxt: '#' starts a comment
-                except UnicodeDecodeError:
-                    return DataError(f"{src}: line {no} is not UTF-8 text")
-                if not text:
-                    continue
-                values = text.split(",")
-                if len(values) != width:
-                    return DataError(f"{src}: line {no} has {len(values)} values, the header has {width}")
-                for c, v in enumerate(values):
-                    try:
-                        float(v)
-                    except ValueError:
-                        shown = v.strip() if len(v.strip()) <= 40 else v.strip()[:40] + "..."
-                        return DataError(
-                            f"{src}: non-numeric value {shown!r} on line {no}, column {c + 1} ({header[c].strip()})"
-                        )
+        found = _first_bad_line(path, start_line, len(header))
     except OSError:
-        pass
-    return DataError(f"{src}: unreadable row after line {start_line - 1} ({err})")
+        found = None
+    if found is None:
+        return DataError(f"{src}: unreadable row after line {start_line - 1} ({err})")
+    no, problem = found
+    if isinstance(problem, tuple):  # a value that is not a number: (column, value)
+        c, v = problem
+        shown = repr(v if len(v) <= 40 else v[:40] + "...")
+        return DataError(f"{src}: non-numeric value {shown} on line {no}, column {c + 1} ({header[c].strip()})")
+    return DataError(f"{src}: line {no} {problem}")
+
+
+def _first_bad_line(path: Path, start_line: int, width: int):
+    """(line number, problem text or (column, value)) of the first line loadtxt refuses, or None."""
+    batch: list[tuple[int, str]] = []
+    # universal newlines as the reader; undecodable bytes become lone surrogates instead of an error
+    with open(path, encoding="utf-8", errors="surrogateescape") as fh:
+        no = 0
+        while True:
+            line = fh.readline(MAX_LINE_CHARS)
+            if not line:
+                break
+            no += 1
+            if len(line) == MAX_LINE_CHARS and not line.endswith("\n"):  # a long line
+                if no >= start_line and not line.lstrip().startswith("#"):
+                    return no, f"is longer than {MAX_LINE_CHARS} characters"
+                while len(line) == MAX_LINE_CHARS and not line.endswith("\n"):  # skip its rest
+                    line = fh.readline(MAX_LINE_CHARS)
+                continue
+            if no < start_line:
+                continue
+            batch.append((no, line.rstrip("\n")))
+            if len(batch) == 1000:
+                bad = _judge(batch, width)
+                if bad is not None:
+                    return bad
+                batch = []
+    return _judge(batch, width) if batch else None
+
+
+def _judge(batch: list[tuple[int, str]], width: int):
+    """The first line of ``batch`` that loadtxt refuses (or reads at another width), or None."""
+    if _loads([text for _, text in batch], width):
+        return None
+    for no, text in batch:
+        if any("\udc80" <= ch <= "\udcff" for ch in text):
+            return no, "is not UTF-8 text"
+        if _loads([text], width):
+            continue
+        if not text.strip():
+            return no, "holds only whitespace"
+        values = text.split("#", 1)[0].split(",")
+        if len(values) != width:
+            return no, f"has {len(values)} values, the header has {width}"
+        for c, v in enumerate(values):
+            if not v or not _loads([v], 1):
+                return no, (c, v)
+        return no, "cannot be read"
+    return None
+
+
+def _loads(lines: list[str], width: int) -> bool:
+    """Whether loadtxt reads these lines, as rows of ``width`` values (or as no rows at all)."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # lines with no data
+        try:
+            table = np.loadtxt(lines, delimiter=",", ndmin=2)
+        except ValueError:
+            return False
+    return table.size == 0 or table.shape[1] == width
 
 
 def _loadtxt(fh, rows: int) -> np.ndarray:
     with warnings.catch_warnings():  # a file of exactly k chunks ends on an empty read
         warnings.filterwarnings("ignore", "loadtxt: input contained no data")
+        warnings.filterwarnings("ignore", "Input line .* contained no data")  # a blank or comment line
         return np.loadtxt(fh, delimiter=",", max_rows=rows, ndmin=2)
 
 
@@ -198,44 +240,40 @@ def _sequential(fh, rows: int) -> Iterator[np.ndarray]:
             return
 
 
-def _parse_worker(path: str, rows: int, out) -> None:
+def _parse_worker(path: str, rows: int, out, theirs) -> None:
     """The second process: parse the file's chunks in order into ``out`` (a pipe's sending end);
-    an error ends it.  It dies with the reading process, and leaves Ctrl-C to that process."""
-    import os
-    import signal
-
+    an error ends it.  ``theirs`` is the reading process's end, inherited by the fork: closed here,
+    so that when the reading process is gone the next send fails and this process ends too."""
+    theirs.close()
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # the reading process handles Ctrl-C and ends this one
-    parent = os.getppid()
     try:
-        import ctypes
-
-        ctypes.CDLL(None).prctl(PR_SET_PDEATHSIG, signal.SIGKILL)  # killed when the reading process dies
-    except (OSError, AttributeError):  # not Linux/glibc: the reading process's own cleanup still ends it
+        try:
+            with open(path, encoding="utf-8", errors="strict") as fh:
+                fh.readline()
+                for chunk in _sequential(fh, rows):
+                    out.send(chunk)
+        except ValueError as e:
+            out.send(("ValueError", str(e)))
+        except OSError as e:
+            if isinstance(e, BrokenPipeError):
+                raise
+            out.send(("OSError", str(e)))
+    except BrokenPipeError:  # the reading process has gone (ended early, killed): nothing to tell
         pass
-    if os.getppid() != parent:  # the reading process died before prctl took effect
-        return
-    try:
-        with open(path, encoding="utf-8", errors="strict") as fh:
-            fh.readline()
-            for chunk in _sequential(fh, rows):
-                out.send(chunk)
-    except ValueError as e:
-        out.send(("ValueError", str(e)))
-    except Exception as e:  # noqa: BLE001 - reported by the reading process
-        out.send(("OSError", str(e)))
 
 
 def _background(path: Path, rows: int) -> Iterator[np.ndarray]:
     """The same chunks as ``_sequential``, parsed one ahead by a second process.
 
-    A one-way pipe, whose sending end only the second process holds: if that process dies (killed,
-    out of memory) the read ends at once with EOF instead of waiting for a message that never comes.
+    A one-way pipe, of which each process keeps one end: if the second process dies (killed, out
+    of memory) the read here ends at once with EOF instead of waiting for a message that never
+    comes; if this process ends, the second one's next send fails and it ends too.
     """
     import multiprocessing as mp
 
     ctx = mp.get_context("fork")
     recv, send = ctx.Pipe(duplex=False)  # the child's send waits until the last chunk is taken
-    proc = ctx.Process(target=_parse_worker, args=(str(path), rows, send), daemon=True)
+    proc = ctx.Process(target=_parse_worker, args=(str(path), rows, send, recv), daemon=True)
     proc.start()
     send.close()
     try:
@@ -267,9 +305,6 @@ def _background(path: Path, rows: int) -> Iterator[np.ndarray]:
 @contextlib.contextmanager
 def _no_interrupt():
     """Ctrl-C ignored for the duration (main thread only; elsewhere nothing changes)."""
-    import signal
-    import threading
-
     if threading.current_thread() is not threading.main_thread():
         yield
         return
