@@ -21,7 +21,7 @@ import numpy as np
 
 from minparam_cli.identify.data import Block
 from minparam_cli.identify.design import Design, Term
-from minparam_cli.identify.effects import EFFECTS
+from minparam_cli.identify.effects import EFFECTS, source_columns
 
 ZERO = -1  # selection index of a zero column (the factors carry a zero column last)
 
@@ -33,23 +33,17 @@ class Catalogue:
     p: int
     sources: tuple[tuple[str, float | None], ...]
     start: dict  # (effect, hyper) -> first column
+    y: int  # the column of τ_j, after the last source's
 
     @staticmethod
     def of(p: int, effects: tuple[str, ...], with_model: bool) -> "Catalogue":
-        sources, start, c = [], {}, p
-        for eid in effects:
-            e = EFFECTS[eid]
-            if e.needs_model and not with_model:
-                continue
-            for h in e.grid or (None,):
-                sources.append((eid, h))
-                start[(eid, h)] = c
-                c += len(e.column_names)
-        return Catalogue(p, tuple(sources), start)
-
-    @property
-    def y(self) -> int:
-        return self.p + sum(len(EFFECTS[e].column_names) for e, _ in self.sources)
+        sources = tuple(
+            (eid, h)
+            for eid in effects
+            if with_model or not EFFECTS[eid].needs_model
+            for h in EFFECTS[eid].grid or (None,)
+        )
+        return Catalogue(p, sources, *source_columns(sources, p))
 
     def columns(self, term: Term) -> list[int]:
         c0 = self.start[(term.effect, term.hyper)]

@@ -105,6 +105,16 @@ EFFECTS: dict[str, Effect] = {
 EFFECT_IDS = tuple(EFFECTS)
 
 
+def source_columns(sources, first: int = 0) -> tuple[dict, int]:
+    """The columns of (effect, grid value) ``sources`` side by side from column ``first``: the first
+    column of each source, and the column after the last."""
+    start, c = {}, first
+    for e, h in sources:
+        start[(e, h)] = c
+        c += len(EFFECTS[e].column_names)
+    return start, c
+
+
 def effect_torque(effect_id: str, s: Signals, joint: int, coefficients, hyper: float | None = None) -> np.ndarray:
     """Torque (N,) that ``effect_id`` with these coefficients adds on ``joint``."""
     cols = EFFECTS[effect_id].columns(s, joint, hyper)

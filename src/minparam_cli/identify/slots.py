@@ -23,7 +23,7 @@ import numpy as np
 
 from minparam_cli.identify.data import Block
 from minparam_cli.identify.design import Design, Term
-from minparam_cli.identify.effects import EFFECTS, Signals
+from minparam_cli.identify.effects import EFFECTS, Signals, source_columns
 
 SLOTTED = ("asymmetric_coulomb", "viscous", "offset", "rotor_inertia", "spring", "drift", "stribeck")
 DERIVED = {"coulomb": "asymmetric_coulomb"}  # effect -> the slotted effect it is a combination of
@@ -53,8 +53,7 @@ def block_rows(design: Design, sources, b: Block) -> np.ndarray:
     """Rows of a block for the accumulators: (N, n, design.p + slots + 1), joint j's
     [design columns | slot columns of joint j | τ_j] in [:, j]."""
     n, N = design.chain.n, len(b)
-    k = sum(len(EFFECTS[e].column_names) for e, _ in sources)
-    out = np.empty((N, n, design.p + k + 1))
+    out = np.empty((N, n, source_columns(sources, design.p)[1] + 1))
     X = out[:, :, : design.p]
     X[...] = design.columns(b)
     out[:, :, -1] = b.tau
@@ -68,19 +67,10 @@ def block_rows(design: Design, sources, b: Block) -> np.ndarray:
     return out
 
 
-def _offsets(sources) -> dict:
-    out, c = {}, 0
-    for e, h in sources:
-        out[(e, h)] = c
-        c += len(EFFECTS[e].column_names)
-    return out
-
-
 def final_maps(design: Design, sources) -> list[np.ndarray] | None:
     """Per joint, M_j with [X_j | S_j | τ_j] M_j = [columns of ``design`` on joint j | τ_j]; None if a term has no slot."""
     n, p = design.chain.n, len(design.kept)
-    at = _offsets(sources)
-    k = sum(len(EFFECTS[e].column_names) for e, _ in sources)
+    at, k = source_columns(sources)
     width = design.p
     maps = []
     for j in range(n):

@@ -23,7 +23,7 @@ from minparam_cli.errors import DataError
 from minparam_cli.identify.data import Block, DataOptions, DataReport, iter_blocks, time_span
 from minparam_cli.identify.design import Design
 from minparam_cli.identify.diagnose import DiagnosisOptions, diagnose
-from minparam_cli.identify.effects import EFFECTS
+from minparam_cli.identify.effects import EFFECTS, source_columns
 from minparam_cli.identify.fit import Accumulator, errors, solve
 from minparam_cli.identify.slots import block_rows, final_maps, slot_sources
 
@@ -75,7 +75,7 @@ def _split_time(path: Path, opts: IdentifyOptions) -> float:
 def _stream(design: Design, sources, n: int, opts: IdentifyOptions, keep: bool, slots=()):
     """One pass over the data: per-joint factors of [design columns | slot columns | τ] (training and
     held out), the thinned diagnosis sample, the data reports, and the design with its drift origin set."""
-    width = design.p + sum(len(EFFECTS[e].column_names) for e, _ in slots)
+    width = source_columns(slots, design.p)[1]
     acc = {"train": Accumulator(n, width), "hold": Accumulator(n, width)}
     thin = {"train": _Thinned(opts.diagnosis_cap), "hold": _Thinned(opts.diagnosis_cap // 2)}
     reports = []
