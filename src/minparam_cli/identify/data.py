@@ -19,7 +19,6 @@ Everything dropped is counted and reported, with the reason.
 from __future__ import annotations
 
 import math
-
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Iterator
@@ -120,6 +119,9 @@ def _clean(table: np.ndarray, last: np.ndarray | None, report: DataReport) -> tu
     return table, new_last
 
 
+TAIL_BYTES = 65536  # how much of the head and of the tail time_span reads
+
+
 def time_span(path: str | Path, opts: DataOptions) -> tuple[float, float]:
     """First and last usable time stamp of a data file without reading it all (CSV: its head and tail).
 
@@ -141,7 +143,7 @@ def time_span(path: str | Path, opts: DataOptions) -> tuple[float, float]:
     try:
         with open(path, "rb") as fh:
             raw = fh.read(TAIL_BYTES)
-            head = raw.decode("utf-8", "replace").splitlines()  # \n, \r\n or \r, as the reader
+            head = _lines(raw)
             if len(raw) == TAIL_BYTES:
                 head = head[:-1]  # it may be cut
             header = (head[0] if head else "").strip().split(",")
@@ -150,7 +152,7 @@ def time_span(path: str | Path, opts: DataOptions) -> tuple[float, float]:
             size = fh.tell()
             start = max(0, size - TAIL_BYTES)
             fh.seek(start)
-            tail = fh.read().decode("utf-8", "replace").splitlines()
+            tail = _lines(fh.read())
     except OSError as e:
         raise DataError(f"{path}: cannot read file ({e.strerror})") from e
     if start > 0:
@@ -166,7 +168,10 @@ def time_span(path: str | Path, opts: DataOptions) -> tuple[float, float]:
     return first, last
 
 
-TAIL_BYTES = 65536
+def _lines(raw: bytes) -> list[str]:
+    """Lines split at \\n, \\r\\n or \\r, as the reader's universal newlines (str.splitlines would also
+    split at \\x1c, \\x85 or U+2028 inside a row)."""
+    return [line.decode("utf-8", "replace") for line in raw.splitlines()]
 
 
 def _time_of(line: str, k: int) -> float | None:

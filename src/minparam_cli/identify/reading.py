@@ -247,19 +247,19 @@ def _parse_worker(path: str, rows: int, out, theirs) -> None:
     theirs.close()
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # the reading process handles Ctrl-C and ends this one
     try:
-        try:
-            with open(path, encoding="utf-8", errors="strict") as fh:
-                fh.readline()
-                for chunk in _sequential(fh, rows):
-                    out.send(chunk)
-        except ValueError as e:
-            out.send(("ValueError", str(e)))
-        except OSError as e:
-            if isinstance(e, BrokenPipeError):
-                raise
-            out.send(("OSError", str(e)))
+        with open(path, encoding="utf-8", errors="strict") as fh:
+            fh.readline()
+            for chunk in _sequential(fh, rows):
+                out.send(chunk)
+        return
     except BrokenPipeError:  # the reading process has gone (ended early, killed): nothing to tell
-        pass
+        return
+    except ValueError as e:
+        message = ("ValueError", str(e))
+    except OSError as e:
+        message = ("OSError", str(e))
+    with contextlib.suppress(BrokenPipeError):
+        out.send(message)
 
 
 def _background(path: Path, rows: int) -> Iterator[np.ndarray]:
