@@ -16,6 +16,15 @@ import pytest
 from conftest import ROOT
 
 
+def _write_rows(path, t, tail=b""):
+    """A two-joint CSV (t, q, dq, ddq, tau) with times ``t``, every other value 1, then ``tail``."""
+    rows = np.hstack([t[:, None], np.ones((len(t), 8))])
+    np.savetxt(path, rows, delimiter=",", header="t,q1,q2,dq1,dq2,ddq1,ddq2,tau1,tau2", comments="", fmt="%.9f")
+    with open(path, "ab") as fh:
+        fh.write(tail)
+    return path
+
+
 def _bad_copy(path, line_no, new_line):
     lines = path.read_bytes().split(b"\n")
     lines[line_no - 1] = new_line
@@ -44,7 +53,7 @@ def test_a_bad_row_is_named_by_its_file_line_in_both_readers(tmp_path, monkeypat
     N = 3000
     t = np.arange(N) / 100.0
     path = tmp_path / "d.csv"
-    np.savetxt(path, np.hstack([t[:, None], np.ones((N, 8))]), delimiter=",", header="t,q1,q2,dq1,dq2,ddq1,ddq2,tau1,tau2", comments="")
+    _write_rows(path, t)
     _bad_copy(path, no, line)
     for limit in (1 << 40, 0):  # sequential, then in the second process
         monkeypatch.setattr(reading, "BACKGROUND_BYTES", limit)
@@ -66,7 +75,7 @@ def test_a_parsing_process_that_dies_mid_message_is_an_error_not_a_hang(tmp_path
 
     N = 2000
     path = tmp_path / "d.csv"
-    np.savetxt(path, np.hstack([np.arange(N)[:, None] / 100.0, np.ones((N, 8))]), delimiter=",", header="t,q1,q2,dq1,dq2,ddq1,ddq2,tau1,tau2", comments="")
+    _write_rows(path, np.arange(N) / 100.0)
     monkeypatch.setattr(reading, "BACKGROUND_BYTES", 0)
     monkeypatch.setattr(reading, "_parse_worker", dying_worker)
     signal.alarm(60)  # a hang fails the test instead of the suite
@@ -148,14 +157,6 @@ def test_ctrl_c_ends_both_processes_quietly(tmp_path):
     assert _gone(child)
 
 
-def _write_rows(path, t, width=9, tail=b""):
-    rows = np.hstack([t[:, None], np.ones((len(t), width - 1))])
-    np.savetxt(path, rows, delimiter=",", header="t,q1,q2,dq1,dq2,ddq1,ddq2,tau1,tau2", comments="", fmt="%.9f")
-    with open(path, "ab") as fh:
-        fh.write(tail)
-    return path
-
-
 @pytest.mark.parametrize(
     "tail",
     [b"5.0,1,1,1,1,1,1,1,1\n", b"nan,nan,nan,nan,nan,nan,nan,nan,nan\n", b"0,1,1,1,1,1,1,1,1\n", b"\n\n", b"# the end\n"],
@@ -217,7 +218,7 @@ def test_reading_goes_on_after_the_thread_that_started_it_ends(tmp_path, monkeyp
 
     N = 3000
     path = tmp_path / "d.csv"
-    np.savetxt(path, np.hstack([np.arange(N)[:, None] / 100.0, np.ones((N, 8))]), delimiter=",", header="t,q1,q2,dq1,dq2,ddq1,ddq2,tau1,tau2", comments="")
+    _write_rows(path, np.arange(N) / 100.0)
     monkeypatch.setattr(reading, "BACKGROUND_BYTES", 0)
     chunks = reading.raw_chunks(path, 2, DataOptions(chunk_rows=700))
     first = []
@@ -246,7 +247,7 @@ def test_a_long_comment_line_is_not_the_bad_row(tmp_path):
 
     N = 3000
     path = tmp_path / "d.csv"
-    np.savetxt(path, np.hstack([np.arange(N)[:, None] / 100.0, np.ones((N, 8))]), delimiter=",", header="t,q1,q2,dq1,dq2,ddq1,ddq2,tau1,tau2", comments="")
+    _write_rows(path, np.arange(N) / 100.0)
     _bad_copy(path, 50, b"# " + b"c" * (MAX_LINE_CHARS + 10))
     _bad_copy(path, 1500, b"1,2,3,4,x,6,7,8,9")
     with pytest.raises(DataError) as err:
