@@ -30,7 +30,7 @@ from typing import Callable
 import numpy as np
 
 from minparam_cli.base.echelon import ExactRowSpace, FloatRowSpace, integer_rref
-from minparam_cli.base.result import BaseSet, beta_from_unit_columns, regrouping_matrix, scan_margin
+from minparam_cli.base.result import RANK_RTOL, BaseSet, beta_from_unit_columns, physical_scales, regrouping_matrix, scan_margin
 from minparam_cli.chain import REVOLUTE, Chain
 from minparam_cli.dynamics.projection import (
     KINETIC,
@@ -219,9 +219,10 @@ def _exact_result(geom: ProjectionGeometry, stream: dict):
 # --- step 3-4, floating point ------------------------------------------------------
 
 
-def _scan_in_order(Zn: np.ndarray, tol: float) -> tuple[list[int], np.ndarray]:
-    """Keep rule on unit-norm columns: r[i] = distance of column i from the span of the kept
-    columns before it (Gram–Schmidt, each projection done twice for orthogonality)."""
+def _scan_in_order(Zn: np.ndarray, rel: np.ndarray) -> tuple[list[int], np.ndarray]:
+    """Keep rule: r[i] = distance of unit-norm column i from the span of the kept columns before
+    it (Gram–Schmidt, each projection done twice for orthogonality), times ``rel[i]``, the column's
+    size in physical units relative to the largest; kept when r[i] > RANK_RTOL."""
     rows, P = Zn.shape
     Q = np.zeros((rows, min(rows, P)))
     r = np.zeros(P)
@@ -231,9 +232,10 @@ def _scan_in_order(Zn: np.ndarray, tol: float) -> tuple[list[int], np.ndarray]:
         Qk = Q[:, : len(kept)]
         for _ in range(2):
             v -= Qk @ (Qk.T @ v)
-        r[i] = np.linalg.norm(v)
-        if r[i] > tol and len(kept) < Q.shape[1]:
-            Q[:, len(kept)] = v / r[i]
+        res = np.linalg.norm(v)
+        r[i] = res * rel[i]
+        if r[i] > RANK_RTOL and len(kept) < Q.shape[1]:
+            Q[:, len(kept)] = v / res
             kept.append(i)
     return kept, r
 
@@ -251,15 +253,16 @@ def _float_result(geom: ProjectionGeometry, stream: dict):
         e[0, col] = 1.0
         blocks.append(e)
     Zs = np.concatenate(blocks, axis=0)  # same Gram matrix as Z: same dependencies, same least squares
-    eps = np.finfo(float).eps
     rows_z = max(int(stream["nonzero_rows"]), 1)
     norms = np.linalg.norm(Zs, axis=0)
-    zero_tol = norms.max() * max(rows_z, P) * eps if P else 0.0
-    effect = norms > zero_tol
+    # rows are energies; the columns in physical units, lengths in units of the robot's size (as on the QR route)
+    size = norms * physical_scales(chain.layout, chain.types, chain.length_scale)[0]
+    largest = size.max() if P else 0.0
+    effect = size > RANK_RTOL * largest if largest > 0 else np.zeros(P, dtype=bool)
     Zn = np.zeros_like(Zs)
     Zn[:, effect] = Zs[:, effect] / norms[effect]
-    tol = max(rows_z, P) * eps
-    kept, r = _scan_in_order(Zn, tol)
+    rel = np.where(effect, size / largest if largest > 0 else 0.0, 0.0)
+    kept, r = _scan_in_order(Zn, rel)
     unident = [i for i in range(P) if not effect[i]]
     dropped = [i for i in range(P) if i not in set(kept)]
     if dropped and kept:
@@ -268,8 +271,8 @@ def _float_result(geom: ProjectionGeometry, stream: dict):
     else:
         beta = np.zeros((len(kept), len(dropped)))
     K = regrouping_matrix(kept, beta, dropped, P)
-    criterion = "|R_ii| of unit-norm columns of Z in scan order; cut at max(rows, P)*eps"
-    margin = scan_margin(r, kept, dropped, effect, criterion, tol, rows_z)
+    criterion = "|R_ii| / largest column of Z, columns in physical units (lengths in units of the robot's size), scan order"
+    margin = scan_margin(r, kept, dropped, effect, criterion, RANK_RTOL, rows_z)
     return kept, K, unident, margin, None
 
 

@@ -1,18 +1,26 @@
 """Base parameters from random samples and QR (Gautier 1990; Zhu et al., paper 003).
 
 1. Stack the regressor W = Y(q, qd, qdd) of ``samples`` seeded random states.
-2. Normalise the columns (dependence does not change under column scaling).
+2. Put W in physical units with lengths in units of the robot's size L
+   (``result.physical_scales``): a column's size then measures its effect on
+   the torques, so the cut below means the same on every robot and in every
+   unit system, and a parameter whose effect is tiny (a mass at 1.6 mm from an
+   axis) is not magnified up to the size of the others.
 3. Keep rule (Gautier & Khalil 1990): scan the columns in the standard order
    (link 1..n, XX..M within a link, then the extras) and keep a column unless
    it is a combination of the columns already kept.  This is Householder QR
    in the scan order, without pivoting: |R_ii| is the norm of column i's part
-   orthogonal to the columns before it.  (Paper 003 pivots the QR; pivoting
-   picks the kept set by size, not by the documented order, so the order is
-   fixed here and the pivot's job, the rank, is done by the singular values.)
-4. The count is confirmed independently by the singular values; both cut at
-   numpy's ``matrix_rank`` tolerance, max · max(M, N) · eps.
+   orthogonal to the columns before it.  It is kept when |R_ii| exceeds
+   RANK_RTOL (1e-8) times the largest column norm; a column whose whole norm is
+   below that has no effect.  (Paper 003 pivots the QR; pivoting picks the kept
+   set by size, not by the documented order, so the order is fixed here and
+   the pivot's job, the rank, is confirmed by the singular values.)
+4. The count is confirmed independently by the singular values of the same
+   matrix, cut at RANK_RTOL times the largest.
 5. A second QR of the kept columns, W_kept = Q1 R1, gives β = R1⁻¹ Q1ᵀ W_dropped
    (paper 003: β = R1⁻¹ R2), so that W φ = W_kept (φ_kept + β φ_dropped).
+   Column scaling does not change β's relations, so it is computed on
+   unit-norm columns for accuracy and scaled back.
 """
 
 from __future__ import annotations
@@ -22,7 +30,7 @@ import time
 
 import numpy as np
 
-from minparam_cli.base.result import BaseSet, beta_from_unit_columns, regrouping_matrix, scan_margin
+from minparam_cli.base.result import RANK_RTOL, BaseSet, beta_from_unit_columns, physical_scales, regrouping_matrix, scan_margin
 from minparam_cli.chain import Chain
 from minparam_cli.dynamics.regressor import random_states, regressor
 from minparam_cli.errors import ComputationError, InputError
@@ -51,7 +59,7 @@ def derive_qr(chain: Chain, samples: int = DEFAULT_SAMPLES, seed: int = DEFAULT_
             f"{samples} samples give {rows} equations for {P} parameters; use at least {-(-P // chain.n)} samples"
         )
     W = stacked_regressor(chain, samples, sample_rng(seed))
-    kept, K, unident, margin = base_from_regressor(W, chain.source)
+    kept, K, unident, margin = base_from_regressor(W, chain.source, *chain_scales(chain))
     return BaseSet(
         standard_names=chain.layout.names,
         kept=tuple(kept),
@@ -66,28 +74,42 @@ def derive_qr(chain: Chain, samples: int = DEFAULT_SAMPLES, seed: int = DEFAULT_
     )
 
 
-def base_from_regressor(W: np.ndarray, source: str = ""):
-    """Kept columns, regrouping matrix K, no-effect columns and rank margin of a stacked regressor."""
+def chain_scales(chain: Chain) -> tuple[np.ndarray, np.ndarray]:
+    """Column factors and per-row factors (stacked rows: sample-major) of ``chain``'s regressor
+    in physical units, lengths in units of the robot's size (``result.physical_scales``)."""
+    return physical_scales(chain.layout, chain.types, chain.length_scale)
+
+
+def base_from_regressor(W: np.ndarray, source: str = "", col_scale: np.ndarray | None = None, joint_row_scale: np.ndarray | None = None):
+    """Kept columns, regrouping matrix K, no-effect columns and rank margin of a stacked regressor.
+
+    ``col_scale`` and ``joint_row_scale`` (one factor per joint, rows stacked sample by sample)
+    put W in physical units (``chain_scales``); without them W is taken as it is.
+    """
     rows, P = W.shape
+    if joint_row_scale is not None and np.any(joint_row_scale != 1.0):
+        W = W * np.tile(joint_row_scale, rows // len(joint_row_scale))[:, None]
     norms = np.sqrt(np.einsum("ij,ij->j", W, W))  # no (rows, P) temporary
-    eps = np.finfo(float).eps
-    zero_tol = norms.max() * max(rows, P) * eps
-    effect = norms > zero_tol
-    tol = max(rows, P) * eps  # columns have unit norm, so max |R_ii| <= 1
+    size = norms * (col_scale if col_scale is not None else 1.0)  # column norms in physical units
+    largest = size.max() if P else 0.0
+    effect = size > RANK_RTOL * largest if largest > 0 else np.zeros(P, dtype=bool)
     cols = np.flatnonzero(effect)
     Wn = W[:, cols]
     Wn *= 1.0 / norms[cols]
     # one Householder QR in scan order: Wn = Q R, Q orthogonal, so R carries
-    # every column norm, singular value and least-squares solution of Wn
+    # every column norm, singular value and least-squares solution of Wn;
+    # scaling a column scales its column of R, so |R_ii| * size_i is the
+    # residual of column i in physical units
     R = np.linalg.qr(Wn, mode="r")
+    rel = size[cols] / largest if cols.size else size[cols]
     r = np.zeros(P)
-    r[cols] = np.abs(np.diagonal(R))
-    kept = [int(i) for i in cols if r[i] > tol]
+    r[cols] = np.abs(np.diagonal(R)) * rel
+    kept = [int(i) for i in cols if r[i] > RANK_RTOL]
     unident = [i for i in range(P) if not effect[i]]
 
-    # independent confirmation of the count: numerical rank by singular values (numpy's matrix_rank cut)
-    sv = np.linalg.svd(R, compute_uv=False)
-    rank_svd = int(np.sum(sv > sv[0] * max(rows, P) * eps))
+    # independent confirmation of the count: singular values of the same matrix, same relative cut
+    sv = np.linalg.svd(R * rel, compute_uv=False) if cols.size else np.zeros(0)
+    rank_svd = int(np.sum(sv > sv[0] * RANK_RTOL)) if sv.size else 0
     if rank_svd != len(kept):
         raise ComputationError(
             f"{source}: the ordered QR keeps {len(kept)} columns but the singular values give rank {rank_svd}; "
@@ -107,7 +129,11 @@ def base_from_regressor(W: np.ndarray, source: str = ""):
     beta = beta_from_unit_columns(beta_n, norms, effect, kept, dropped)
     K = regrouping_matrix(kept, beta, dropped, P)
 
-    margin = scan_margin(r, kept, dropped, effect, "|R_ii| of unit-norm columns, QR in scan order; cut at max(M,N)*eps", tol, rows)
+    criterion = "|R_ii| / largest column, columns in physical units (lengths in units of the robot's size), QR in scan order"
+    margin = scan_margin(r, kept, dropped, effect, criterion, RANK_RTOL, rows)
     margin["svd_rank"] = rank_svd
-    margin["svd_gap"] = [float(sv[rank_svd - 1] / sv[0]), float(sv[rank_svd] / sv[0]) if rank_svd < len(sv) else None]
+    margin["svd_gap"] = [
+        float(sv[rank_svd - 1] / sv[0]) if rank_svd else None,
+        float(sv[rank_svd] / sv[0]) if rank_svd < len(sv) else None,
+    ]
     return kept, K, unident, margin

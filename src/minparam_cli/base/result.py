@@ -10,6 +10,15 @@ from minparam_cli.params import split_name
 
 # entries of the normalised regrouping matrix below this are rounding noise
 COEFFICIENT_CUTOFF = 1e-10
+# The rank cut of both numeric routes (docs/methods/qr.md, "The rank cut"): with every column in
+# physical units, lengths in units of the robot's size (``physical_scales``), a column is kept when
+# its part orthogonal to the kept columns before it exceeds RANK_RTOL times the largest column.
+# Rounding leaves ~1e-13 on exactly dependent columns (69 real URDFs); any real effect above
+# 1e-8 of the largest is kept.
+RANK_RTOL = 1e-8
+# kept parameters whose relative residual is below this are weakly identifiable: they are
+# named with their margin and, where one is found, the near-special geometry that keeps them
+WEAK_RTOL = 1e-4
 # β is accurate to ~1e-13 relative; 12 significant digits drop only rounding noise (1 - 2e-16 -> 1)
 BETA_DIGITS = 12
 
@@ -78,6 +87,31 @@ class BaseSet:
         return out
 
 
+def physical_scales(layout, types, length: float) -> tuple[np.ndarray, np.ndarray]:
+    """Column and per-joint row factors that put the regressor in physical units with lengths in
+    units of ``length`` (L, the robot's size), masses in kg and time in s.
+
+    Column c is multiplied by u_c / L² with u_c the unit of its parameter in those units
+    (inertia and revolute rotor inertia kg·L² -> 1, first moment kg·L -> 1/L, mass and prismatic
+    rotor inertia kg -> 1/L², friction and offset of a prismatic joint kg·L/s² -> 1/L, of a
+    revolute joint 1); joint k's rows by L² / v_k (revolute torque kg·L²/s² -> 1, prismatic
+    force kg·L/s² -> L).  So a mass whose only effect is a² times an inertia's (a point mass at
+    distance a from an axis) has relative size (a/L)², not 1 as after scaling columns to unit norm.
+    """
+    L = float(length) if length > 0 else 1.0
+    col = []
+    for _ in range(layout.n_links):
+        col += [1.0] * 6 + [1.0 / L] * 3 + [1.0 / L**2]
+    for j, kind in layout.extra_columns:
+        rev = types[j] == "revolute"
+        if kind == "rotor_inertia":
+            col.append(1.0 if rev else 1.0 / L**2)
+        else:
+            col.append(1.0 if rev else 1.0 / L)
+    row = np.array([1.0 if t == "revolute" else L for t in types])
+    return np.array(col), row
+
+
 def regrouping_matrix(kept: list[int], beta: np.ndarray, dropped: list[int], n: int) -> np.ndarray:
     """Assemble K from the kept columns and β over the dropped columns."""
     K = np.zeros((len(kept), n))
@@ -106,7 +140,8 @@ def beta_from_unit_columns(beta_n: np.ndarray, norms: np.ndarray, effect: np.nda
 
 
 def scan_margin(r: np.ndarray, kept: list[int], dropped: list[int], effect: np.ndarray, criterion: str, tol: float, rows: int) -> dict:
-    """The rank margin of a scan-order elimination: smallest kept and largest dropped residual."""
+    """The rank margin of a scan-order elimination: smallest kept and largest dropped residual,
+    and the kept columns below WEAK_RTOL (``weak``: column index and relative residual)."""
     kept_r = r[kept]
     dropped_r = r[[i for i in dropped if effect[i]]]
     return {
@@ -114,6 +149,8 @@ def scan_margin(r: np.ndarray, kept: list[int], dropped: list[int], effect: np.n
         "tolerance": tol,
         "last_kept": float(kept_r.min()) if len(kept_r) else None,
         "first_dropped": float(dropped_r.max()) if len(dropped_r) else None,
+        "weak_bound": WEAK_RTOL,
+        "weak": [[int(c), float(r[c])] for c in kept if r[c] < WEAK_RTOL],
         "coefficient_cutoff": COEFFICIENT_CUTOFF,
         "coefficient_digits": BETA_DIGITS,
         "rows": rows,

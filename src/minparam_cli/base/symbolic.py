@@ -35,7 +35,7 @@ from fractions import Fraction
 
 import numpy as np
 
-from minparam_cli.base.qr import base_from_regressor, sample_rng, stacked_regressor
+from minparam_cli.base.qr import base_from_regressor, chain_scales, sample_rng, stacked_regressor
 from minparam_cli.base.result import BaseSet
 from minparam_cli.chain import build_chain
 from minparam_cli.errors import ComputationError
@@ -102,6 +102,12 @@ class BetaSampler:
 
     def regressor_at(self, x):
         return stacked_regressor(self.chain_at(x), self.samples, sample_rng(self.seed))
+
+    def base_at(self, x):
+        """The QR route's (kept, K, no effect, margin) at the values x of the symbols."""
+        chain = self.chain_at(x)
+        W = stacked_regressor(chain, self.samples, sample_rng(self.seed))
+        return base_from_regressor(W, self.desc.source, *chain_scales(chain))
 
     def __call__(self, x) -> np.ndarray:
         self.calls += 1
@@ -235,8 +241,7 @@ def generic_structure(desc, chain, symbols, pins, rng):
     probe = BetaSampler(desc, chain, symbols, pins, [], [])
     out = []
     for _ in range(2):
-        W = probe.regressor_at(random_geometry(symbols, rng))
-        kept, K, unident, _ = base_from_regressor(W, desc.source)
+        kept, K, unident, _ = probe.base_at(random_geometry(symbols, rng))
         out.append((tuple(kept), K, tuple(unident)))
     if out[0][0] != out[1][0] or out[0][2] != out[1][2]:
         raise ComputationError(f"{desc.source}: the base set differs between two random geometries")
@@ -292,7 +297,7 @@ def special_conditions(sampler, symbols, generic_n, rng) -> list[str]:
     x_file = np.array([s.value for s in symbols])
 
     def rank_at(x):
-        return len(base_from_regressor(sampler.regressor_at(x), sampler.desc.source)[0])
+        return len(sampler.base_at(x)[0])
 
     out = []
     for k, s in enumerate(symbols):
