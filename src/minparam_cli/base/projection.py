@@ -39,6 +39,7 @@ from minparam_cli.dynamics.projection import (
     basis_dimension,
     energy_blocks,
     produced_rows,
+    recursion_work,
     row_maps,
 )
 from minparam_cli.dynamics.projection_terms import (
@@ -50,15 +51,21 @@ from minparam_cli.dynamics.projection_terms import (
 )
 from minparam_cli.errors import ComputationError
 
-# Refuse chains whose Z has more rows than this, estimated up front from the joint
-# types alone (dim B, the paper's count).  Memory stays ~100 MB whatever the size
-# (the recursion is chunked); the time grows with the nonzero rows, ~5x per revolute
-# joint.  Measured, generic geometry, one core (benchmarks/bench_projection.py,
-# docs/methods/projection.md): 8 revolute joints 0.14 s, 10 (5.4e8 rows) 3 s,
-# 11 (3.2e9 rows) 15 s; 12 (1.9e10 rows) would take over a minute, so it is refused.
-# Right angles cancel far more (12 such joints take 0.6 s) but are refused too:
-# the estimate is made before anything is computed.
+# Two up-front guards, both computed before any row of Z (docs/methods/projection.md, "Cost"):
+# * MAX_ROWS bounds the rows of Z, from the joint types alone (dim B, the paper's count).
+#   Memory stays ~100 MB whatever the size (the recursion is chunked), but the progress
+#   counters and the basis grow with it.
+# * MAX_WORK bounds the time: the matrices the recursion multiplies, counted on the
+#   nonzero patterns of the joint maps (dynamics.projection.recursion_work), which sees
+#   what the row count cannot: right angles and axes along frame axes make most products
+#   zero (g1: 1.1e9 rows, 7.7e7 matrices, 5 s), generic angles do not (icub_reduced:
+#   1.1e9 rows, 1.5e9 matrices, over 300 s).  Measured on the 2-core development VM,
+#   15-180 ns per matrix on the robots that take over a second; 4e8 matrices is about a
+#   minute at 150 ns, so that is the limit (PROJECTION_TIME_LIMIT_S).
 MAX_ROWS = 4 * 10**9
+MAX_WORK = 4 * 10**8
+SECONDS_PER_MATRIX = 150e-9
+PROJECTION_TIME_LIMIT_S = 60
 # float mode: beta is accurate to ~1e-13 relative; keep 12 significant digits (as the QR route)
 
 Progress = Callable[[int, int], None]
@@ -79,16 +86,22 @@ def derive_projection(chain: Chain, progress: Progress | None = None) -> BaseSet
             f"{chain.source}: the method of projections would produce {cost['rows']:,} rows of Z for "
             f"{chain.n} joints (limit {MAX_ROWS:,}, about 11 revolute joints); use --method qr"
         )
+    geom = exact_geometry(chain) if chain.exact is not None else float_geometry(chain)
+    work = recursion_work(geom)
+    if work > MAX_WORK:
+        raise ComputationError(
+            f"{chain.source}: the method of projections would multiply {work:.2g} matrices for {chain.n} joints "
+            f"(limit {MAX_WORK:.0e}, about {PROJECTION_TIME_LIMIT_S} s; estimated {work * SECONDS_PER_MATRIX:.0f} s); use --method qr"
+        )
+    cost["work"] = work
     if chain.exact is not None:
         try:
-            geom = exact_geometry(chain)
             stream = _stream(geom, progress, cost["rows"])
         except InexactFloat:
             geom = exact_geometry(chain, python_ints=True)
             stream = _stream(geom, progress, cost["rows"])
         result = _exact_result(geom, stream)
     else:
-        geom = float_geometry(chain)
         stream = _stream(geom, progress, cost["rows"])
         result = _float_result(geom, stream)
     kept, K, unident, margin, K_exact = result
@@ -96,6 +109,7 @@ def derive_projection(chain: Chain, progress: Progress | None = None) -> BaseSet
         "basis_rows": cost["basis_rows"],
         "rows": cost["rows"],
         "nonzero_rows": stream["nonzero_rows"],
+        "matrices_bound": cost["work"],
         "exact": geom.exact,
         "arithmetic": _arithmetic(geom),
     }
@@ -276,4 +290,4 @@ def _float_result(geom: ProjectionGeometry, stream: dict):
     return kept, K, unident, margin, None
 
 
-__all__ = ["MAX_ROWS", "derive_projection", "projection_cost"]
+__all__ = ["MAX_ROWS", "MAX_WORK", "derive_projection", "projection_cost"]
