@@ -1,9 +1,11 @@
-"""The diagnosis on synthetic data with effects the model does not declare (issue 5 acceptance).
+"""The diagnosis on synthetic data with effects the model does not declare.
 
 Each scenario: `minparam simulate` injects an effect of 0.1 N·m RMS on each of
 its joints (ten times the torque noise, 0.01 N·m), `minparam identify` must
 name exactly that effect on exactly those joints, with its grid value, add
-nothing spurious, and end within 1.5x the noise floor on the held-out data.
+nothing spurious, and end within 1.5x the noise floor on the test data (the
+last block of the recording, which neither fitted nor chose the model).
+Three robots (PUMA 560, Panda, UR5), three seeds each.
 (At the default --strength, 10 % of each joint's rigid torque, the PUMA's
 wrist effects are below this noise and are rightly not reported.)
 """
@@ -18,21 +20,41 @@ from typer.testing import CliRunner
 from minparam_cli.cli.app import app
 
 NOISE = 0.01
-ALL6, ALL7 = [1, 2, 3, 4, 5, 6], [1, 2, 3, 4, 5, 6, 7]
+SEEDS = (1, 2, 3)
+# per robot: the joint that carries the spring, the cogging and the load-dependent Coulomb friction
+ROBOTS = {"puma560_mdh.yaml": (2, 3, 2), "panda.yaml": (3, 4, 2), "ur5.yaml": (2, 3, 3)}
 
-SCENARIOS = [
-    ("puma560_mdh.yaml", "coulomb:amp=0.1,viscous:amp=0.1", {("coulomb", tuple(ALL6), None), ("viscous", tuple(ALL6), None)}),
-    ("puma560_mdh.yaml", "rotor_inertia:amp=0.1", {("rotor_inertia", tuple(ALL6), None)}),
-    ("puma560_mdh.yaml", "spring@2:amp=0.1", {("spring", (2,), None)}),
-    ("puma560_mdh.yaml", "offset:amp=0.1", {("offset", tuple(ALL6), None)}),
-    ("puma560_mdh.yaml", "stribeck:amp=0.1", {("stribeck", tuple(ALL6), 0.05)}),
-    ("puma560_mdh.yaml", "cogging@3:amp=0.1", {("cogging", (3,), 12.0)}),
-    ("panda.yaml", "coulomb:amp=0.1,viscous:amp=0.1", {("coulomb", tuple(ALL7), None), ("viscous", tuple(ALL7), None)}),
-    ("panda.yaml", "spring@2:amp=0.1", {("spring", (2,), None)}),
-    ("panda.yaml", "cogging@4:amp=0.1", {("cogging", (4,), 12.0)}),
-    ("puma560_mdh.yaml", "", set()),
-    ("panda.yaml", "", set()),
-]
+
+def rotor_joints(robot: str) -> tuple[int, ...]:
+    """Joints (1-based) whose rotor inertia is a base parameter of its own, from the derive stage: the others
+    regroup (Ia1 into ZZR1 when joint 1's axis is fixed in the base) and cannot be told apart."""
+    from minparam_cli.base.qr import derive_qr
+    from minparam_cli.pipeline import DeriveOptions, load_chain
+
+    _, chain = load_chain(f"robots/{robot}", DeriveOptions(rotor_inertia=True))
+    names = derive_qr(chain, seed=0).base_names
+    return tuple(j for j in range(1, chain.n + 1) if f"Ia{j}" in names)
+
+
+def scenarios():
+    out = []
+    for robot, (spring, cog, load) in ROBOTS.items():
+        n = 7 if robot.startswith("panda") else 6
+        every = tuple(range(1, n + 1))
+        cases = [
+            ("coulomb:amp=0.1,viscous:amp=0.1", {("coulomb", every, None), ("viscous", every, None)}),
+            (f"spring@{spring}:amp=0.1", {("spring", (spring,), None)}),
+            (f"cogging@{cog}:amp=0.1", {("cogging", (cog,), 12.0)}),
+            ("stribeck:amp=0.1", {("stribeck", every, 0.05)}),
+            (f"load_coulomb@{load}:amp=0.1", {("load_coulomb", (load,), None)}),
+            ("offset:amp=0.1", {("offset", every, None)}),
+            ("rotor_inertia:amp=0.1", "rotor"),
+            ("", set()),
+        ]
+        for effects, expected in cases:
+            for seed in SEEDS:
+                out.append(pytest.param(robot, effects, expected, seed, id=f"{robot.split('.')[0]}:{effects.replace(':amp=0.1', '') or 'none'}:seed{seed}"))
+    return out
 
 
 def run(*args):
@@ -41,22 +63,28 @@ def run(*args):
     return r.output
 
 
-@pytest.mark.parametrize("robot, effects, expected", SCENARIOS, ids=[f"{r.split('.')[0]}:{e.replace(':amp=0.1', '') or 'none'}" for r, e, _ in SCENARIOS])
-def test_diagnosis_names_the_hidden_effect(tmp_path, robot, effects, expected):
+@pytest.mark.parametrize("robot, effects, expected, seed", scenarios())
+def test_diagnosis_names_the_hidden_effect(tmp_path, robot, effects, expected, seed):
+    """Exactly the injected effect on exactly its joints (with its grid value), nothing else, and the
+    test-data error of the final model within 1.5x the noise floor."""
     data = tmp_path / "sim.csv"
-    args = ["simulate", f"robots/{robot}", "--noise", NOISE, "--seed", 3, "-o", data, "--quiet"]
+    args = ["simulate", f"robots/{robot}", "--noise", NOISE, "--seed", seed, "-o", data, "--quiet"]
     if effects:
         args += ["--effects", effects]
     run(*args)
     rep = json.loads(run("identify", f"robots/{robot}", data, "--format", "json", "--quiet"))
+    if expected == "rotor":
+        expected = {("rotor_inertia", rotor_joints(robot), None)}
     found = {(e["effect"], tuple(e["joints"]), e.get("hyper")) for e in rep["effects"]}
-    assert found == expected, rep["stop_reason"]
-    assert rep["after"]["rms_total"] <= 1.5 * NOISE
-    assert set(rep["before"]) >= {"rms_total", "rms_per_joint", "relative_error"}
+    assert found == expected, (rep["stop_reason"], rep["rejected"])
+    test = rep["test"]
+    assert test["final"]["rms_total"] <= 1.5 * NOISE
     assert rep["steps"][0]["effect"] is None
+    assert rep["before"]["data"] == rep["after"]["data"] == "selection"
     if expected:
-        assert rep["before"]["rms_total"] > rep["after"]["rms_total"]
+        assert test["rigid"]["rms_total"] > 1.2 * test["final"]["rms_total"]
         assert rep["steps"][-1]["rms_total"] == rep["after"]["rms_total"]
+    assert not rep["rejected"]
 
 
 SMOOTH = 0.05  # rad/s
@@ -70,8 +98,8 @@ def test_smooth_coulomb_is_found_with_the_matching_smoothing(tmp_path):
         "--effects", "coulomb:amp=0.1", "--coulomb-smoothing", SMOOTH)
     rep = json.loads(run("identify", "robots/puma560_mdh.yaml", data, "--format", "json", "--quiet",
                          "--coulomb-smoothing", SMOOTH))
-    assert {(e["effect"], tuple(e["joints"])) for e in rep["effects"]} == {("coulomb", tuple(ALL6))}
-    assert rep["after"]["rms_total"] <= 1.5 * NOISE
+    assert {(e["effect"], tuple(e["joints"])) for e in rep["effects"]} == {("coulomb", tuple(range(1, 7)))}
+    assert rep["test"]["final"]["rms_total"] <= 1.5 * NOISE
     assert rep["coulomb_model"] == f"tanh(dq / {SMOOTH:g})"
 
 
@@ -85,6 +113,6 @@ def test_declared_smooth_coulomb_fits_smooth_data_better_than_sign(tmp_path):
               "--friction", "coulomb")
     smooth = json.loads(run(*common, "--coulomb-smoothing", 0.2))
     sharp = json.loads(run(*common))
-    assert smooth["after"]["rms_total"] <= 1.5 * NOISE
-    assert sharp["after"]["rms_total"] > 2 * smooth["after"]["rms_total"]
+    assert smooth["test"]["final"]["rms_total"] <= 1.5 * NOISE
+    assert sharp["test"]["final"]["rms_total"] > 2 * smooth["test"]["final"]["rms_total"]
     assert any(k.startswith("Fc") for k in smooth["parameters"])

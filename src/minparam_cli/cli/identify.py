@@ -6,7 +6,7 @@ import json
 import math
 from enum import Enum
 from pathlib import Path
-from typing import Optional
+from typing import List, Optional
 
 import typer
 
@@ -15,14 +15,15 @@ from minparam_cli.cli.common import Progress, guarded, parse_floats, save_png, w
 HELP = (
     "Identify the base parameters from measured joint data (CSV with a header row, or .npz), find what the "
     "residual says the model lacks (friction, rotor inertia, springs, cogging, offsets, ...), add it, and "
-    "report the held-out error before and after."
+    "report the error before and after: effects are chosen on selection data, and the final figures come from "
+    "test data that chose nothing."
 )
 EPILOG = """\b
 Examples:
   minparam simulate robots/puma560_mdh.yaml --effects coulomb,viscous --noise 0.05 -o sim.csv
   minparam identify robots/puma560_mdh.yaml sim.csv
   minparam identify robots/panda.yaml ../shared/data/panda-gaz2019/panda_exciting_traj_1.csv --plot figs/
-  minparam identify robots/panda.yaml train.csv --validate test.csv --format json -o report.json
+  minparam identify robots/panda.yaml run1.csv --validate run2.csv --test run3.csv --format json -o report.json
   minparam identify robots/ur5.yaml log.csv --columns q=pos,dq=vel,tau=effort --cutoff 8
 
 \b
@@ -55,34 +56,44 @@ def _columns(text: str) -> dict[str, str]:
 def identify(
     robot: Path = typer.Argument(..., help="Robot description (YAML DH/MDH or URDF).", show_default=False),
     data: Path = typer.Argument(..., help="Measured data: CSV with a header row, or .npz.", show_default=False),
-    validate: Optional[Path] = typer.Option(None, "--validate", help="Held-out data in a second file (else the last --holdout of the time)."),
-    holdout: float = typer.Option(0.3, "--holdout", help="Fraction of the time span held out, at the end."),
+    validate: Optional[Path] = typer.Option(None, "--validate", help="Selection data (scores the candidate effects) in a second file, instead of a block of DATA."),
+    test: List[Path] = typer.Option([], "--test", help="Test data file, touched only by the final report (repeatable); instead of the last block of DATA."),
+    split: str = typer.Option("0.6,0.2,0.2", "--split", help="Shares of DATA's time span for fit, selection and test, in that order (shares given as files are dropped)."),
     columns: str = typer.Option("", "--columns", help="Column names: t=time,q=pos,dq=vel,ddq=acc,tau=effort (q, dq, ddq, tau are prefixes)."),
     cutoff: float = typer.Option(5.0, "--cutoff", help="Low-pass cut-off (Hz) when velocities or accelerations are derived."),
     force_filter: bool = typer.Option(False, "--filter", help="Filter and differentiate even when dq and ddq are given."),
     rate: Optional[float] = typer.Option(None, "--rate", help="Sampling rate (Hz) to resample to; default: the median step."),
     decimate: Optional[int] = typer.Option(None, "--decimate", min=1, help="Keep one sample in K (default: about 10x the cut-off)."),
+    trim_still: Optional[float] = typer.Option(None, "--trim-still", help="Cut every segment longer than this many seconds in which all joints stand still (|dq| < --still-speed)."),
+    still_speed: float = typer.Option(0.01, "--still-speed", help="Speed below which a joint counts as still (rad/s or m/s)."),
     friction: str = typer.Option("", "--friction", help="Declare friction in the model: any of coulomb,viscous,offset."),
     rotor_inertia: bool = typer.Option(False, "--rotor-inertia", help="Declare rotor inertia in the model."),
     coulomb_smoothing: float = typer.Option(0.0, "--coulomb-smoothing", help="Smooth Coulomb friction: tanh(dq/V) for sign(dq), V in rad/s (m/s), in the declared Fc columns and the diagnosis' friction effects; 0: sign."),
     gravity: Optional[str] = typer.Option(None, "--gravity", help="Gravity X,Y,Z in m/s² (overrides the file)."),
     effects: str = typer.Option("", "--effects", help="Restrict the diagnosis to these effect ids (default: the whole library)."),
     no_diagnose: bool = typer.Option(False, "--no-diagnose", help="Fit the declared model only."),
-    min_gain: float = typer.Option(0.02, "--min-gain", help="Smallest share of the held-out residual energy an effect must remove."),
-    ols: bool = typer.Option(False, "--ols", help="Ordinary least squares instead of Gautier's per-joint weighting."),
+    min_gain: float = typer.Option(0.02, "--min-gain", help="Smallest share of the selection residual energy an effect must remove."),
+    ols: bool = typer.Option(False, "--ols", help="Ordinary least squares instead of Gautier's per-joint weighting, in the diagnosis and the final fit."),
     fmt: Fmt = typer.Option(Fmt.table, "--format", "-f", help="Output format."),
     output: Optional[Path] = typer.Option(None, "--output", "-o", help="Write the report to this file (atomically)."),
     plot: Optional[Path] = typer.Option(None, "--plot", help="Folder for PNG figures (residual vs velocity, measured vs predicted)."),
     seed: int = typer.Option(0, "--seed", help="Seed of the base-set computation (reported)."),
     quiet: bool = typer.Option(False, "--quiet", "-q", help="No progress bar."),
 ):
-    _identify(robot, data, validate, holdout, columns, cutoff, force_filter, rate, decimate, friction, rotor_inertia,
-              gravity, effects, no_diagnose, min_gain, ols, fmt, output, plot, seed, quiet, coulomb_smoothing)
+    _identify(**locals())
+
+
+def _split(text: str) -> tuple[float, float, float]:
+    values = parse_floats(text, 3, "--split")
+    if any(not (math.isfinite(v) and 0 <= v <= 1) for v in values) or values[0] <= 0 or sum(values) <= 0:
+        raise typer.BadParameter("three shares FIT,SELECTION,TEST in [0, 1], FIT > 0", param_hint="--split")
+    return tuple(values)
 
 
 @guarded
-def _identify(robot, data, validate, holdout, columns, cutoff, force_filter, rate, decimate, friction, rotor_inertia,
-              gravity, effects, no_diagnose, min_gain, ols, fmt, output, plot, seed, quiet, coulomb_smoothing=0.0):
+def _identify(robot, data, validate, test, split, columns, cutoff, force_filter, rate, decimate, trim_still, still_speed,
+              friction, rotor_inertia, coulomb_smoothing, gravity, effects, no_diagnose, min_gain, ols, fmt, output, plot,
+              seed, quiet):
     from minparam_cli.identify.data import DataOptions
     from minparam_cli.identify.diagnose import DiagnosisOptions
     from minparam_cli.identify.effects import EFFECT_IDS
@@ -98,12 +109,15 @@ def _identify(robot, data, validate, holdout, columns, cutoff, force_filter, rat
     for k in ids:
         if k not in EFFECT_IDS:
             raise typer.BadParameter(f"unknown effect {k!r}; expected any of {','.join(EFFECT_IDS)}", param_hint="--effects")
-    if not 0 < holdout < 1:
-        raise typer.BadParameter("must be between 0 and 1", param_hint="--holdout")
+    shares = _split(split)
     if cutoff <= 0:
         raise typer.BadParameter("must be positive", param_hint="--cutoff")
     if rate is not None and rate <= 0:
         raise typer.BadParameter("must be positive", param_hint="--rate")
+    if trim_still is not None and not (math.isfinite(trim_still) and trim_still > 0):
+        raise typer.BadParameter("must be a positive number of seconds", param_hint="--trim-still")
+    if not (math.isfinite(still_speed) and still_speed > 0):
+        raise typer.BadParameter("must be a positive speed", param_hint="--still-speed")
     if not 0 <= min_gain < 1:
         raise typer.BadParameter("must be in [0, 1)", param_hint="--min-gain")
     if not (math.isfinite(coulomb_smoothing) and coulomb_smoothing >= 0):
@@ -115,12 +129,14 @@ def _identify(robot, data, validate, holdout, columns, cutoff, force_filter, rat
     chain = chain.with_coulomb_smoothing(coulomb_smoothing)
     opts = IdentifyOptions(
         data=DataOptions(columns=_columns(columns), cutoff_hz=cutoff, force_filter=force_filter,
-                         decimate=decimate, step_s=(1.0 / rate if rate else None)),
-        holdout=holdout,
+                         decimate=decimate, step_s=(1.0 / rate if rate else None),
+                         trim_still_s=trim_still, still_speed=still_speed),
+        split=shares,
         validate=str(validate) if validate else None,
+        tests=tuple(str(t) for t in test),
         weighted=not ols,
         diagnose=not no_diagnose,
-        diagnosis=DiagnosisOptions(effects=ids, min_gain=min_gain),
+        diagnosis=DiagnosisOptions(effects=ids, min_gain=min_gain, weighted=not ols),
         seed=seed,
     )
     bar = Progress(1, "diagnosis", quiet)
@@ -132,11 +148,11 @@ def _identify(robot, data, validate, holdout, columns, cutoff, force_filter, rat
         from minparam_cli.render.identify_plots import measured_vs_predicted, residual_vs_velocity
 
         for k in range(1, len(art.models)):
-            fig = residual_vs_velocity(art.hold, art.models[k - 1], art.models[k], f"{chain.name}: step {k}, {art.models[k][0]}")
+            fig = residual_vs_velocity(art.hold, art.models[k - 1], art.models[k], f"{chain.name}: step {k}, {art.models[k][0]} (selection data)")
             save_png(fig, plot / f"residual_vs_velocity_step{k}.png")
         if len(art.models) == 1:
-            save_png(residual_vs_velocity(art.hold, art.models[0], art.models[0], f"{chain.name}: rigid-body residual"), plot / "residual_vs_velocity_step0.png")
-        save_png(measured_vs_predicted(art.hold, art.models[-1], f"{chain.name}: held-out torque"), plot / "measured_vs_predicted.png")
+            save_png(residual_vs_velocity(art.hold, art.models[0], art.models[0], f"{chain.name}: rigid-body residual (selection data)"), plot / "residual_vs_velocity_step0.png")
+        save_png(measured_vs_predicted(art.hold, art.models[-1], f"{chain.name}: selection-data torque"), plot / "measured_vs_predicted.png")
     if fmt == Fmt.json:
         text = json.dumps(report, indent=2, ensure_ascii=False)
     else:

@@ -109,15 +109,18 @@ class Compressed:
         Ts = self.Th if hold else self.T
         return np.array([float(np.sum((T[:, self.cat.y] - T[:, s] @ theta) ** 2)) for T, s in zip(Ts, sel)])
 
-    def joint_sigma(self, sel: np.ndarray) -> np.ndarray:
-        """Gautier's weights: each joint's residual standard deviation after OLS (1 where it is zero)."""
+    def joint_sigma(self, sel: np.ndarray, weighted: bool = True) -> np.ndarray:
+        """Gautier's weights: each joint's residual standard deviation after OLS (1 where it is zero);
+        all ones when not ``weighted`` (OLS)."""
+        if not weighted:
+            return np.ones(self.n)
         M, y = self.stack(sel, np.ones(self.n))
         theta, *_ = np.linalg.lstsq(M, y, rcond=None)
         sigma = np.sqrt(self.joint_rss(sel, theta) / max(self.N - sel.shape[1] / self.n, 1))
         return np.where(sigma > 0, sigma, 1.0)
 
-    def holdout_errors(self, sel: np.ndarray, theta: np.ndarray) -> dict:
-        """Held-out, unweighted: rms per joint, rms in all, ‖r‖/‖τ‖."""
+    def selection_errors(self, sel: np.ndarray, theta: np.ndarray) -> dict:
+        """Selection data (the held-out factors), unweighted: rms per joint, rms in all, ‖r‖/‖τ‖."""
         rss = self.joint_rss(sel, theta, hold=True)
         y2 = sum(float(np.sum(T[:, self.cat.y] ** 2)) for T in self.Th)
         return {

@@ -16,6 +16,7 @@ Columns for joint j live in row j only (the torque of joint j), except that
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from typing import Callable
 
@@ -50,6 +51,8 @@ class Effect:
     grid_name: str = ""
     needs_model: bool = False
     build: Callable = None  # (signals, joint, hyper) -> (N, m)
+    bounds: tuple[float, float] | None = None  # physical range of every coefficient (None: any value)
+    misfit: str = ""  # what a coefficient outside ``bounds`` most likely is instead
 
     def columns(self, s: Signals, joint: int, hyper: float | None = None) -> np.ndarray:
         return np.asarray(self.build(s, joint, hyper), dtype=float).reshape(len(s.t), -1)
@@ -71,22 +74,37 @@ def _asymmetric(s: Signals, j) -> np.ndarray:
     return np.stack([(s.dq[:, j] > 0).astype(float), -(s.dq[:, j] < 0).astype(float)], axis=1)
 
 
+POSITIVE = (0.0, math.inf)
+# the gain effect adds G·τ_model: the measured torque is (1 + G)·τ_model, a drive gain kept within 0.5..1.5
+GAIN_RANGE = (-0.5, 0.5)
+
 EFFECTS: dict[str, Effect] = {
     e.id: e
     for e in (
         Effect("coulomb", "dry friction of constant size against the motion: Fc·sign(q̇)", ("Fc",),
-               build=lambda s, j, h: s.sgn(j)),
+               build=lambda s, j, h: s.sgn(j), bounds=POSITIVE,
+               misfit="a torque that helps the motion at every reversal: a standstill or reversal artefact "
+                      "(static friction holding the joint while sign(q̇) = 0), or a sign error in the torque signal"),
         Effect("viscous", "friction proportional to velocity (lubricant, motor back-EMF): Fv·q̇", ("Fv",),
-               build=lambda s, j, h: s.dq[:, j]),
+               build=lambda s, j, h: s.dq[:, j], bounds=POSITIVE,
+               misfit="a torque that grows with speed in the direction of motion: a model error or a time lag "
+                      "between the torque and motion signals, not friction"),
         Effect("offset", "a constant torque: sensor or current offset, unmodelled static load", ("OFF",),
                build=lambda s, j, h: np.ones_like(s.t)),
         Effect("rotor_inertia", "motor and gear inertia seen at the joint: Ia·q̈", ("Ia",),
-               build=lambda s, j, h: s.ddq[:, j]),
+               build=lambda s, j, h: s.ddq[:, j], bounds=POSITIVE,
+               misfit="a negative inertia: a lag between the torque and acceleration signals (filter delay) "
+                      "or an inertia error of the model, not a rotor"),
         Effect("stribeck", "friction that drops from breakaway to Coulomb level at low speed: Fs·exp(-(q̇/vs)²)·sign(q̇)",
-               ("Fs",), STRIBECK_GRID, "vs",
-               build=lambda s, j, h: np.exp(-((s.dq[:, j] / h) ** 2)) * s.sgn(j)),
+               ("Fs",), STRIBECK_GRID, "vs", build=lambda s, j, h: np.exp(-((s.dq[:, j] / h) ** 2)) * s.sgn(j),
+               bounds=POSITIVE,
+               misfit="friction that rises gradually from zero at reversal instead of dropping from a breakaway "
+                      "level: a smoothed (filtered) velocity or a smooth Coulomb law (try --coulomb-smoothing), "
+                      "or a standstill artefact"),
         Effect("asymmetric_coulomb", "dry friction of different size in the two directions", ("Fcp", "Fcn"),
-               build=lambda s, j, h: _asymmetric(s, j)),
+               build=lambda s, j, h: _asymmetric(s, j), bounds=POSITIVE,
+               misfit="a torque that helps the motion in one direction: a gravity or offset error that "
+                      "correlates with the direction of motion, not friction"),
         Effect("spring", "a position-dependent torque: spring, cable or gravity compensator, or a gravity model error",
                ("Kq", "Ks", "Kc"),
                build=lambda s, j, h: np.stack([s.q[:, j], np.sin(s.q[:, j]), np.cos(s.q[:, j])], axis=1)),
@@ -94,9 +112,12 @@ EFFECTS: dict[str, Effect] = {
                COGGING_GRID, "k",
                build=lambda s, j, h: np.stack([np.sin(h * s.q[:, j]), np.cos(h * s.q[:, j])], axis=1)),
         Effect("load_coulomb", "gear friction that grows with the load the joint carries: sign(q̇)·|τ_model|", ("Fl",),
-               needs_model=True, build=lambda s, j, h: s.sgn(j) * np.abs(s.tau_model[:, j])),
+               needs_model=True, build=lambda s, j, h: s.sgn(j) * np.abs(s.tau_model[:, j]), bounds=POSITIVE,
+               misfit="a load-proportional torque that helps the motion: a gain or model error, not friction"),
         Effect("gain", "a drive gain or torque-constant error: the measured torque is the model torque scaled", ("G",),
-               needs_model=True, build=lambda s, j, h: s.tau_model[:, j]),
+               needs_model=True, build=lambda s, j, h: s.tau_model[:, j], bounds=GAIN_RANGE,
+               misfit="a rescaling far from 1: a unit or sign error in the data, or a model error compensated by "
+                      "rescaling the whole joint torque"),
         Effect("drift", "a slow linear drift of the torque signal (temperature, sensor drift)", ("D",),
                build=lambda s, j, h: s.t - (s.t[0] if s.t0 is None else s.t0)),
     )
@@ -119,3 +140,10 @@ def effect_torque(effect_id: str, s: Signals, joint: int, coefficients, hyper: f
     """Torque (N,) that ``effect_id`` with these coefficients adds on ``joint``."""
     cols = EFFECTS[effect_id].columns(s, joint, hyper)
     return cols @ np.asarray(coefficients, dtype=float).reshape(-1)
+
+
+def in_bounds(effect_id: str, coefficients) -> bool:
+    """Whether every coefficient lies in the effect's physical range (always, for an effect without one)."""
+    b = EFFECTS[effect_id].bounds
+    c = np.asarray(coefficients, dtype=float)
+    return b is None or bool(np.all((c >= b[0]) & (c <= b[1])))

@@ -1,10 +1,10 @@
 """Score every candidate of a diagnosis step at once, on the compressed sample.
 
 For the current weighted fit (Q an orthonormal basis of the range of Xw,
-residual r0, held-out residual rh0) and a candidate E (catalogue columns of
+residual r0, selection-data residual rh0) and a candidate E (catalogue columns of
 some joints, each acting on its own joint's rows): E⊥ = E − Q QᵀE, the refit g = argmin ‖r0 − E⊥ g‖ through
 E⊥ᵀE⊥ = EᵀE − (QᵀE)ᵀQᵀE (its eigenvalues give m, the rank E adds), the model
-correction u = X⁺E g (X⁺ = B Qᵀ), and the held-out residual rh0 + Xh u − Eh g.
+correction u = X⁺E g (X⁺ = B Qᵀ), and the selection residual rh0 + Xh u − Eh g.
 
 QᵀC, CᵀC and Cᵀr0 are computed once for every catalogue column C of every
 joint; a candidate then only gathers entries, and candidates of the same width
@@ -24,8 +24,16 @@ from minparam_cli.identify.design import Term
 @dataclass(frozen=True)
 class Scores:
     m: np.ndarray  # rank each candidate adds (0: nothing new, not a candidate)
-    rss1: np.ndarray  # weighted training residual sum of squares after the refit
-    rssh1: np.ndarray  # weighted held-out residual sum of squares
+    rss1: np.ndarray  # weighted fit-data residual sum of squares after the refit
+    rssh1: np.ndarray  # weighted selection-data residual sum of squares
+    rssh1_joint: np.ndarray  # (candidates, n): the same, per joint (times σ_j²: unweighted)
+    coefficients: list  # per candidate, (joints of the term, columns of the effect): its fitted coefficients
+    new: list  # per candidate, (joints of the term,): whether the term adds anything on that joint (see NEW_TOL)
+
+
+# A candidate's columns on a joint add nothing when the part of them outside the model's range has
+# less than this share of their squared norm (rotor inertia of a joint whose axis is fixed in the base).
+NEW_TOL = 1e-8
 
 
 def _layout(data: Compressed, cands: list[Term]) -> dict[int, tuple[np.ndarray, np.ndarray, np.ndarray]]:
@@ -60,13 +68,17 @@ def score(data: Compressed, sel: np.ndarray, sigma: np.ndarray, Q: np.ndarray, b
     m = np.zeros(nc, dtype=int)
     rss1 = np.full(nc, np.nan)
     U = np.zeros((nc, back.shape[0]))  # model corrections u
-    entries = []  # (candidate, joint, column, coefficient) of every candidate column, for the held-out residual
+    coef = [None] * nc
+    new = [None] * nc
+    entries = []  # (candidate, joint, column, coefficient) of every candidate column, for the selection residual
     for w, (idx, J, C) in _layout(data, cands).items():
         QtE = np.moveaxis(QtC[J, :, C], 1, 2)  # (Nc, p, w)
         EtE = G[J[:, :, None], C[:, :, None], C[:, None, :]] * (J[:, :, None] == J[:, None, :])
         b = B[J, C]  # (Nc, w)
         norms2 = np.diagonal(EtE, axis1=1, axis2=2)
-        evals, evecs = np.linalg.eigh(EtE - np.swapaxes(QtE, 1, 2) @ QtE)
+        perp = EtE - np.swapaxes(QtE, 1, 2) @ QtE
+        share = np.diagonal(perp, axis1=1, axis2=2) / np.where(norms2 > 0, norms2, 1.0)  # (Nc, w)
+        evals, evecs = np.linalg.eigh(perp)
         keep = (evals > norms2.max(axis=1)[:, None] * 1e-12) & np.any(norms2 > 0, axis=1)[:, None]
         inv = np.divide(1.0, evals, out=np.zeros_like(evals), where=keep)
         g = (evecs @ (inv * (np.swapaxes(evecs, 1, 2) @ b[..., None])[..., 0])[..., None])[..., 0]
@@ -74,14 +86,17 @@ def score(data: Compressed, sel: np.ndarray, sigma: np.ndarray, Q: np.ndarray, b
         rss1[idx] = rss0 - np.sum(g * b, axis=1)
         U[idx] = (QtE @ g[..., None])[..., 0] @ back.T
         entries.append((np.repeat(idx, w), J.ravel(), C.ravel(), g.ravel()))
+        for k, i in enumerate(idx):
+            coef[i] = g[k].reshape(len(cands[i].joints), -1)
+            new[i] = share[k].reshape(len(cands[i].joints), -1).max(axis=1) > NEW_TOL
 
     cand, Jall, Call, gall = (np.concatenate(x) for x in zip(*entries)) if entries else (np.zeros(0, int),) * 4
-    rssh1 = np.zeros(nc)
+    rssh1 = np.zeros((nc, n))
     for j in range(n):
         Z = np.zeros((K, nc))
         np.add.at(Z, sel[j], U.T)  # the model's columns on joint j (ZERO lands in the zero column)
         on = Jall == j
         np.add.at(Z, (Call[on], cand[on]), -gall[on])
         rh1 = rh0[ath[j] : ath[j + 1], None] + (data.Th[j] @ Z) / sigma[j]
-        rssh1 += np.sum(rh1**2, axis=0)
-    return Scores(m, rss1, rssh1)
+        rssh1[:, j] = np.sum(rh1**2, axis=0)
+    return Scores(m, rss1, rssh1.sum(axis=1), rssh1, coef, new)

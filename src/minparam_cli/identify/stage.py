@@ -13,6 +13,7 @@ file.
 from __future__ import annotations
 
 import time
+import warnings
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
@@ -23,25 +24,29 @@ from minparam_cli.errors import DataError
 from minparam_cli.identify.data import Block, DataOptions, DataReport, iter_blocks, time_span
 from minparam_cli.identify.design import Design
 from minparam_cli.identify.diagnose import DiagnosisOptions, diagnose
-from minparam_cli.identify.effects import EFFECTS, source_columns
+from minparam_cli.identify.effects import source_columns
 from minparam_cli.identify.fit import Accumulator, errors, solve
+from minparam_cli.identify.explain import describe_rejected, describe_terms, nominal_notes
+from minparam_cli.identify.quality import COND_LIMIT, check_excitation, flags, keep_physical
+from minparam_cli.identify.roles import DEFAULT_SPLIT, FIT, SELECTION, TEST, Source, describe, overlaps, parts, plan
 from minparam_cli.identify.slots import block_rows, final_maps, slot_sources
 
-DEFAULT_HOLDOUT = 0.3
-DIAGNOSIS_CAP = 12_000  # samples kept for the diagnosis (training part; half as many held out)
+DIAGNOSIS_CAP = 12_000  # samples kept for the diagnosis (fit part; half as many of the selection part)
 REGRESSOR_ROWS = 4096
 
 
 @dataclass(frozen=True)
 class IdentifyOptions:
     data: DataOptions = field(default_factory=DataOptions)
-    holdout: float = DEFAULT_HOLDOUT
-    validate: str | None = None
+    split: tuple[float, float, float] = DEFAULT_SPLIT  # fit, selection, test shares of the data file's time
+    validate: str | None = None  # selection data file
+    tests: tuple[str, ...] = ()  # test data files
     weighted: bool = True
     diagnose: bool = True
     diagnosis: DiagnosisOptions = field(default_factory=DiagnosisOptions)
     diagnosis_cap: int = DIAGNOSIS_CAP
     seed: int = 0
+    cond_limit: float = COND_LIMIT
 
 
 class _Thinned:
@@ -64,44 +69,54 @@ class _Thinned:
         return Block.concat(self.blocks) if self.blocks else None
 
 
-def _split_time(path: Path, opts: IdentifyOptions) -> float:
-    """Time at which the held-out part starts: the last ``holdout`` of the record's time span."""
-    t0, t1 = time_span(path, opts.data)
-    if not t1 > t0:
-        raise DataError(f"{path}: the last time stamp ({t1}) is not after the first ({t0})")
-    return float(t0 + (1.0 - opts.holdout) * (t1 - t0))
-
-
-def _stream(design: Design, sources, n: int, opts: IdentifyOptions, keep: bool, slots=()):
-    """One pass over the data: per-joint factors of [design columns | slot columns | τ] (training and
-    held out), the thinned diagnosis sample, the data reports, and the design with its drift origin set."""
+def _stream(design: Design, sources: list[Source], n: int, opts: IdentifyOptions, keep: bool, slots=()):
+    """One pass over the data: per-joint factors of [design columns | slot columns | τ] for every part
+    (fit, selection, test1, ...), the thinned diagnosis samples (fit and selection), the motion of
+    the fit part, the data reports, and the design with its drift origin set."""
     width = source_columns(slots, design.p)[1]
-    acc = {"train": Accumulator(n, width), "hold": Accumulator(n, width)}
-    thin = {"train": _Thinned(opts.diagnosis_cap), "hold": _Thinned(opts.diagnosis_cap // 2)}
+    acc = {k: Accumulator(n, width) for k in parts(sources)}
+    thin = {FIT: _Thinned(opts.diagnosis_cap), SELECTION: _Thinned(opts.diagnosis_cap // 2)}
+    motion = Motion(n)
     reports = []
-    for path, part, t_cut in sources:
-        rep = DataReport(str(path))
-        for b in iter_blocks(path, n, opts.data, rep):
+    for src in sources:
+        rep = DataReport(str(src.path))
+        cuts = src.cuts()
+        for b in iter_blocks(src.path, n, opts.data, rep):
             if not len(b):
                 continue
-            if design.t0 is None:  # drift is measured from the first sample, in every block and both parts
+            if design.t0 is None:  # drift is measured from the first sample, in every block and every part
                 design = replace(design, t0=float(b.t[0]))
-            if t_cut is None:
-                pieces = [(part, b)]
-            else:
-                k = int(np.searchsorted(b.t, t_cut))  # times increase: the training part is a prefix
-                pieces = [("train", b.take(slice(0, k))), ("hold", b.take(slice(k, None)))]
-            for name, piece in pieces:
-                if len(piece):
-                    # the full regressor is n·10n numbers a sample: build it a few thousand samples at a time
-                    for s in range(0, len(piece), REGRESSOR_ROWS):
-                        sub = piece.take(slice(s, s + REGRESSOR_ROWS))
-                        acc[name].add_rows(_finite_rows(design, slots, sub, path))
-                    if keep:
-                        thin[name].add(piece)
-            b = pieces = piece = sub = None  # not alive while the next block is read
+            edges = [0] + [int(np.searchsorted(b.t, c)) for c in cuts] + [len(b)]  # times increase
+            for piece, k0, k1 in zip(src.pieces, edges[:-1], edges[1:]):
+                if k1 <= k0:
+                    continue
+                sub_block = b.take(slice(k0, k1))
+                # the full regressor is n·10n numbers a sample: build it a few thousand samples at a time
+                for s0 in range(0, len(sub_block), REGRESSOR_ROWS):
+                    sub = sub_block.take(slice(s0, s0 + REGRESSOR_ROWS))
+                    acc[piece.part].add_rows(_finite_rows(design, slots, sub, src.path))
+                if piece.role == FIT:
+                    motion.add(sub_block)
+                if keep and piece.part in thin:
+                    thin[piece.part].add(sub_block)
+            b = sub_block = sub = None  # not alive while the next block is read
         reports.append(rep)
-    return acc, thin, reports, design
+    return acc, thin, motion, reports, design
+
+
+class Motion:
+    """Range of every joint's position over the fit data: names the joints an excitation missed."""
+
+    def __init__(self, n: int):
+        self.lo, self.hi = np.full(n, np.inf), np.full(n, -np.inf)
+
+    def add(self, b: Block) -> None:
+        self.lo = np.minimum(self.lo, b.q.min(axis=0))
+        self.hi = np.maximum(self.hi, b.q.max(axis=0))
+
+    @property
+    def range(self) -> np.ndarray:
+        return np.where(self.hi >= self.lo, self.hi - self.lo, 0.0)
 
 
 def _finite_rows(design: Design, slots, b: Block, path: Path) -> np.ndarray:
@@ -121,94 +136,133 @@ def _finite_rows(design: Design, slots, b: Block, path: Path) -> np.ndarray:
 
 @dataclass
 class Artifacts:
-    """What plots need beside the report: held-out samples and each step's model."""
+    """What plots need beside the report: selection samples and each step's model."""
 
     hold: Block | None = None
     models: list = field(default_factory=list)  # (label, design, theta)
 
 
 def identify(chain: Chain, data_path: str | Path, opts: IdentifyOptions, progress=None) -> tuple[dict, Artifacts]:
+    """Fit on the fit data, choose effects on the selection data, report on the test data (see ``roles``)."""
+    with np.errstate(all="ignore"), warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # every problem is an error of ours, in one line, or a figure
+        return _identify(chain, Path(data_path), opts, progress)
+
+
+def _identify(chain: Chain, data_path: Path, opts: IdentifyOptions, progress) -> tuple[dict, Artifacts]:
     from minparam_cli.base.qr import derive_qr
 
     t_start = time.perf_counter()
-    data_path = Path(data_path)
     n = chain.n
     base = derive_qr(chain, seed=opts.seed)
     design = Design(chain, base.kept, base.base_names)
-    if opts.validate:
-        sources = [(data_path, "train", None), (Path(opts.validate), "hold", None)]
-    else:
-        if not 0 < opts.holdout < 1:
-            raise DataError(f"--holdout must be between 0 and 1, got {opts.holdout}")
-        sources = [(data_path, None, _split_time(data_path, opts))]
+    tests = tuple(Path(t) for t in opts.tests)
+    validate = Path(opts.validate) if opts.validate else None
+    whole = (validate is not None or opts.split[1] == 0) and (tests or opts.split[2] == 0)
+    span = None if whole else time_span(data_path, opts.data)
+    sources = plan(data_path, validate, tests, opts.split, span)
 
     slots = slot_sources(opts.diagnosis.effects) if opts.diagnose else ()
-    acc_all, thin, reports, design = _stream(design, sources, n, opts, keep=opts.diagnose, slots=slots)
-    for part in ("train", "hold"):
-        if acc_all[part].rows.sum() <= (design.p if part == "train" else 0):
-            raise DataError(f"{data_path}: the {part} part has too few samples ({int(acc_all[part].rows[0])}) for {design.p} parameters")
+    acc_all, thin, motion, reports, design = _stream(design, sources, n, opts, keep=opts.diagnose, slots=slots)
+    keys = list(acc_all)
+    for key in keys:
+        need = design.p if key == FIT else 0
+        if acc_all[key].rows.sum() <= need:
+            raise DataError(f"{data_path}: the {key} data have too few samples ({int(acc_all[key].rows[0])})"
+                            + (f" for {design.p} parameters" if key == FIT else ""))
     acc = {k: (a.restrict(list(range(design.p))) if slots else a) for k, a in acc_all.items()}
-    fit0 = solve(acc["train"], design.names, opts.weighted)
-    before = errors(acc["hold"], fit0.theta, fit0.columns)
+    cond_scaled = check_excitation(acc[FIT], design, motion, opts.cond_limit)
+    fit0 = solve(acc[FIT], design.names, opts.weighted)
+    before = errors(acc[SELECTION], fit0.theta, fit0.columns)
+    test_keys = [k for k in keys if k not in (FIT, SELECTION)]
+    tests_rigid = {k: errors(acc[k], fit0.theta, fit0.columns) for k in test_keys}
     theta_model = np.zeros(design.p)
     theta_model[list(fit0.columns)] = fit0.theta
     design = replace(design, theta_model=theta_model)
 
     steps_out = [{"effect": None, "joints": [], "statistic": None, **_errs(before)}]
     stop_reason = "diagnosis off (--no-diagnose)"
-    final_fit, after, final_design = fit0, before, design
-    diag_info = {}
+    final_fit, after, final_design, acc_final = fit0, before, design, acc
+    diag_info, rejected = {}, []
     artifacts = Artifacts()
     if opts.diagnose:
-        train, hold = thin["train"].block(), thin["hold"].block()
-        d = diagnose(design, train, hold, opts.diagnosis, progress)
+        train, hold = thin[FIT].block(), thin[SELECTION].block()
+        diag_opts = replace(opts.diagnosis, weighted=opts.weighted)
+        d = diagnose(design, train, hold, diag_opts, progress)
         stop_reason = d.stop_reason
+        rejected = d.rejected
         artifacts.hold = hold
         artifacts.models = [("rigid body" if s.term is None else f"+ {s.term.label()}", s.design, s.theta) for s in d.steps]
-        diag_info = {"samples_train": len(train), "samples_holdout": len(hold), "candidates_per_step": d.candidates_per_step,
+        diag_info = {"samples_fit": len(train), "samples_selection": len(hold), "candidates_per_step": d.candidates_per_step,
                      "bic_threshold": opts.diagnosis.bic_threshold, "min_gain": opts.diagnosis.min_gain}
+        steps_out[0]["statistic"] = d.steps[0].statistic
+        for s_ in d.steps[1:]:
+            steps_out.append({"effect": s_.term.effect, "joints": [j + 1 for j in s_.term.joints], "hyper": s_.term.hyper,
+                              "label": s_.term.label(), "statistic": s_.statistic, **s_.errors})
         if d.design.terms:
             final_design = d.design
             maps = final_maps(final_design, slots)
             if maps is not None:  # every added effect has slots: no second pass over the file
-                acc2 = {k: a.transform(maps) for k, a in acc_all.items()}
+                acc_final = {k: a.transform(maps) for k, a in acc_all.items()}
             else:
-                acc2, _, _, _ = _stream(final_design, sources, n, opts, keep=False)
-            final_fit = solve(acc2["train"], final_design.names, opts.weighted)
-            after = errors(acc2["hold"], final_fit.theta, final_fit.columns)
-        for s in d.steps[1:]:
-            steps_out.append({"effect": s.term.effect, "joints": [j + 1 for j in s.term.joints], "hyper": s.term.hyper,
-                              "label": s.term.label(), "statistic": s.statistic, **s.errors})
-        if len(steps_out) > 1:
-            # the last step's errors are the full-data refit, measured on all held-out samples
-            steps_out[-1].update(_errs(after))
+                acc_final, _, _, _, _ = _stream(final_design, sources, n, opts, keep=False)
+            final_fit = solve(acc_final[FIT], final_design.names, opts.weighted)
+            final_design, final_fit, acc_final, removed = keep_physical(final_design, final_fit, acc_final, opts.weighted)
+            steps_out += removed
+            after = errors(acc_final[SELECTION], final_fit.theta, final_fit.columns)
+            if len(steps_out) > 1:
+                # the last step's errors are the refit on all the fit data, measured on all selection samples
+                steps_out[-1].update(_errs(after))
+    tests_final = {k: errors(acc_final[k], final_fit.theta, final_fit.columns) for k in test_keys}
 
-    rep0 = reports[0]
+    data_reports = [{"path": r.path, **r.as_dict()} for r in reports]
+    dropped: dict = {}
+    for r in data_reports:
+        for k, v in r["dropped"].items():
+            dropped[k] = dropped.get(k, 0) + v
+    roles = describe(sources)
+    for entry in roles[TEST]:
+        entry["samples"] = int(acc[entry["part"]].rows[0])
     report = {
         "robot": chain.name,
         "data": str(data_path),
         "validate": opts.validate,
-        "samples_used": int(acc["train"].rows[0] + acc["hold"].rows[0]),
-        "samples_train": int(acc["train"].rows[0]),
-        "samples_holdout": int(acc["hold"].rows[0]),
-        "dropped": rep0.as_dict()["dropped"],
-        "preprocessing": rep0.as_dict(),
+        "test_files": [str(t) for t in tests],
+        "split": list(opts.split),
+        "roles": roles,
+        "samples_used": int(sum(acc[k].rows[0] for k in keys)),
+        "samples_fit": int(acc[FIT].rows[0]),
+        "samples_selection": int(acc[SELECTION].rows[0]),
+        "samples_test": int(sum(acc[k].rows[0] for k in test_keys)),
+        "dropped": dropped,
+        "preprocessing": data_reports[0],
+        "files": data_reports,
         "coulomb_model": "sign(dq)" if chain.coulomb_smoothing == 0 else f"tanh(dq / {chain.coulomb_smoothing:g})",
         "method": final_fit.method,
         "condition_number": final_fit.cond,
+        "condition_number_scaled": cond_scaled,
         "sigma_per_joint": [float(x) for x in final_fit.sigma],
         "steps": steps_out,
         "stop_reason": stop_reason,
-        "before": _errs(before),
-        "after": _errs(after),
-        "effects": [{"effect": t.effect, "joints": [j + 1 for j in t.joints], "hyper": t.hyper, "explanation": _explain(t.effect)} for t in final_design.terms],
+        "before": {"data": SELECTION, **_errs(before)},
+        "after": {"data": SELECTION, **_errs(after)},
+        "test": _test_report(roles, tests_rigid, tests_final, acc),
+        "effects": describe_terms(final_design, final_fit, motion),
+        "rejected": [describe_rejected(r, data_reports, final_design) for r in rejected],
         "parameters": {nm: {"value": float(v), "std_percent": _finite(s)} for nm, v, s in zip(final_fit.names, final_fit.theta, final_fit.std_percent)},
         "regrouped_on_this_data": list(final_fit.dependent),
-        "nominal_notes": _nominal_notes(chain, base, final_fit),
+        "nominal_notes": nominal_notes(chain, base, final_fit, opts.seed),
         "diagnosis": diag_info,
         "seed": opts.seed,
-        "elapsed_s": round(time.perf_counter() - t_start, 4),
     }
+    report["flags"] = flags(report, final_fit)
+    if not test_keys:
+        report["flags"].insert(0, "no test data (--split test share 0, no --test file): every figure comes from "
+                                  "data that fitted or chose the model")
+    if overlaps(data_path, validate):
+        report["flags"].insert(0, "the selection data (--validate) are the data file itself: before and after are "
+                                  "in-sample figures there, and the effects were chosen on data that also fitted them")
+    report["elapsed_s"] = round(time.perf_counter() - t_start, 4)
     return report, artifacts
 
 
@@ -217,30 +271,23 @@ def _errs(e) -> dict:
     return {"rms_total": d["rms_total"], "rms_per_joint": d["rms_per_joint"], "relative_error": d["relative_error"]}
 
 
+def _test_report(roles: dict, rigid: dict, final: dict, acc: dict) -> dict:
+    """Test errors per test part and pooled over all of them (each part's squares summed)."""
+    files = []
+    for entry in roles[TEST]:
+        k = entry["part"]
+        files.append({**entry, "rigid": _errs(rigid[k]), "final": _errs(final[k])})
+    out = {"files": files, "rigid": None, "final": None}
+    if len(files) == 1:
+        out.update(rigid=files[0]["rigid"], final=files[0]["final"])
+    for name, errs in (("rigid", rigid), ("final", final)) if len(files) > 1 else ():
+        rss = sum(np.asarray(e.rms_per_joint) ** 2 * np.maximum(acc[k].rows, 1) for k, e in errs.items())
+        rows = sum(np.maximum(acc[k].rows, 1) for k in errs)
+        y2 = sum(acc[k].y_norm2().sum() for k in errs)
+        out[name] = {"rms_total": float(np.sqrt(rss.sum() / rows.sum())), "rms_per_joint": [float(x) for x in np.sqrt(rss / rows)],
+                     "relative_error": float(np.sqrt(rss.sum() / y2)) if y2 > 0 else float("nan")}
+    return out
+
+
 def _finite(x: float):
     return float(x) if np.isfinite(x) else None
-
-
-def _explain(effect: str) -> str:
-    return EFFECTS[effect].explanation
-
-
-def _nominal_notes(chain: Chain, base, fit) -> list[str]:
-    """Base parameters far from the description's nominal values: a payload or wrong mass shows here."""
-    if chain.phi_nominal is None:
-        return []
-    phi = np.zeros(chain.layout.size)
-    phi[: len(chain.phi_nominal)] = chain.phi_nominal
-    nominal = base.K @ phi
-    notes = []
-    scale = np.max(np.abs(nominal)) if np.any(nominal) else 1.0
-    where = {c: k for k, c in enumerate(fit.columns)}
-    for i, name in enumerate(base.base_names):
-        if i not in where:
-            continue
-        k = where[i]
-        v, nom = fit.theta[k], nominal[i]
-        sd = abs(v) * fit.std_percent[k] / 100 if np.isfinite(fit.std_percent[k]) else np.inf
-        if abs(v - nom) > max(3 * sd, 0.2 * abs(nom), 0.02 * scale):
-            notes.append(f"{name} = {v:.4g} differs from its nominal {nom:.4g}: a payload, a wrong link mass or inertia, not an effect")
-    return notes

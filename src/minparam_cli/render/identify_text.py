@@ -1,4 +1,9 @@
-"""Terminal report of `minparam identify` (pure: report dict -> text)."""
+"""Terminal report of `minparam identify` (pure: report dict -> text).
+
+Every figure says which data it comes from: fit (the parameters were
+estimated on it), selection (it chose the effects) or test (it chose
+nothing).
+"""
 
 from __future__ import annotations
 
@@ -9,43 +14,88 @@ def _pct(x) -> str:
     return "-" if x is None else f"{100 * x:.3g} %"
 
 
+def _span(entry: dict) -> str:
+    span = entry.get("time_s")
+    if not span:
+        return entry["source"]
+    lo, hi = span
+    if hi is None:
+        return f"{entry['source']}, t ≥ {lo:.4g} s"
+    if lo is None:
+        return f"{entry['source']}, t < {hi:.4g} s"
+    return f"{entry['source']}, {lo:.4g} ≤ t < {hi:.4g} s"
+
+
+def _role(entries: list[dict]) -> str:
+    return "; ".join(_span(e) for e in entries)
+
+
+def _error_rows(r: dict) -> list[tuple]:
+    rows = []
+
+    def row(label, e, data):
+        return (label, *[f"{x:.4g}" for x in e["rms_per_joint"]], f"{e['rms_total']:.4g}", _pct(e["relative_error"]), data)
+
+    rows.append(row("before", r["before"], "selection"))
+    rows.append(row("after", r["after"], "selection"))
+    files = r["test"]["files"]
+    for k, f in enumerate(files):
+        tag = "test" if len(files) == 1 else f"test {k + 1}"
+        rows.append(row("before", f["rigid"], tag))
+        rows.append(row("after", f["final"], tag))
+    return rows
+
+
 def render_identify(r: dict) -> str:
     pre = r["preprocessing"]
     dropped = ", ".join(f"{k.replace('_', ' ')} {v}" for k, v in r["dropped"].items() if v) or "nothing"
+    rows_read = sum(f["rows_read"] for f in r.get("files", [pre]))
+    roles = r["roles"]
     head = [
         ("robot", r["robot"]),
-        ("data", r["data"] + (f" (validated on {r['validate']})" if r.get("validate") else "")),
-        ("samples", f"{r['samples_used']} used: {r['samples_train']} to identify, {r['samples_holdout']} held out"),
-        ("dropped", f"{dropped} (of {pre['rows_read']} rows read)"),
+        ("fit data", f"{r['samples_fit']} samples: {_role(roles['fit'])}"),
+        ("selection data", f"{r['samples_selection']} samples: {_role(roles['selection'])} (chose the effects)"),
+        ("test data", f"{r['samples_test']} samples: {_role(roles['test'])} (chose nothing)" if roles["test"] else "none"),
+        ("dropped", f"{dropped} (of {rows_read} rows read in {len(r.get('files', [pre]))} file(s))"),
         ("irregular steps", f"{pre['irregular_steps']} (median step {pre['median_step_s']:.6g} s)" if pre.get("median_step_s") else "-"),
         ("filter", pre["filter"] or "none (q, q̇, q̈ given)"),
         ("derived", ", ".join(pre["derived"]) or "-"),
         ("decimation", f"keep 1 sample in {pre['decimation']}"),
-        ("fit", f"{r['method'].upper()}, condition number {r['condition_number']:.4g}"),
+    ]
+    if pre.get("still_share") is not None:
+        head.append(("standstill", " ".join(f"{100 * s:.0f}%" for s in pre["still_share"]) + " of samples per joint"))
+    head += [
+        ("fit", f"{r['method'].upper()}, condition number {r['condition_number']:.4g} "
+                f"(column-scaled {r['condition_number_scaled']:.3g})"),
         ("coulomb", r.get("coulomb_model", "sign(dq)")),
     ]
     out = [columns(head), ""]
     n = len(r["before"]["rms_per_joint"])
-    rows = [("rms before", *[f"{x:.4g}" for x in r["before"]["rms_per_joint"]], f"{r['before']['rms_total']:.4g}", _pct(r["before"]["relative_error"])),
-            ("rms after", *[f"{x:.4g}" for x in r["after"]["rms_per_joint"]], f"{r['after']['rms_total']:.4g}", _pct(r["after"]["relative_error"]))]
-    out.append("Held-out error (N·m or N)")
-    out.append(columns(rows, ("", *[f"j{j + 1}" for j in range(n)], "total", "‖r‖/‖τ‖"), right=tuple(range(1, n + 3))))
+    out.append("Error, rms (N·m or N): before = rigid-body model, after = final model, both fitted on the fit data")
+    hdr = ("", *[f"j{j + 1}" for j in range(n)], "total", "‖r‖/‖τ‖", "data")
+    out.append(columns(_error_rows(r), hdr, right=tuple(range(1, n + 3))))
     out.append("")
-    out.append("Diagnosis (each step judged on the held-out data)")
+    out.append("Diagnosis (each step judged on the selection data)")
     srows = []
     for i, s in enumerate(r["steps"]):
         st = s["statistic"] or {}
         if "replaces" in st:
-            evidence = f"replaces {st['replaces']}: ΔBIC {st['delta_bic_holdout']:.1f}"
-        elif "delta_bic_holdout" in st:
-            evidence = f"ΔBIC {st['delta_bic_holdout']:.1f}, gain {100 * st['holdout_gain']:.1f} %"
+            evidence = f"replaces {st['replaces']}: ΔBIC {st['delta_bic_selection']:.1f}"
+        elif "removed" in st:
+            evidence = st["why"]
+        elif "delta_bic_selection" in st:
+            evidence = f"ΔBIC {st['delta_bic_selection']:.1f}, gain {100 * st['selection_gain']:.1f} %"
         else:
             evidence = "-"
         srows.append((i, s.get("label") or "rigid-body model as declared", evidence, f"{s['rms_total']:.4g}", _pct(s["relative_error"])))
-    out.append(columns(srows, ("step", "effect added", "evidence", "rms", "‖r‖/‖τ‖"), right=(0, 3, 4)))
+    out.append(columns(srows, ("step", "effect", "evidence", "rms", "‖r‖/‖τ‖"), right=(0, 3, 4)))
     out.append(f"stop: {r['stop_reason']}")
     for e in r["effects"]:
         out.append(f"  {e['effect']}: {e['explanation']}")
+    for e in r.get("rejected", []):
+        out.append(f"rejected: {e['reading']}")
+    for f in r.get("flags", []):
+        out.append(f"flag: {f}")
     out.append("")
     prows = [(k, f"{v['value']:.6g}", "-" if v["std_percent"] is None else f"{v['std_percent']:.3g}") for k, v in r["parameters"].items()]
     out.append(columns(prows, ("parameter", "value", "σ %"), right=(1, 2)))

@@ -1,0 +1,176 @@
+"""Whether an identification can be trusted: excitation, physical ranges, flags.
+
+* **Excitation** (before any result is reported): the fit data's design,
+  each column scaled to unit norm, must have a condition number below
+  ``COND_LIMIT``.  Column scaling makes the number independent of units
+  (a raw condition number of 1e4 can be a good trajectory in mixed units);
+  a base parameter whose column barely moves shows as a huge scaled
+  condition number, and its σ would be meaningless.  Past the limit the
+  command stops (exit 1) naming the joints that did not move.
+* **Physical ranges** (after the final refit on all the fit data): an added
+  effect whose coefficients left its range on the whole fit data (the
+  diagnosis judged a thinned sample) is kept only on the joints where they
+  did not, or removed, and the model refitted.
+* **Flags**: a joint whose error rises by more than ``RISE_FLAG`` from the
+  rigid-body model to the final one (selection or test data), a declared
+  friction coefficient of the wrong sign, a joint that stands still for a
+  large share of the samples.
+"""
+
+from __future__ import annotations
+
+from dataclasses import replace
+
+import numpy as np
+
+from minparam_cli.errors import ComputationError
+from minparam_cli.identify.design import Design, Term
+from minparam_cli.identify.diagnose import term_coefficients
+from minparam_cli.identify.effects import EFFECTS, in_bounds
+from minparam_cli.identify.fit import solve
+
+# Column-scaled condition number of the fit data's rigid-body design past which the fit is refused.
+# Well-excited trajectories measure 10-300 (Panda recording 40, simulated PUMA 560 / Panda / UR5 18-60,
+# TX40 recording 140); a joint that does not move sends it past 1e8.
+COND_LIMIT = 1e4
+# A joint whose position range over the fit data is below this did not move (rad; m for prismatic joints).
+MOTION_MIN = {"revolute": 0.05, "prismatic": 0.005}
+RISE_FLAG = 0.10  # per-joint error rise (relative) that is flagged
+STILL_FLAG = 0.20  # share of still samples on a joint that is flagged
+
+
+def check_excitation(acc, design: Design, motion, limit: float = COND_LIMIT) -> float:
+    """The column-scaled condition number of the fit data's design (unit weights), or ComputationError."""
+    A = acc.stacked(np.ones(acc.n))[:, : acc.p]
+    norms = np.linalg.norm(A, axis=0)
+    if np.all(norms > 0):
+        s = np.linalg.svd(A / norms, compute_uv=False)
+        cond = float(s[0] / s[-1]) if s[-1] > 0 else float("inf")
+    else:
+        cond = float("inf")
+    if cond <= limit:
+        return cond
+    chain = design.chain
+    rng = motion.range
+    still = [j for j in range(chain.n) if rng[j] < MOTION_MIN.get(chain.types[j], MOTION_MIN["revolute"])]
+    if still:
+        unit = lambda j: "m" if chain.types[j] == "prismatic" else "rad"  # noqa: E731
+        why = "joint{} {} barely moved ({})".format(
+            "s" if len(still) > 1 else "", ", ".join(str(j + 1) for j in still),
+            ", ".join(f"{j + 1}: range {rng[j]:.2g} {unit(j)}" for j in still))
+    else:
+        weak = _weakest(A, norms, design.names[: acc.p])
+        why = f"every joint moved, but the data barely separate {weak}"
+    shown = "inf" if not np.isfinite(cond) else f"{cond:.3g}"
+    raise ComputationError(
+        f"poor excitation: the fit data's column-scaled condition number is {shown} (limit {limit:g}); "
+        f"{why}: record a trajectory that moves every joint over a wide range, at varied speeds"
+    )
+
+
+def _weakest(A: np.ndarray, norms: np.ndarray, names) -> str:
+    """The parameters of the least excited direction."""
+    safe = np.where(norms > 0, norms, 1.0)
+    _, _, Vt = np.linalg.svd(A / safe, full_matrices=False)
+    v = np.abs(Vt[-1])
+    top = [names[i] for i in np.argsort(-v)[:4] if v[i] >= 0.3 * v.max()]
+    return ", ".join(top)
+
+
+def _positions(old: Design, new: Design) -> list[int]:
+    """Columns of ``new`` (whose terms are a subset of ``old``'s, joint by joint) in ``old``'s order."""
+    at, c = {}, len(old.kept)
+    for t in old.terms:
+        m = len(EFFECTS[t.effect].column_names)
+        for j in t.joints:
+            at[(t.effect, t.hyper, j)] = c
+            c += m
+    cols = list(range(len(new.kept)))
+    for t in new.terms:
+        m = len(EFFECTS[t.effect].column_names)
+        for j in t.joints:
+            cols += list(range(at[(t.effect, t.hyper, j)], at[(t.effect, t.hyper, j)] + m))
+    return cols
+
+
+def full_theta(fit, p: int) -> np.ndarray:
+    """The fit's parameters in the design's column order (0 for columns regrouped on this data)."""
+    theta = np.zeros(p)
+    theta[list(fit.columns)] = fit.theta
+    return theta
+
+
+def keep_physical(design: Design, fit, acc: dict, weighted: bool):
+    """Refit without the (term, joint) pairs whose coefficients left their physical range on all the fit data.
+
+    Returns the design, fit and accumulators kept, and one report step per term restricted or removed."""
+    from minparam_cli.identify.fit import errors
+
+    steps = []
+    for _ in range(len(design.terms) + 1):
+        coefs = term_coefficients(design, full_theta(fit, design.p))
+        if all(in_bounds(t.effect, c) for t, c in zip(design.terms, coefs)):
+            break
+        terms, changed = [], []
+        for t, c in zip(design.terms, coefs):
+            good = tuple(j for j, row in zip(t.joints, c) if in_bounds(t.effect, row))
+            if len(good) == len(t.joints):
+                terms.append(t)
+                continue
+            if good:
+                terms.append(Term(t.effect, good, t.hyper))
+            bad = [(j, row) for j, row in zip(t.joints, c) if not in_bounds(t.effect, row)]
+            changed.append((t, good, bad))
+        new = replace(design, terms=tuple(terms))
+        cols = _positions(design, new)
+        acc = {k: a.restrict(cols) for k, a in acc.items()}
+        fit = solve(acc["fit"], new.names, weighted)
+        design = new
+        e = errors(acc["selection"], fit.theta, fit.columns).as_dict()
+        for t, good, bad in changed:
+            names = ", ".join(f"{EFFECTS[t.effect].column_names[0]}{j + 1} = {row[0]:.3g}" for j, row in bad)
+            steps.append({
+                "effect": t.effect, "joints": [j + 1 for j in good], "hyper": t.hyper,
+                "label": f"{t.effect} kept on joint(s) {', '.join(str(j + 1) for j in good)}" if good else f"{t.effect} removed",
+                "statistic": {"removed": t.label(), "why": f"outside the physical range on all the fit data ({names})"},
+                "rms_per_joint": e["rms_per_joint"], "rms_total": e["rms_total"], "relative_error": e["relative_error"],
+            })
+    return design, fit, acc, steps
+
+
+def flags(report: dict, fit) -> list[str]:
+    """Warnings a user must see next to the figures (strings, one line each)."""
+    out = []
+    comparisons = [("selection", report["before"], report["after"])]
+    for f in report["test"]["files"]:
+        comparisons.append((f"test ({_where(f)})", f["rigid"], f["final"]))
+    if report["steps"][1:]:
+        for name, b, a in comparisons:
+            for j, (x, y) in enumerate(zip(b["rms_per_joint"], a["rms_per_joint"])):
+                if x > 0 and y > (1 + RISE_FLAG) * x:
+                    out.append(f"joint {j + 1}: the {name} rms rises from {x:.4g} to {y:.4g} "
+                               f"(+{100 * (y / x - 1):.0f} %) from the rigid-body model to the final one")
+    for name, v in zip(fit.names, fit.theta):
+        kind = name.rstrip("0123456789")
+        if kind in ("Fc", "Fv", "Ia") and v < 0:
+            what = {"Fc": "Coulomb friction", "Fv": "viscous friction", "Ia": "rotor inertia"}[kind]
+            out.append(f"declared {what} {name} = {v:.4g} is negative: not {what} (a model error or a "
+                       "standstill artefact is taking its place)")
+    for f in report["files"]:
+        for j, share in enumerate(f.get("still_share") or []):
+            if share > STILL_FLAG:
+                out.append(f"{f['path']}: joint {j + 1} stands still in {100 * share:.0f} % of the samples: friction "
+                           "at standstill is not in the model (sign(0) = 0); --trim-still SECONDS cuts long still segments")
+    return out
+
+
+def _where(entry: dict) -> str:
+    span = entry.get("time_s")
+    if not span:
+        return entry["source"]
+    lo, hi = span
+    if hi is None:
+        return f"{entry['source']}, t ≥ {lo:.4g} s"
+    if lo is None:
+        return f"{entry['source']}, t < {hi:.4g} s"
+    return f"{entry['source']}, {lo:.4g} ≤ t < {hi:.4g} s"
