@@ -30,8 +30,8 @@ from minparam_cli.identify.effects import EFFECTS, in_bounds
 from minparam_cli.identify.fit import solve
 
 # Column-scaled condition number of the fit data's rigid-body design past which the fit is refused.
-# Well-excited trajectories measure 10-300 (Panda recording 40, simulated PUMA 560 / Panda / UR5 18-60,
-# TX40 recording 140); a joint that does not move sends it past 1e8.
+# Measured: Panda recording 9.8, TX40 recording 5.7, simulated PUMA 560 10.3 (fit blocks of the default
+# split); data in which joints 2-6 of the PUMA move by 1e-8 rad: 1e10 and more.
 COND_LIMIT = 1e4
 # A joint whose position range over the fit data is below this did not move (rad; m for prismatic joints).
 MOTION_MIN = {"revolute": 0.05, "prismatic": 0.005}

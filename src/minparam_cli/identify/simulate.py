@@ -46,8 +46,9 @@ from minparam_cli.params import standard_names
 # Hyper-parameter of the grid effects: spec key and default (each default lies on its effect's grid).
 HYPER_KEY: dict[str, str] = {"stribeck": "vs", "cogging": "k"}
 HYPER_DEFAULT: dict[str, float] = {"stribeck": 0.05, "cogging": 12.0}
-# Effects whose coefficients are drawn positive (friction opposes the motion; inertia is positive).
-POSITIVE_EFFECTS = frozenset({"coulomb", "viscous", "rotor_inertia", "stribeck", "asymmetric_coulomb", "load_coulomb"})
+# Effects whose coefficients are drawn positive: those whose physical range is [0, inf) in the effect
+# library (friction opposes the motion; inertia is positive), so simulate and the diagnosis agree.
+POSITIVE_EFFECTS = frozenset(e.id for e in EFFECTS.values() if e.bounds is not None and e.bounds[0] == 0 and math.isinf(e.bounds[1]))
 # Random column weights u_i are uniform in this range before the common scaling.
 WEIGHT_RANGE = (0.5, 1.5)
 # Samples per regressor evaluation (bounds memory: chunk × n × 10n doubles).
