@@ -29,6 +29,8 @@ class DeriveOptions:
     samples: int = 100
     seed: int = 0
     symbolic: bool | None = None  # None (the default): numeric
+    snap_angles: float | None = None  # rad: round angles this close to a multiple of 15° (None: never)
+    explain_weak: bool = True  # look for the geometry behind weakly identifiable parameters
 
 
 def load_chain(path: str | Path, opts: DeriveOptions):
@@ -36,7 +38,7 @@ def load_chain(path: str | Path, opts: DeriveOptions):
     from minparam_cli.chain import build_chain
     from minparam_cli.describe import load_description
 
-    desc = load_description(path)
+    desc = load_description(path, opts.snap_angles)
     if opts.gravity is not None:
         desc = replace(desc, gravity=tuple(opts.gravity), gravity_source="cli")
     extras = []
@@ -63,6 +65,13 @@ def derive_file(path: str | Path, opts: DeriveOptions, progress: Callable[[int, 
 
         base = derive_qr(chain, samples=opts.samples, seed=opts.seed)
     report = base_report(chain, base, 0.0)
+    if opts.snap_angles is not None:
+        report["snap_angles"] = {"tolerance_rad": opts.snap_angles, "changed": [dict(a) for a in desc.adjustments]}
+    weak = base.rank_margin.get("weak") or []
+    if weak:
+        from minparam_cli.base.weak import weak_parameters
+
+        report["weakly_identifiable"] = weak_parameters(chain, base, explain=opts.explain_weak, samples=opts.samples, seed=opts.seed)
     if opts.symbolic:
         from minparam_cli.base.symbolic import add_symbolic
 

@@ -19,6 +19,7 @@ Examples:
   minparam derive robots/puma560_mdh.yaml --friction coulomb,viscous --rotor-inertia --format json
   minparam derive robots/panda.yaml --method projection --format latex -o panda.tex
   minparam derive robots/ --format jsonl --jobs 2
+  minparam derive so100.urdf --snap-angles 1e-4
 
 Exit codes: 0 success, 1 failed computation, 2 bad input (any robot of a batch).
 """
@@ -39,16 +40,19 @@ def derive(
     samples: int = typer.Option(100, "--samples", help="Random states for the QR method."),
     seed: int = typer.Option(0, "--seed", help="Seed of the random states (reported in the output)."),
     symbolic: Optional[bool] = typer.Option(None, "--symbolic/--numeric", help="Print regrouping coefficients as expressions in the geometry symbols."),
+    snap_angles: Optional[float] = typer.Option(
+        None, "--snap-angles", metavar="TOL", help="Round joint angles within TOL rad of a multiple of 15° (pi/12) before deriving; every change is printed."
+    ),
     output: Optional[Path] = typer.Option(None, "--output", "-o", help="Write to this file (atomically) instead of stdout."),
     recursive: bool = typer.Option(False, "--recursive", "-r", help="Also search sub-folders."),
     jobs: int = typer.Option(1, "--jobs", "-j", min=1, help="Parallel worker processes for many robots."),
     quiet: bool = typer.Option(False, "--quiet", "-q", help="No progress bar or notes on stderr."),
 ):
-    _derive(paths, method, fmt, friction, rotor_inertia, gravity, samples, seed, symbolic, output, recursive, jobs, quiet)
+    _derive(paths, method, fmt, friction, rotor_inertia, gravity, samples, seed, symbolic, snap_angles, output, recursive, jobs, quiet)
 
 
 @guarded
-def _derive(paths, method, fmt, friction, rotor_inertia, gravity, samples, seed, symbolic, output, recursive, jobs, quiet):
+def _derive(paths, method, fmt, friction, rotor_inertia, gravity, samples, seed, symbolic, snap_angles, output, recursive, jobs, quiet):
     from minparam_cli.pipeline import DeriveOptions, derive_file
 
     method = Method(method).value
@@ -59,7 +63,12 @@ def _derive(paths, method, fmt, friction, rotor_inertia, gravity, samples, seed,
     if samples < 1:
         raise typer.BadParameter("must be positive", param_hint="--samples")
     g = parse_floats(gravity, 3, "--gravity") if gravity is not None else None
-    opts = DeriveOptions(method, kinds, rotor_inertia, g, samples, seed, symbolic)
+    if snap_angles is not None:
+        from minparam_cli.describe.snap import MAX_TOLERANCE
+
+        if not 0.0 < snap_angles < MAX_TOLERANCE:
+            raise typer.BadParameter(f"must be a tolerance in radians in (0, {MAX_TOLERANCE:.4g}) (half of 15°), got {snap_angles:g}", param_hint="--snap-angles")
+    opts = DeriveOptions(method, kinds, rotor_inertia, g, samples, seed, symbolic, snap_angles)
     files, any_folder = expand_paths(list(paths), recursive)
 
     if len(files) == 1 and not any_folder:

@@ -12,16 +12,24 @@ ROBOT_SUFFIXES = (".yaml", ".yml", ".urdf")
 __all__ = ["GeomValue", "Inertial", "JointRecord", "RobotDescription", "load_description", "ROBOT_SUFFIXES"]
 
 
-def load_description(path: str | Path) -> RobotDescription:
-    """Load a YAML DH/MDH table or a URDF, chosen by the file suffix."""
+def load_description(path: str | Path, snap_angles: float | None = None) -> RobotDescription:
+    """Load a YAML DH/MDH table or a URDF, chosen by the file suffix.
+
+    ``snap_angles`` (rad): round angles within it of a multiple of 15° (``describe/snap.py``).
+    """
     path = Path(path)
     suffix = path.suffix.lower()
     if suffix in (".yaml", ".yml"):
         from minparam_cli.describe.yaml_dh import load_yaml
 
-        return load_yaml(path)
+        desc = load_yaml(path)
+        if snap_angles is not None:
+            from minparam_cli.describe.snap import snap_description
+
+            desc = snap_description(desc, snap_angles)
+        return desc
     if suffix == ".urdf":
         from minparam_cli.describe.urdf import load_urdf
 
-        return load_urdf(path)
+        return load_urdf(path, snap_angles)
     raise DescriptionError(f"unknown file type {suffix!r}; expected one of .yaml, .yml, .urdf", str(path))

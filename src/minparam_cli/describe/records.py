@@ -76,6 +76,8 @@ class RobotDescription:
     gravity_source: str = "default"  # "file" | "default" | "cli"
     units: dict[str, str] = field(default_factory=lambda: {"length": "m", "angle": "rad"})
     tool: tuple[float, float, float] | None = None
+    # values the loader changed on request (``--snap-angles``): dicts with where, from, to, degrees
+    adjustments: tuple[dict, ...] = ()
 
     @property
     def dof(self) -> int:

@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import math
 import re
+from dataclasses import replace
 from fractions import Fraction
 from pathlib import Path
 
@@ -33,7 +34,9 @@ KNOWN_TYPES = set(ACTUATED) | {"fixed", "floating", "planar"}
 INERTIA_KEYS = ("ixx", "ixy", "ixz", "iyy", "iyz", "izz")
 
 
-def load_urdf(path: Path) -> RobotDescription:
+def load_urdf(path: Path, snap_angles: float | None = None) -> RobotDescription:
+    """Read a URDF; with ``snap_angles`` (rad), joint origin angles within that of a multiple of
+    15° are rounded to it (fixed joints included), each change recorded in ``adjustments``."""
     src = str(path)
     data = read_bounded(path)
     root = parse_xml_safely(data, src)
@@ -45,7 +48,24 @@ def load_urdf(path: Path) -> RobotDescription:
     if root.find("link") is None:
         raise DescriptionError("<robot> has no <link> element: the file describes no robot", src, f"robot[{name}]")
     links, joints = _read_elements(root, src)
-    return _build(name, src, links, joints)
+    changes = _snap_joint_angles(joints, snap_angles) if snap_angles is not None else ()
+    return replace(_build(name, src, links, joints), adjustments=changes)
+
+
+def _snap_joint_angles(joints: list[dict], tol: float) -> tuple[dict, ...]:
+    """Round every joint origin's roll, pitch and yaw within ``tol`` of a multiple of 15° (in place)."""
+    from minparam_cli.describe.snap import adjustment, snapped_angle
+
+    changes = []
+    for j in joints:
+        for i, (key, text) in enumerate(zip(("roll", "pitch", "yaw"), j["rpy"])):
+            hit = snapped_angle(float(text), tol)
+            if hit is None:
+                continue
+            j["rpy"][i] = repr(hit[0])
+            j["rpy_deg"][i] = Fraction(hit[1])
+            changes.append(adjustment(f"joint[{j['name']}]/origin@rpy {key}", float(text), hit[0], hit[1]))
+    return tuple(changes)
 
 
 def _floats(text: str | None, n: int, src: str, where: str, default: str | None = None) -> list[str]:
@@ -121,7 +141,10 @@ def _read_elements(root, src: str):
             if lo < hi:
                 limits = (lo, hi)
         joints.append(
-            dict(name=name, type=jtype, parent=parent.get("link"), child=child.get("link"), xyz=xyz, rpy=rpy, axis=axis, limits=limits)
+            dict(
+                name=name, type=jtype, parent=parent.get("link"), child=child.get("link"),
+                xyz=xyz, rpy=list(rpy), rpy_deg=[None] * 3, axis=axis, limits=limits,
+            )
         )
     for j in joints:
         for role in ("parent", "child"):
@@ -196,9 +219,9 @@ def _joint_record(j: dict, body_parent: np.ndarray, parent: int) -> dict:
     origin = {}
     for k, s in zip(("x", "y", "z"), j["xyz"]):
         origin[k] = GeomValue(float(s), f"{base}_{k}", False, Fraction(s))
-    for k, s in zip(("roll", "pitch", "yaw"), j["rpy"]):
+    for k, s, deg in zip(("roll", "pitch", "yaw"), j["rpy"], j["rpy_deg"]):
         v = float(s)
-        origin[k] = GeomValue(v, f"{base}_{k}", True, Fraction(0) if v == 0 else None)
+        origin[k] = GeomValue(v, f"{base}_{k}", True, Fraction(0) if v == 0 else deg)
     axis = np.asarray(j["axis"], dtype=float)
     return dict(
         name=j["name"],

@@ -37,10 +37,29 @@ def render_table(r: dict) -> str:
     out = [head, "", body]
     if r["unidentifiable"]:
         out += ["", f"no effect ({len(r['unidentifiable'])}): " + " ".join(r["unidentifiable"])]
+    out += _geometry_notes(r)
     out += _symbolic_footer(r)
     out.append("")
     out.append(f"units: SI (kg, m, kg·m, kg·m²); elapsed {r['elapsed_s']:.3f} s")
     return "\n".join(out)
+
+
+def _geometry_notes(r: dict) -> list[str]:
+    """Weakly identifiable parameters (with the geometry responsible) and the angles --snap-angles changed."""
+    out = []
+    weak = r.get("weakly_identifiable") or []
+    if weak:
+        out.append(f"weakly identifiable ({len(weak)}, kept with a relative margin below {weak[0]['bound']:g}):")
+        for w in weak:
+            why = "; ".join(w["geometry"]) if w["geometry"] else "no single near-special joint relation found"
+            out.append(f"  {w['parameter']}  margin {w['margin']:.2g}  {why}")
+    snap = r.get("snap_angles")
+    if snap is not None:
+        changed = snap["changed"]
+        out.append(f"--snap-angles {snap['tolerance_rad']:g} rad changed {len(changed)} value{'' if len(changed) == 1 else 's'}:")
+        for a in changed:
+            out.append(f"  {a['where']}: {a['from']!r} -> {a['to']!r} ({a['degrees']} deg)")
+    return ([""] + out) if out else []
 
 
 def _symbolic_footer(r: dict) -> list[str]:
@@ -59,6 +78,9 @@ def render_markdown(r: dict) -> str:
         lines.append(f"| {i + 1} | `{b['name']}` | `{b.get('symbolic_text') or b['expression']}` |")
     if r["unidentifiable"]:
         lines += ["", "No effect: " + ", ".join(f"`{n}`" for n in r["unidentifiable"])]
+    notes = [ln for ln in _geometry_notes(r) if ln]
+    if notes:
+        lines += ["", "```", *notes, "```"]
     lines += [f"- {ln}" for ln in _symbolic_footer(r) if ln]
     return "\n".join(lines) + "\n"
 
