@@ -91,7 +91,7 @@ def test_column_mapping_and_npz(tmp_path):
     "content, message",
     [
         ("", "empty file"),
-        ("t,q1,dq1,tau1\n0,1,2,3\n", r"\[.q2.\] missing: the robot has 2 joints"),
+        ("t,q1,dq1,tau1\n0,1,2,3\n", r"the data have 1 joint \(q1\), the robot has 2$"),
         ("t,q1,q2,dq1,dq2,tau1,tau2\n0,1,2,3,x,5,6\n", "non-numeric"),
         ("t,q1,q2,dq1,dq2,tau1\n0,1,2,3,4,5\n", "missing"),
         ("t,q1,q2,dq1,dq2,tau1,tau2\n0,1,2,3,4,5\n", "values"),

@@ -11,7 +11,11 @@ do not show:
    τ with the same zero-phase Butterworth filter (scipy.signal.sosfiltfilt),
    differentiate (central differences), and decimate so that the kept rate is
    about ten times the cut-off;
-3. yield blocks of (t, q, dq, ddq, tau).
+3. count, per joint, the samples in which the joint stands still (|q̇| below
+   ``still_speed``) and, with ``trim_still_s``, drop every standstill of all
+   joints that lasts longer than that (streamed: at most ``trim_still_s``
+   seconds of samples are held back while a standstill's length is unknown);
+4. yield blocks of (t, q, dq, ddq, tau).
 
 Everything dropped is counted and reported, with the reason.
 """
@@ -19,6 +23,7 @@ Everything dropped is counted and reported, with the reason.
 from __future__ import annotations
 
 import math
+import zipfile
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Iterator
@@ -31,6 +36,9 @@ DEFAULT_CUTOFF_HZ = 5.0
 FILTER_ORDER = 4
 CHUNK_ROWS = 200_000
 KEYS = ("t", "q", "dq", "ddq", "tau")
+# a time step that differs from the sampling step by more than this share (longer or shorter) is irregular
+IRREGULAR_TOL = 0.1
+STAMP_ULPS = 2  # two time stamps' steps that differ by at most this many units in the last place are the same step
 
 
 @dataclass(frozen=True)
@@ -40,7 +48,9 @@ class DataOptions:
     force_filter: bool = False
     chunk_rows: int = CHUNK_ROWS
     decimate: int | None = None  # None: automatic (about 10x the cut-off)
-    step_s: float | None = None  # sampling step; None: median step of the first chunk
+    step_s: float | None = None  # sampling step; None: from the steps of the first chunk (see sampling_step)
+    still_speed: float = 0.01  # rad/s or m/s: joint j is still at a sample when |dq_j| < still_speed
+    trim_still_s: float | None = None  # drop every run of all-joints-still samples longer than this (s); None: keep all
 
 
 @dataclass
@@ -74,7 +84,10 @@ class DataReport:
     derived: list = field(default_factory=list)
     filter: str | None = None
     decimation: int = 1
-    samples: int = 0
+    samples: int = 0  # samples yielded (after decimation and standstill trimming)
+    still_share: list = field(default_factory=list)  # per joint: share of the samples (before trimming) in which it is still
+    still_all_share: float = 0.0  # share of the samples (before trimming) in which every joint is still
+    trimmed_segments: int = 0  # standstills dropped by trim_still_s (their samples: dropped["standstill"])
 
     def as_dict(self) -> dict:
         return {
@@ -86,6 +99,9 @@ class DataReport:
             "filter": self.filter,
             "decimation": self.decimation,
             "samples": self.samples,
+            "still_share": [float(x) for x in self.still_share],
+            "still_all_share": float(self.still_all_share),
+            "trimmed_segments": self.trimmed_segments,
         }
 
 
@@ -119,6 +135,27 @@ def _clean(table: np.ndarray, last: np.ndarray | None, report: DataReport) -> tu
     return table, new_last
 
 
+def sampling_step(t: np.ndarray) -> float | None:
+    """The sampling step of time stamps ``t`` (NaN and non-increasing steps ignored), or None.
+
+    The median step, refined as the mean of the steps that equal it up to the rounding of the
+    stamps (STAMP_ULPS units in the last place of the largest stamp).  The median alone carries
+    that rounding: a double resolves raw controller stamps (t ≈ 1.7e9 s) to 0.24 µs, so a 2 ms step
+    reads 1.99986 or 2.00010 ms and the median is one of them, which moves a long resampling grid
+    by samples; the mean over those steps is the true step to the stamps' resolution divided by
+    their count, so that a record and its re-zeroed copy are resampled alike.  Jitter larger than
+    the rounding (logged stamps) is left out of the mean, which stays the median then.
+    """
+    t = t[np.isfinite(t)]
+    d = np.diff(t)
+    d = d[d > 0]
+    if not len(d):
+        return None
+    med = float(np.median(d))
+    same = d[np.abs(d - med) <= STAMP_ULPS * float(np.spacing(np.max(np.abs(t))))]
+    return float(same.mean()) if len(same) else med
+
+
 TAIL_BYTES = 65536  # how much of the head and of the tail time_span reads
 
 
@@ -134,7 +171,7 @@ def time_span(path: str | Path, opts: DataOptions) -> tuple[float, float]:
         try:
             with np.load(path, allow_pickle=False) as z:
                 t = np.asarray(z[name], dtype=float)
-        except (OSError, ValueError, KeyError) as e:
+        except (OSError, ValueError, KeyError, EOFError, zipfile.BadZipFile) as e:
             raise DataError(f"{path}: cannot read time array '{name}' ({e})") from e
         t = t[np.isfinite(t)]
         if len(t) < 2:
@@ -202,23 +239,114 @@ def iter_blocks(path: str | Path, n: int, opts: DataOptions, report: DataReport 
             step = float(opts.step_s)
         if step is None:
             # the sampling step from the raw time stamps (sample-and-hold rows have proper stamps)
-            t = table[:, 0]
-            d = np.diff(t[np.isfinite(t)])
-            d = d[d > 0]
-            step = float(np.median(d)) if len(d) else None
+            step = sampling_step(table[:, 0])
         table, last = _clean(table, last, report)
         if len(table) == 0:
             continue
         clean = split(table, layout)
         if processor is None:
             processor = Processor(clean, opts, report, step)
-        yield from processor.push(clean)
+            still = Standstill(n, opts, report)
+        for b in processor.push(clean):
+            yield from still.push(b)
         del table, clean  # not alive while the next chunk is read: memory is one chunk, not two
     if processor is None:
         raise DataError(f"{path}: no usable samples (every row was dropped or the file has no data)")
-    yield from processor.finish()
+    for b in processor.finish():
+        yield from still.push(b)
+    yield from still.finish()
+
+
+class Standstill:
+    """Counts the samples in which each joint (and every joint) is still, |dq_j| < still_speed, and
+    with ``trim_still_s`` drops every run of consecutive all-joints-still samples that lasts longer
+    than that: from its first to its last sample, t_last - t_first > trim_still_s.
+
+    Streamed: a run's samples are held back (at most trim_still_s seconds of them) until the run
+    ends, and emitted then; once the run is longer than trim_still_s they are dropped, and so is
+    every further sample of the run, as it comes.  Blocks come out in order, so the result does not
+    depend on how the samples are cut into blocks.
+    """
+
+    def __init__(self, n: int, opts: DataOptions, report: DataReport):
+        self.speed = opts.still_speed
+        self.trim = opts.trim_still_s
+        self.report = report
+        self.seen = 0
+        self.still = np.zeros(n, dtype=np.int64)
+        self.still_all = 0
+        self.pending: list[Block] = []  # the open run's samples, not yet decided
+        self.run_t0: float | None = None  # first time of the open run (a run is open when the last sample was still)
+        self.dropping = False  # the open run is already longer than trim: drop as it comes
+        report.still_share = [0.0] * n
+        if self.trim is not None:
+            report.dropped["standstill"] = 0
+
+    def _stats(self, mask: np.ndarray, b: Block) -> np.ndarray:
+        self.seen += len(b)
+        self.still += mask.sum(axis=0)
+        every = mask.all(axis=1)
+        self.still_all += int(every.sum())
+        self.report.still_share = [float(c / self.seen) for c in self.still]
+        self.report.still_all_share = self.still_all / self.seen
+        return every
+
+    def _drop(self, count: int) -> None:
+        self.report.dropped["standstill"] += count
+        self.report.samples -= count
+
+    def push(self, b: Block):
+        if not len(b):
+            return
+        every = self._stats(np.abs(b.dq) < self.speed, b)
+        if self.trim is None:
+            yield b
+            return
+        edges = np.diff(np.concatenate([[0], every.astype(np.int8), [0]]))
+        starts, ends = np.flatnonzero(edges == 1), np.flatnonzero(edges == -1)  # runs [start, end)
+        was_open, was_dropping = self.run_t0 is not None, self.dropping
+        continued = was_open and len(starts) > 0 and starts[0] == 0  # the open run goes on here
+        open_end = len(ends) > 0 and ends[-1] == len(b)  # the last run goes on into the next block
+        t0 = b.t[starts]
+        if continued:
+            t0[0] = self.run_t0
+        long = (b.t[ends - 1] - t0) > self.trim
+        if continued and was_dropping:
+            long[0] = True
+        self.report.trimmed_segments += int(long.sum()) - int(continued and was_dropping)
+        carry: list[Block] = []
+        if was_open:  # the samples held for the open run go with it: dropped, kept on holding, or out
+            held, self.pending = self.pending, []
+            if continued and long[0]:
+                self._drop(sum(len(x) for x in held))
+            elif continued and open_end and len(starts) == 1:
+                carry = held
+            else:
+                yield from held
+        cut = np.zeros(len(b) + 1, dtype=np.int64)
+        np.add.at(cut, starts[long], 1)
+        np.add.at(cut, ends[long], -1)
+        keep = np.cumsum(cut[:-1]) == 0
+        self._drop(int(len(b) - keep.sum()))
+        self.run_t0, self.dropping = None, False
+        if open_end:
+            self.run_t0, self.dropping = float(t0[-1]), bool(long[-1])
+            if not self.dropping:
+                self.pending = carry + [b.take(slice(int(starts[-1]), None))]
+                keep[starts[-1] :] = False
+        if keep.all():
+            yield b
+        elif keep.any():
+            yield b.take(keep)
+
+    def finish(self):
+        """The file ends: a run still held is shorter than trim_still_s, and kept."""
+        held, self.pending, self.run_t0 = self.pending, [], None
+        yield from held
 
 
 def load_all(path: str | Path, n: int, opts: DataOptions, report: DataReport | None = None) -> Block:
     blocks = list(iter_blocks(path, n, opts, report))
+    if not blocks:  # every sample dropped (standstill trimming)
+        return Block(np.empty(0), *(np.empty((0, n)) for _ in KEYS[1:]))
     return Block.concat(blocks)

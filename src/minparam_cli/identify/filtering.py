@@ -4,6 +4,19 @@ The Butterworth filter runs forwards and backwards (scipy.signal.sosfiltfilt),
 so it adds no phase lag.  Chunks are processed with ``margin`` samples of
 context on each side, so the result does not depend on the chunk size beyond
 rounding (the filter's transient decays within the margin).
+
+Tolerances, so that rounding of the time stamps does not change the result (a record with raw
+controller stamps, t ≈ 1.7e9 s, and the same record re-zeroed give the same samples):
+
+- RATE_TOL: sample counts derived from the rate are rounded with a relative tolerance: the
+  automatic decimation is k = floor(fs / (10·fc) · (1 + RATE_TOL)), the samples dropped at each
+  end (one cut-off period) ceil(fs / fc · (1 - RATE_TOL)), so that 500 Hz read as 500.0001 or
+  499.9999 Hz keeps one sample in 10 and drops 100 at each end either way;
+- GRID_TOL: the uniform grid gets one more point at the end of the record when that point lies
+  at most this share of a step after the last raw sample (the stamps' rounding), instead of
+  ending one step early;
+- a time step is irregular when it differs from the sampling step by more than IRREGULAR_TOL
+  (data.IRREGULAR_TOL, 10 %), longer or shorter.
 """
 
 from __future__ import annotations
@@ -13,7 +26,21 @@ import math
 import numpy as np
 
 from minparam_cli.errors import DataError
-from minparam_cli.identify.data import FILTER_ORDER, KEYS, Block, DataOptions, DataReport
+from minparam_cli.identify.data import FILTER_ORDER, IRREGULAR_TOL, KEYS, Block, DataOptions, DataReport, sampling_step
+
+RATE_TOL = 1e-3
+GRID_TOL = 1e-3
+MAX_RATE_RATIO = 1e5  # sampling rate / cut-off: the filter holds 30 cut-off periods of samples (3e6 at most)
+
+
+def _floor(x: float) -> int:
+    """floor(x), up to the relative tolerance RATE_TOL (9.9999 -> 10)."""
+    return int(math.floor(x * (1 + RATE_TOL)))
+
+
+def _ceil(x: float) -> int:
+    """ceil(x), up to the relative tolerance RATE_TOL (100.0001 -> 100)."""
+    return int(math.ceil(x * (1 - RATE_TOL)))
 
 
 class Processor:
@@ -23,8 +50,8 @@ class Processor:
         t = first["t"]
         if step is None and len(t) < 3:
             raise DataError(f"{report.path}: too few samples in the first chunk to find the sampling step")
-        self.dt = step if step else float(np.median(np.diff(t)))
-        if not self.dt > 0:
+        self.dt = step if step else sampling_step(t)
+        if not (self.dt is not None and self.dt > 0):
             raise DataError(f"{report.path}: time stamps do not increase")
         report.median_step_s = self.dt
         self.filter = opts.force_filter or first["dq"] is None or first["ddq"] is None
@@ -36,21 +63,33 @@ class Processor:
         if self.filter:
             if not 0 < opts.cutoff_hz < fs / 2:
                 raise DataError(f"{report.path}: cut-off {opts.cutoff_hz} Hz must be below half the sampling rate ({fs / 2:.4g} Hz)")
+            if fs / opts.cutoff_hz > MAX_RATE_RATIO:
+                raise DataError(
+                    f"{report.path}: the sampling rate ({fs:.4g} Hz) is more than {MAX_RATE_RATIO:.0e} times the "
+                    f"{opts.cutoff_hz:g} Hz cut-off: are the time stamps in seconds? (else --rate or --cutoff)"
+                )
             from scipy.signal import butter
 
-            self.sos = butter(FILTER_ORDER, opts.cutoff_hz, fs=fs, output="sos")
-            self.margin = int(math.ceil(10 * fs / opts.cutoff_hz))
+            try:
+                with np.errstate(all="ignore"):
+                    self.sos = butter(FILTER_ORDER, opts.cutoff_hz, fs=fs, output="sos")
+            except (ValueError, np.linalg.LinAlgError) as e:
+                raise DataError(f"{report.path}: cannot design a {opts.cutoff_hz:g} Hz filter at {fs:.6g} Hz ({e})") from e
+            if not np.isfinite(self.sos).all():
+                raise DataError(f"{report.path}: cannot design a {opts.cutoff_hz:g} Hz filter at {fs:.6g} Hz")
+            self.margin = _ceil(10 * fs / opts.cutoff_hz)
             # the forward-backward filter is only as good as its padding at the two ends of the
             # record: one period of the cut-off is dropped there (Panda data: 2.9 % -> 1.05 %
             # held-out error with the edges kept vs dropped)
-            self.trim = int(math.ceil(fs / opts.cutoff_hz - 1e-6))
+            self.trim = _ceil(fs / opts.cutoff_hz)
             self.offset = 0  # global grid index of the buffer's first row
             report.dropped["filter_edges"] = 0
-            self.k = opts.decimate or max(1, int(fs // (10 * opts.cutoff_hz)))
+            self.k = opts.decimate or max(1, _floor(fs / (10 * opts.cutoff_hz)))
             report.filter = f"Butterworth order {FILTER_ORDER}, zero-phase (forward-backward), cut-off {opts.cutoff_hz:g} Hz, at {fs:.6g} Hz"
             report.derived = [name for name, present in (("dq", self.has_dq), ("ddq", self.has_ddq)) if not present or opts.force_filter]
             self.buffer: list[np.ndarray] = []  # uniform samples: columns t, q, [dq], tau
             self.buffered = 0
+            self.total = 0  # samples on the grid so far
             self.emitted = 0  # samples of the buffer already emitted
             self.prev_raw = None
             self.grid_next = float(t[0])
@@ -61,10 +100,12 @@ class Processor:
     # --- helpers -------------------------------------------------------------
 
     def _count_irregular(self, t: np.ndarray) -> None:
+        """Count the steps (of the cleaned time stamps) that differ from the sampling step by more
+        than IRREGULAR_TOL of it, longer or shorter (a dropped row leaves a long step)."""
         if self.last_t is not None:
             t = np.concatenate([[self.last_t], t])
         if len(t) > 1:
-            self.report.irregular_steps += int(np.sum(np.diff(t) > 1.5 * self.dt))
+            self.report.irregular_steps += int(np.sum(np.abs(np.diff(t) - self.dt) > IRREGULAR_TOL * self.dt))
             self.last_t = float(t[-1])
 
     def _decimate(self, b: Block) -> Block:
@@ -89,6 +130,10 @@ class Processor:
 
     def finish(self):
         if self.filter:
+            last = self.prev_raw
+            if last is not None and self.grid_next <= last[0] + GRID_TOL * self.dt:
+                # the next grid point is the last sample, up to the stamps' rounding: it ends the grid
+                self._append(np.concatenate([[self.grid_next], last[1:]])[None])
             yield from self._flush(final=True)
 
     # --- filtered path -------------------------------------------------------
@@ -111,13 +156,23 @@ class Processor:
             return
         grid = self.grid_next + self.dt * np.arange(n_grid)
         self.grid_next = float(grid[-1] + self.dt)
-        uni = np.column_stack([grid] + [np.interp(grid, t, raw[:, c]) for c in range(1, raw.shape[1])])
-        self.buffer.append(uni)
-        self.buffered += len(uni)
+        self._append(np.column_stack([grid] + [np.interp(grid, t, raw[:, c]) for c in range(1, raw.shape[1])]))
         if self.buffered >= 3 * self.margin + self.opts.chunk_rows // 2:
             yield from self._flush(final=False)
 
+    def _append(self, uni: np.ndarray) -> None:
+        self.buffer.append(uni)
+        self.buffered += len(uni)
+        self.total += len(uni)
+
     def _flush(self, final: bool):
+        if final and self.total <= 2 * self.trim:
+            fs = 1.0 / self.dt
+            raise DataError(
+                f"{self.report.path}: too few samples to filter: {self.total} at {fs:.6g} Hz, and one period of the "
+                f"{self.opts.cutoff_hz:g} Hz cut-off ({self.trim} samples) is dropped at each end; at least "
+                f"{2 * self.trim + 1} are needed"
+            )
         if not self.buffer:
             return
         data = np.vstack(self.buffer)
@@ -127,15 +182,16 @@ class Processor:
 
         n = (data.shape[1] - 1) // (3 if self.has_dq else 2)
         padlen = min(2 * self.trim, len(data) - 1)  # odd extension over two cut-off periods
-        f = sosfiltfilt(self.sos, data[:, 1:], axis=0, padlen=padlen)
-        q = f[:, :n]
-        if self.has_dq:
-            dq = f[:, n : 2 * n]
-            tau = f[:, 2 * n :]
-        else:
-            dq = np.gradient(q, self.dt, axis=0)
-            tau = f[:, n:]
-        ddq = np.gradient(dq, self.dt, axis=0)
+        with np.errstate(all="ignore"):  # values too large overflow: refused below, with their time
+            f = sosfiltfilt(self.sos, data[:, 1:], axis=0, padlen=padlen)
+            q = f[:, :n]
+            if self.has_dq:
+                dq = f[:, n : 2 * n]
+                tau = f[:, 2 * n :]
+            else:
+                dq = np.gradient(q, self.dt, axis=0)
+                tau = f[:, n:]
+            ddq = np.gradient(dq, self.dt, axis=0)
         end = len(data) - (self.trim if final else self.margin)
         start = max(self.emitted, self.trim - self.offset)
         if final or start > self.emitted:
@@ -143,6 +199,13 @@ class Processor:
             self.report.dropped["filter_edges"] += dropped_head + (max(0, len(data) - max(end, start)) if final else 0)
         if end > start:
             b = Block(data[start:end, 0], q[start:end], dq[start:end], ddq[start:end], tau[start:end])
+            bad = ~(np.isfinite(b.q).all(axis=1) & np.isfinite(b.dq).all(axis=1) & np.isfinite(b.ddq).all(axis=1)
+                    & np.isfinite(b.tau).all(axis=1))
+            if bad.any():
+                raise DataError(
+                    f"{self.report.path}: filtering gives non-finite values at t = {b.t[int(np.argmax(bad))]:.6g} s "
+                    "(a value of q, dq or tau near there is too large to filter)"
+                )
             yield self._decimate(b)
         if final:
             self.buffer, self.buffered = [], 0

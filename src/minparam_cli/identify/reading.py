@@ -10,10 +10,12 @@ messages are the same either way.
 from __future__ import annotations
 
 import contextlib
+import re
 import signal
 import sys
 import threading
 import warnings
+import zipfile
 from pathlib import Path
 from typing import Iterator
 
@@ -26,6 +28,11 @@ BACKGROUND_BYTES = 64 * 2**20
 
 
 def _column_indices(header: list[str], n: int, opts: DataOptions, src: str) -> dict[str, list[int] | None]:
+    """Column index of t and of every joint's q, dq, ddq, tau (None for an absent dq or ddq).
+
+    The columns of a key are its prefix and the joint number, 1 to n (q1, q2, ...); a file whose
+    joint columns go beyond n, or stop short of it, is refused, in joint terms.
+    """
     names = [h.strip() for h in header]
     idx: dict[str, list[int] | None] = {}
     for key in KEYS:
@@ -35,18 +42,39 @@ def _column_indices(header: list[str], n: int, opts: DataOptions, src: str) -> d
                 raise DataError(f"{src}: missing time column '{name}' (use --columns t=NAME)")
             idx[key] = [names.index(name)]
             continue
+        numbered = re.compile(re.escape(name) + r"(0|[1-9][0-9]*)")
+        joints = sorted({int(m.group(1)) for m in map(numbered.fullmatch, names) if m})
         wanted = [f"{name}{j}" for j in range(1, n + 1)]
-        found = [c for c in wanted if c in names]
-        if not found:
+        if not joints:
             if key in ("q", "tau"):
                 raise DataError(f"{src}: missing columns {wanted[0]}..{wanted[-1]} (use --columns {key}=PREFIX)")
             idx[key] = None
             continue
-        if len(found) != n:
-            missing = [c for c in wanted if c not in names]
-            raise DataError(f"{src}: column(s) {missing} missing: the robot has {n} joints")
+        if joints != list(range(1, n + 1)):
+            raise DataError(f"{src}: {_joint_mismatch(name, joints, n)}")
         idx[key] = [names.index(c) for c in wanted]
     return idx
+
+
+def _joint_mismatch(prefix: str, joints: list[int], n: int) -> str:
+    """The data's joint columns ``joints`` (numbers after ``prefix``) against the robot's n joints, in words."""
+    robot = f"the robot has {n}"
+    if joints == list(range(1, len(joints) + 1)):  # q1..qm
+        shown = f"{prefix}1" if len(joints) == 1 else f"{prefix}1..{prefix}{len(joints)}"
+        m = len(joints)
+        return f"the data have {m} joint{'s' if m != 1 else ''} ({shown}), {robot}"
+    if joints == list(range(0, len(joints))):  # q0..q(m-1)
+        m = len(joints)
+        return (f"the data have {m} joint{'s' if m != 1 else ''} ({prefix}0..{prefix}{m - 1}), {robot} "
+                f"(columns are numbered from 1: {prefix}1..{prefix}{n})")
+    shown = ", ".join(f"{prefix}{j}" for j in joints[:8]) + (", ..." if len(joints) > 8 else "")
+    missing = [f"{prefix}{j}" for j in range(1, n + 1) if j not in joints]
+    extra = [f"{prefix}{j}" for j in joints if not 1 <= j <= n]
+    what = "; ".join(part for part in (
+        f"{', '.join(missing[:4])}{', ...' if len(missing) > 4 else ''} missing" if missing else "",
+        f"{', '.join(extra[:4])}{', ...' if len(extra) > 4 else ''} beyond joint {n}" if extra else "",
+    ) if part)
+    return f"the data have columns {shown}, {robot} joint{'s' if n != 1 else ''} ({what})"
 
 
 def _layout(present: dict[str, bool], n: int) -> dict[str, slice | int | None]:
@@ -75,18 +103,29 @@ def raw_chunks(path: Path, n: int, opts: DataOptions) -> Iterator[tuple[np.ndarr
         try:
             with np.load(path, allow_pickle=False) as z:
                 arrays = {k: (np.asarray(z[opts.columns.get(k, k)], dtype=float) if opts.columns.get(k, k) in z.files else None) for k in KEYS}
-        except (OSError, ValueError) as e:
+        except (OSError, ValueError, EOFError, zipfile.BadZipFile) as e:
             raise DataError(f"{src}: cannot read .npz ({e})") from e
         for k in ("t", "q", "tau"):
             if arrays[k] is None:
                 raise DataError(f"{src}: missing array '{opts.columns.get(k, k)}'")
-        N = len(arrays["t"])
+        t = arrays["t"]
+        if t.ndim != 1 and t.size == max(t.shape, default=0):  # a column or a row of time stamps
+            t = arrays["t"] = t.reshape(-1)
+        if t.ndim != 1:
+            raise DataError(f"{src}: array '{opts.columns.get('t', 't')}' has shape {t.shape}, expected one time stamp a sample")
+        N = len(t)
+        if N == 0:
+            raise DataError(f"{src}: no usable samples (array '{opts.columns.get('t', 't')}' is empty)")
         for k in KEYS[1:]:
             a = arrays[k]
             if a is not None:
-                a = a.reshape(N, -1) if a.ndim != 2 else a
-                if a.shape != (N, n):
-                    raise DataError(f"{src}: array '{k}' has shape {a.shape}, expected ({N}, {n})")
+                name = opts.columns.get(k, k)
+                if a.ndim == 0 or a.shape[0] != N:
+                    raise DataError(f"{src}: array '{name}' has shape {a.shape}, expected ({N}, {n}): a row per time stamp, a column per joint")
+                shape, a = a.shape, a.reshape(N, -1)
+                if a.shape[1] != n:
+                    m = a.shape[1]
+                    raise DataError(f"{src}: the data have {m} joint{'s' if m != 1 else ''} (array '{name}' has shape {shape}), the robot has {n}")
                 arrays[k] = a
         layout = _layout({k: a is not None for k, a in arrays.items()}, n)
         used = [a.reshape(N, -1) for a in arrays.values() if a is not None]
