@@ -33,6 +33,8 @@ from minparam_cli.chain import Chain
 
 # relations closer than this to special (rad, or fraction of the robot's size) are candidates
 NEAR = 1e-2
+# at most this many candidates are tried (closest to special first): each costs one QR base set
+MAX_CANDIDATES = 16
 
 
 def weak_parameters(chain: Chain, base: BaseSet, explain: bool = True, samples: int = 100, seed: int = 0) -> list[dict]:
@@ -44,7 +46,11 @@ def weak_parameters(chain: Chain, base: BaseSet, explain: bool = True, samples: 
         return out
     from minparam_cli.base.qr import derive_qr
 
-    for cand in near_special_relations(chain):
+    # a relation at joint j changes how the links after j move: only those on the path to a weak link
+    links = {c // 10 for c, _ in weak if c < chain.layout.n_inertial} | {chain.layout.extra_columns[c - chain.layout.n_inertial][0] for c, _ in weak if c >= chain.layout.n_inertial}
+    upstream = set().union(*(chain.ancestors(k) for k in links)) if links else set()
+    candidates = sorted((c for c in near_special_relations(chain) if c["joint"] in upstream), key=lambda c: c["delta"])
+    for cand in candidates[:MAX_CANDIDATES]:
         kept = set(derive_qr(cand["chain"], samples=samples, seed=seed).kept)
         for entry, (c, _) in zip(out, weak):
             if c not in kept:
@@ -107,6 +113,7 @@ def near_special_relations(chain: Chain) -> list[dict]:
                 {
                     "text": f"{_label(chain, j)} axis {delta:.2g} rad from {kind} to {other}",
                     "delta": delta,
+                    "joint": j,
                     "chain": _copy(chain, pre),
                 }
             )
@@ -130,6 +137,7 @@ def near_special_relations(chain: Chain) -> list[dict]:
                 {
                     "text": f"{_label(chain, j)} axis {dist * 1e3:.3g} mm ({dist / L:.2g} of the robot's size) from {what} {other}",
                     "delta": dist / L,
+                    "joint": j,
                     "chain": _copy(chain, pre),
                 }
             )
