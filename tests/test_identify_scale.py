@@ -14,10 +14,12 @@ import pytest
 from minparam_cli.identify import accumulate, stage
 from minparam_cli.identify.accumulate import Accumulator
 from minparam_cli.identify.compressed import Compressed
+from minparam_cli.identify.data import time_span
 from minparam_cli.identify.design import Design, Term
 from minparam_cli.identify.diagnose import _basis, diagnose
 from minparam_cli.identify.effects import EFFECT_IDS
 from minparam_cli.identify.fit import independent_columns, solve
+from minparam_cli.identify.roles import plan
 from minparam_cli.identify.scoring import score
 from minparam_cli.identify.slots import final_maps, slot_sources
 
@@ -103,10 +105,10 @@ def panda_setup(tmp_path_factory):
     _, chain = load_chain(Path("robots/panda.yaml"), DeriveOptions())
     base = derive_qr(chain, seed=0)
     opts = stage.IdentifyOptions()
-    sources = [(path, None, stage._split_time(path, opts))]
+    sources = plan(path, None, (), opts.split, time_span(path, opts.data))
     slots = slot_sources(EFFECT_IDS)
-    acc, thin, _, design = stage._stream(Design(chain, base.kept, base.base_names), sources, chain.n, opts, keep=True, slots=slots)
-    fit0 = solve(acc["train"].restrict(list(range(design.p))), design.names)
+    acc, thin, _, _, design = stage._stream(Design(chain, base.kept, base.base_names), sources, chain.n, opts, keep=True, slots=slots)
+    fit0 = solve(acc["fit"].restrict(list(range(design.p))), design.names)
     theta = np.zeros(design.p)
     theta[list(fit0.columns)] = fit0.theta
     return replace(design, theta_model=theta), acc, thin, sources, slots, opts
@@ -120,8 +122,8 @@ def test_final_fit_from_the_slots_equals_a_second_pass(panda_setup):
         final = final.with_term(term)
     maps = final_maps(final, slots)
     assert maps is not None
-    again, _, _, _ = stage._stream(final, sources, design.chain.n, opts, keep=False)
-    for part in ("train", "hold"):
+    again, _, _, _, _ = stage._stream(final, sources, design.chain.n, opts, keep=False)
+    for part in ("fit", "selection", "test1"):
         a = solve(acc[part].transform(maps), final.names)
         b = solve(again[part], final.names)
         assert a.columns == b.columns
@@ -131,7 +133,7 @@ def test_final_fit_from_the_slots_equals_a_second_pass(panda_setup):
 
 def test_compressed_scores_equal_direct_least_squares(panda_setup):
     design, _, thin, _, _, _ = panda_setup
-    train, hold = thin["train"].block(), thin["hold"].block()
+    train, hold = thin["fit"].block(), thin["selection"].block()
     model = design.with_term(Term("gain", (0, 1, 2, 3, 4, 5, 6)))  # rank deficient: gain on every joint rescales θ
     data = Compressed.of(model, train, hold, EFFECT_IDS)
     sel = data.selection(model)
@@ -159,9 +161,9 @@ def test_compressed_scores_equal_direct_least_squares(panda_setup):
 
 def test_diagnosis_finds_the_hidden_effects_and_drift_has_one_origin(panda_setup):
     design, _, thin, _, _, _ = panda_setup
-    d = diagnose(design, thin["train"].block(), thin["hold"].block(), stage.DiagnosisOptions())
+    d = diagnose(design, thin["fit"].block(), thin["selection"].block(), stage.DiagnosisOptions())
     assert {(t.effect, t.joints) for t in d.design.terms} >= {("viscous", tuple(range(7)))}
-    hold = thin["hold"].block()
+    hold = thin["selection"].block()
     drift = Design(design.chain, design.kept, design.base_names, terms=(Term("drift", (0,)),), t0=design.t0).columns(hold)[:, 0, -1]
     assert np.array_equal(drift, hold.t - design.t0)  # the held-out part measures drift from the record's start too
 

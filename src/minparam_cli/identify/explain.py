@@ -119,8 +119,8 @@ def describe_rejected(r: Rejected, data_reports: list[dict], design: Design) -> 
             "reading": text}
 
 
-def _rotor_homes(chain, seed: int) -> dict[str, list[int]]:
-    """Base parameter name -> the joints whose rotor inertia regroups into it (when not declared)."""
+def _rotor_homes(chain, seed: int) -> dict[str, list[tuple[int, float]]]:
+    """Base parameter name -> (joint, coefficient) of the rotor inertias that regroup into it (when not declared)."""
     from minparam_cli.base.qr import derive_qr
     from minparam_cli.params import EXTRA_ORDER
 
@@ -132,7 +132,7 @@ def _rotor_homes(chain, seed: int) -> dict[str, list[int]]:
         col = names.index(f"Ia{j + 1}")
         for i, bname in enumerate(base.base_names):
             if bname != f"Ia{j + 1}" and abs(base.K[i, col]) > 0:
-                homes.setdefault(bname, []).append(j)
+                homes.setdefault(bname, []).append((j, float(base.K[i, col])))
     return homes
 
 
@@ -161,10 +161,11 @@ def nominal_notes(chain, base, fit, seed: int = 0) -> list[str]:
         sd = abs(v) * fit.std_percent[k] / 100 if np.isfinite(fit.std_percent[k]) else np.inf
         if abs(v - nom) > max(3 * sd, 0.2 * abs(nom), 0.02 * scale):
             homes = _rotor_homes(chain, seed) if homes is None else homes
-            rotors = homes.get(name, [])
-            if rotors and v > nom:
+            # a rotor inertia Ia > 0 moves the parameter by coefficient·Ia: only that direction is explained
+            rotors = [j for j, c in homes.get(name, []) if c * (v - nom) > 0]
+            if rotors:
                 js = ", ".join(f"Ia{j + 1}" for j in rotors)
-                notes.append(f"{name} = {v:.4g} exceeds its nominal {nom:.4g} by {v - nom:.4g}: most likely rotor inertia "
+                notes.append(f"{name} = {v:.4g} differs from its nominal {nom:.4g} by {v - nom:+.4g}: most likely rotor inertia "
                              f"({js} regroups into {name}; declare --rotor-inertia to name it), else a payload or a wrong link inertia")
             else:
                 notes.append(f"{name} = {v:.4g} differs from its nominal {nom:.4g}: a payload, a wrong link mass or inertia, not an effect")
