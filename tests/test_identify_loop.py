@@ -242,7 +242,7 @@ def test_trim_still_cuts_long_standstills(tmp_path):
     trimmed = identify("puma560_mdh.yaml", path, "--trim-still", "0.5")
     assert min(plain["preprocessing"]["still_share"]) > 0.2
     assert trimmed["dropped"]["standstill"] == int(still.sum())
-    assert any("stands still" in f for f in plain["flags"])
+    assert any("joints 1, 2, 3, 4, 5, 6 stand still in" in f for f in plain["flags"])
 
 
 def test_no_numpy_warning_reaches_stderr(tmp_path):

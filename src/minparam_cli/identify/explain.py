@@ -17,6 +17,9 @@ from minparam_cli.identify.diagnose import Rejected, term_coefficients
 from minparam_cli.identify.effects import EFFECTS
 
 
+MIN_PERIODS = 3  # a ripple seen over fewer periods than this is not told apart from a smooth position error
+
+
 def _units(design: Design, joints) -> tuple[str, str]:
     """(torque unit, velocity unit) of these joints."""
     prismatic = [design.chain.types[j] == "prismatic" for j in joints]
@@ -71,8 +74,13 @@ def explain(term: Term, c: np.ndarray, design: Design, motion=None) -> str:
                 "(Kq·q + Ks·sin q + Kc·cos q): a spring, cable, gravity compensator or a gravity model error")
     if e == "cogging":
         amp = np.hypot(c[:, 0], c[:, 1])
-        return (f"a ripple of amplitude {_list(amp)} {T}, {term.hyper:g} periods per turn "
-                f"(every {360 / term.hyper:.3g}°) on {on}: motor cogging or gear meshing")
+        text = f"a ripple of amplitude {_list(amp)} {T}, {term.hyper:g} periods per turn (every {360 / term.hyper:.3g}°) on {on}"
+        if motion is not None:
+            periods = min(float(motion.range[j]) * term.hyper / (2 * math.pi) for j in term.joints)
+            if periods < MIN_PERIODS:
+                return (f"{text}; the fitted motion spans only {periods:.2g} of its periods, so it is as likely a "
+                        "smooth position-dependent model error (gravity, cable) as cogging")
+        return f"{text}: motor cogging or gear meshing"
     if e == "load_coulomb":
         return f"friction that grows with the load, {_list(100 * c[:, 0])} % of |τ_model| against the motion on {on}"
     if e == "gain":

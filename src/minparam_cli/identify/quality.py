@@ -157,10 +157,13 @@ def flags(report: dict, fit) -> list[str]:
             out.append(f"declared {what} {name} = {v:.4g} is negative: not {what} (a model error or a "
                        "standstill artefact is taking its place)")
     for f in report["files"]:
-        for j, share in enumerate(f.get("still_share") or []):
-            if share > STILL_FLAG:
-                out.append(f"{f['path']}: joint {j + 1} stands still in {100 * share:.0f} % of the samples: friction "
-                           "at standstill is not in the model (sign(0) = 0); --trim-still SECONDS cuts long still segments")
+        still = [(j, s) for j, s in enumerate(f.get("still_share") or []) if s > STILL_FLAG]
+        if still:
+            js = ", ".join(str(j + 1) for j, _ in still)
+            shares = ", ".join(f"{100 * s:.0f}" for _, s in still)
+            out.append(f"{f['path']}: joint{'s' if len(still) > 1 else ''} {js} stand{'' if len(still) > 1 else 's'} "
+                       f"still in {shares} % of the samples: the torque at standstill (static friction) is not in the "
+                       "model (sign(0) = 0); --trim-still SECONDS cuts long still segments")
     return out
 
 
