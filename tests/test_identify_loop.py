@@ -267,3 +267,36 @@ def test_panda_recording_test_error_and_physical_friction():
             assert all(v >= 0 for v in e["coefficients"].values()), e
     assert steps_fall(rep)
     assert "stribeck" not in {e["effect"] for e in rep["effects"]}
+
+
+def test_final_refit_keeps_a_term_only_where_it_is_physical(tmp_path):
+    """A viscous term on all joints, refitted on data whose joint-2 viscous friction is negative:
+    keep_physical keeps it on the other joints, refits, and reports the step."""
+    from minparam_cli.base.qr import derive_qr
+    from minparam_cli.identify import stage
+    from minparam_cli.identify.data import time_span
+    from minparam_cli.identify.design import Design, Term
+    from minparam_cli.identify.fit import solve
+    from minparam_cli.identify.quality import full_theta, keep_physical
+    from minparam_cli.identify.diagnose import term_coefficients
+    from minparam_cli.identify.roles import plan
+    from minparam_cli.pipeline import DeriveOptions, load_chain
+
+    data = simulate(tmp_path / "d.csv", effects="viscous:amp=0.1")
+    header, table = read(data)
+    table[:, header.index("tau2")] -= 0.3 * table[:, header.index("dq2")]  # joint 2: Fv2 < 0 in all
+    path = write(tmp_path / "neg.csv", header, table)
+    _, chain = load_chain("robots/puma560_mdh.yaml", DeriveOptions())
+    base = derive_qr(chain, seed=0)
+    design = Design(chain, base.kept, base.base_names, terms=(Term("viscous", tuple(range(6))),))
+    opts = stage.IdentifyOptions()
+    sources = plan(path, None, (), opts.split, time_span(path, opts.data))
+    acc, _, _, _, design = stage._stream(design, sources, chain.n, opts, keep=False)
+    fit = solve(acc["fit"], design.names)
+    before = term_coefficients(design, full_theta(fit, design.p))[0][:, 0]
+    assert before[1] < 0 and np.all(np.delete(before, 1) > 0)
+    kept, fit2, acc2, steps = keep_physical(design, fit, acc, True)
+    assert kept.terms == (Term("viscous", (0, 2, 3, 4, 5)),)
+    assert all(c >= 0 for c in term_coefficients(kept, full_theta(fit2, kept.p))[0][:, 0])
+    assert len(steps) == 1 and steps[0]["joints"] == [1, 3, 4, 5, 6] and "Fv2 = -" in steps[0]["statistic"]["why"]
+    assert acc2["fit"].p == kept.p
