@@ -17,6 +17,17 @@ from minparam_cli.identify.diagnose import Rejected, term_coefficients
 from minparam_cli.identify.effects import EFFECTS
 
 
+# one line per single-column effect: {v} its fitted values (1 + G for a gain, % for load_coulomb), {T} the
+# torque unit (mass or inertia for rotor_inertia), {V} the velocity unit, {on} the joints
+ONE_COLUMN = {
+    "coulomb": "dry friction against the motion, Fc = {v} {T} on {on}",
+    "viscous": "friction proportional to velocity, Fv = {v} {T} per {V} on {on}",
+    "offset": "a constant torque of {v} {T} on {on}: a sensor or current offset, or a static load",
+    "rotor_inertia": "an inertia seen at the joint (motor, gears), Ia = {v} {T} on {on}",
+    "load_coulomb": "friction that grows with the load, {v} % of |τ_model| against the motion on {on}",
+    "gain": "the measured torque is {v} × the model torque on {on}: a drive gain or torque-constant error",
+    "drift": "a drift of {v} {T}/s over the recording on {on} (temperature, sensor drift)",
+}
 MIN_PERIODS = 3  # a ripple seen over fewer periods than this is not told apart from a smooth position error
 
 
@@ -52,15 +63,10 @@ def explain(term: Term, c: np.ndarray, design: Design, motion=None) -> str:
     T, V = _units(design, term.joints)
     on = _on(term.joints)
     e = term.effect
-    if e == "coulomb":
-        return f"dry friction against the motion, Fc = {_list(c[:, 0])} {T} on {on}"
-    if e == "viscous":
-        return f"friction proportional to velocity, Fv = {_list(c[:, 0])} {T} per {V} on {on}"
-    if e == "offset":
-        return f"a constant torque of {_list(c[:, 0])} {T} on {on}: a sensor or current offset, or a static load"
-    if e == "rotor_inertia":
-        unit = "kg" if T == "N" else "kg·m²"
-        return f"an inertia seen at the joint (motor, gears), Ia = {_list(c[:, 0])} {unit} on {on}"
+    if e in ONE_COLUMN:
+        values = 1 + c[:, 0] if e == "gain" else 100 * c[:, 0] if e == "load_coulomb" else c[:, 0]
+        unit = ("kg" if T == "N" else "kg·m²") if e == "rotor_inertia" else T
+        return ONE_COLUMN[e].format(v=_list(values, 4 if e == "gain" else 3), T=unit, V=V, on=on)
     if e == "stribeck":
         return (f"breakaway friction {_list(c[:, 0])} {T} above the Coulomb level at standstill on {on}, "
                 f"gone by |q̇| ≈ {2 * term.hyper:g} {V}")
@@ -81,12 +87,6 @@ def explain(term: Term, c: np.ndarray, design: Design, motion=None) -> str:
                 return (f"{text}; the fitted motion spans only {periods:.2g} of its periods, so it is as likely a "
                         "smooth position-dependent model error (gravity, cable) as cogging")
         return f"{text}: motor cogging or gear meshing"
-    if e == "load_coulomb":
-        return f"friction that grows with the load, {_list(100 * c[:, 0])} % of |τ_model| against the motion on {on}"
-    if e == "gain":
-        return f"the measured torque is {_list(1 + c[:, 0], 4)} × the model torque on {on}: a drive gain or torque-constant error"
-    if e == "drift":
-        return f"a drift of {_list(c[:, 0])} {T}/s over the recording on {on} (temperature, sensor drift)"
     return EFFECTS[e].explanation
 
 

@@ -28,6 +28,7 @@ from minparam_cli.identify.design import Design, Term
 from minparam_cli.identify.diagnose import term_coefficients
 from minparam_cli.identify.effects import EFFECTS, in_bounds
 from minparam_cli.identify.fit import solve
+from minparam_cli.identify.roles import span_text
 
 # Column-scaled condition number of the fit data's rigid-body design past which the fit is refused.
 # Measured: Panda recording 9.8, TX40 recording 5.7, simulated PUMA 560 10.3 (fit blocks of the default
@@ -143,7 +144,7 @@ def flags(report: dict, fit) -> list[str]:
     out = []
     comparisons = [("selection", report["before"], report["after"])]
     for f in report["test"]["files"]:
-        comparisons.append((f"test ({_where(f)})", f["rigid"], f["final"]))
+        comparisons.append((f"test ({span_text(f)})", f["rigid"], f["final"]))
     if report["steps"][1:]:
         for name, b, a in comparisons:
             for j, (x, y) in enumerate(zip(b["rms_per_joint"], a["rms_per_joint"])):
@@ -165,15 +166,3 @@ def flags(report: dict, fit) -> list[str]:
                        f"still in {shares} % of the samples: the torque at standstill (static friction) is not in the "
                        "model (sign(0) = 0); --trim-still SECONDS cuts long still segments")
     return out
-
-
-def _where(entry: dict) -> str:
-    span = entry.get("time_s")
-    if not span:
-        return entry["source"]
-    lo, hi = span
-    if hi is None:
-        return f"{entry['source']}, t ≥ {lo:.4g} s"
-    if lo is None:
-        return f"{entry['source']}, t < {hi:.4g} s"
-    return f"{entry['source']}, {lo:.4g} ≤ t < {hi:.4g} s"

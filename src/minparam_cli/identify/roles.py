@@ -138,3 +138,16 @@ def describe(sources: list[Source]) -> dict:
                 span = [None if p.start == -float("inf") else round(p.start, 6), None if p.stop == float("inf") else round(p.stop, 6)]
             out[p.role].append({"part": p.part, "source": str(s.path), "time_s": span})
     return out
+
+
+def span_text(entry: dict) -> str:
+    """'data.csv, 12 ≤ t < 16.8 s' for an entry of ``describe`` (the file alone when it is whole)."""
+    span = entry.get("time_s")
+    if not span:
+        return entry["source"]
+    lo, hi = span
+    if hi is None:
+        return f"{entry['source']}, t ≥ {lo:.4g} s"
+    if lo is None:
+        return f"{entry['source']}, t < {hi:.4g} s"
+    return f"{entry['source']}, {lo:.4g} ≤ t < {hi:.4g} s"

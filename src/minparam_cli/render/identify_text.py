@@ -7,6 +7,7 @@ nothing).
 
 from __future__ import annotations
 
+from minparam_cli.identify.roles import span_text
 from minparam_cli.render.columns import columns
 
 
@@ -14,20 +15,8 @@ def _pct(x) -> str:
     return "-" if x is None else f"{100 * x:.3g} %"
 
 
-def _span(entry: dict) -> str:
-    span = entry.get("time_s")
-    if not span:
-        return entry["source"]
-    lo, hi = span
-    if hi is None:
-        return f"{entry['source']}, t ≥ {lo:.4g} s"
-    if lo is None:
-        return f"{entry['source']}, t < {hi:.4g} s"
-    return f"{entry['source']}, {lo:.4g} ≤ t < {hi:.4g} s"
-
-
 def _role(entries: list[dict]) -> str:
-    return "; ".join(_span(e) for e in entries)
+    return "; ".join(span_text(e) for e in entries)
 
 
 def _error_rows(r: dict) -> list[tuple]:
