@@ -14,6 +14,11 @@ where Motion is a rotation about (revolute) or a translation along
 
 So a DH row is a special case of a URDF joint with a constant transform after
 the motion.  The chain is frozen; ``build_chain`` is the only builder.
+
+Joints driven by others (URDF ``<mimic>``) keep their link and their place in
+the chain; ``Chain.coupling`` maps the independent coordinates q (``dof`` of
+them, what data files and the regressor's rows are about) to every joint:
+q_joint = G·q + offset.
 """
 
 from __future__ import annotations
@@ -28,6 +33,22 @@ from minparam_cli.describe.records import GeomValue, RobotDescription
 from minparam_cli.params import ParamLayout
 
 REVOLUTE, PRISMATIC = "revolute", "prismatic"
+
+
+@dataclass(frozen=True, eq=False)
+class Coupling:
+    """Joints moved by other joints (URDF <mimic>): q_joint = G · q + offset for every joint of the
+    chain, q the independent coordinates.  By virtual work the generalized force on coordinate i
+    is Σ_j G[j, i] τ_j, so the regressor's rows are Gᵀ times the rows of every joint."""
+
+    coordinates: tuple[int, ...]  # the joints that are independent coordinates, in chain order
+    G: np.ndarray  # (n joints, dof): the coupling Jacobian
+    offset: np.ndarray  # (n joints,)
+
+    def joint_states(self, q, qd, qdd):
+        """(q, qd, qdd) of every joint, (N, n), from the coordinates' (N, dof)."""
+        Gt = self.G.T
+        return q @ Gt + self.offset, qd @ Gt, qdd @ Gt
 
 
 @dataclass(frozen=True, eq=False)
@@ -58,10 +79,27 @@ class Chain:
     coulomb_smoothing: float = 0.0
     # the description the exact geometry comes from (None: none, e.g. a chain rebuilt at other values)
     exact_source: RobotDescription | None = field(default=None, repr=False)
+    # mimic joints (None: every joint is an independent coordinate)
+    coupling: Coupling | None = None
 
     @property
     def n(self) -> int:
+        """Joints (and links) of the chain, mimic joints included."""
         return len(self.types)
+
+    @property
+    def dof(self) -> int:
+        """Independent coordinates: the joints that are not driven by another (n without mimic joints)."""
+        return self.n if self.coupling is None else len(self.coupling.coordinates)
+
+    @property
+    def coordinates(self) -> tuple[int, ...]:
+        """The joints that are independent coordinates, in chain order."""
+        return tuple(range(self.n)) if self.coupling is None else self.coupling.coordinates
+
+    @property
+    def coordinate_types(self) -> tuple[str, ...]:
+        return tuple(self.types[j] for j in self.coordinates)
 
     @cached_property
     def exact(self) -> tuple | None:
@@ -287,6 +325,7 @@ def build_chain(
         phi = np.concatenate([_inertial_to_standard(j.inertial) for j in desc.joints])
     lengths = [abs(x) for x in np.concatenate([pre[:, :3, 3].ravel(), post[:, :3, 3].ravel()]) if abs(x) > 0]
     return Chain(
+        coupling=mimic_coupling(desc),
         name=desc.name,
         source=desc.source,
         convention=desc.convention,
@@ -306,6 +345,23 @@ def build_chain(
         length_scale=float(max(lengths)) if lengths else 1.0,
         exact_source=None if values else desc,
     )
+
+
+def mimic_coupling(desc: RobotDescription) -> Coupling | None:
+    """The coupling of the description's mimic joints (None when it has none)."""
+    if all(j.mimic is None for j in desc.joints):
+        return None
+    coords = tuple(k for k, j in enumerate(desc.joints) if j.mimic is None)
+    column = {k: i for i, k in enumerate(coords)}
+    G = np.zeros((desc.dof, len(coords)))
+    offset = np.zeros(desc.dof)
+    for k, j in enumerate(desc.joints):
+        if j.mimic is None:
+            G[k, column[k]] = 1.0
+        else:
+            master, multiplier, offset[k] = j.mimic
+            G[k, column[master]] = multiplier
+    return Coupling(coords, G, offset)
 
 
 def exact_matrices(desc: RobotDescription) -> tuple | None:

@@ -31,6 +31,7 @@ class DeriveOptions:
     symbolic: bool | None = None  # None (the default): numeric
     snap_angles: float | None = None  # rad: round angles this close to a multiple of 15° (None: never)
     explain_weak: bool = True  # look for the geometry behind weakly identifiable parameters
+    mimic: str = "coupled"  # URDF mimic joints: "coupled" (move with their master) or "fixed" (frozen at their offset)
 
 
 def load_chain(path: str | Path, opts: DeriveOptions):
@@ -38,7 +39,7 @@ def load_chain(path: str | Path, opts: DeriveOptions):
     from minparam_cli.chain import build_chain
     from minparam_cli.describe import load_description
 
-    desc = load_description(path, opts.snap_angles)
+    desc = load_description(path, opts.snap_angles, opts.mimic)
     if opts.gravity is not None:
         desc = replace(desc, gravity=tuple(opts.gravity), gravity_source="cli")
     extras = []

@@ -49,7 +49,7 @@ from minparam_cli.dynamics.projection_terms import (
     exact_geometry,
     float_geometry,
 )
-from minparam_cli.errors import ComputationError
+from minparam_cli.errors import ComputationError, UnsupportedError
 
 # Two up-front guards, both computed before any row of Z (docs/methods/projection.md, "Cost"):
 # * MAX_ROWS bounds the rows of Z, from the joint types alone (dim B, the paper's count).
@@ -79,6 +79,8 @@ def projection_cost(chain: Chain) -> dict:
 
 def derive_projection(chain: Chain, progress: Progress | None = None) -> BaseSet:
     """Base parameter set of ``chain`` by the method of projections (``--method projection``)."""
+    if chain.coupling is not None:
+        raise UnsupportedError("the method of projections does not handle mimic joints yet; use --method qr (or --mimic fixed)", chain.source)
     t0 = time.perf_counter()
     cost = projection_cost(chain)
     if cost["rows"] > MAX_ROWS:

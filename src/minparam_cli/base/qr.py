@@ -53,10 +53,10 @@ def derive_qr(chain: Chain, samples: int = DEFAULT_SAMPLES, seed: int = DEFAULT_
     if samples < 1:
         raise InputError(f"--samples must be positive, got {samples}")
     t0 = time.perf_counter()
-    rows, P = samples * chain.n, chain.layout.size
+    rows, P = samples * chain.dof, chain.layout.size
     if rows < P:
         raise InputError(
-            f"{samples} samples give {rows} equations for {P} parameters; use at least {-(-P // chain.n)} samples"
+            f"{samples} samples give {rows} equations for {P} parameters; use at least {-(-P // chain.dof)} samples"
         )
     W = stacked_regressor(chain, samples, sample_rng(seed))
     kept, K, unident, margin = base_from_regressor(W, chain.source, *chain_scales(chain))
@@ -77,7 +77,7 @@ def derive_qr(chain: Chain, samples: int = DEFAULT_SAMPLES, seed: int = DEFAULT_
 def chain_scales(chain: Chain) -> tuple[np.ndarray, np.ndarray]:
     """Column factors and per-row factors (stacked rows: sample-major) of ``chain``'s regressor
     in physical units, lengths in units of the robot's size (``result.physical_scales``)."""
-    return physical_scales(chain.layout, chain.types, chain.length_scale)
+    return physical_scales(chain.layout, chain.types, chain.length_scale, chain.coordinate_types)
 
 
 def base_from_regressor(W: np.ndarray, source: str = "", col_scale: np.ndarray | None = None, joint_row_scale: np.ndarray | None = None):

@@ -87,7 +87,7 @@ class BaseSet:
         return out
 
 
-def physical_scales(layout, types, length: float) -> tuple[np.ndarray, np.ndarray]:
+def physical_scales(layout, types, length: float, row_types=None) -> tuple[np.ndarray, np.ndarray]:
     """Column and per-joint row factors that put the regressor in physical units with lengths in
     units of ``length`` (L, the robot's size), masses in kg and time in s.
 
@@ -97,6 +97,8 @@ def physical_scales(layout, types, length: float) -> tuple[np.ndarray, np.ndarra
     revolute joint 1); joint k's rows by L² / v_k (revolute torque kg·L²/s² -> 1, prismatic
     force kg·L/s² -> L).  So a mass whose only effect is a² times an inertia's (a point mass at
     distance a from an axis) has relative size (a/L)², not 1 as after scaling columns to unit norm.
+    ``types``: of every joint (the extras' columns); ``row_types``: of the regressor's rows, the
+    independent coordinates when some joints mimic others (default: ``types``).
     """
     L = float(length) if length > 0 else 1.0
     col = []
@@ -108,7 +110,7 @@ def physical_scales(layout, types, length: float) -> tuple[np.ndarray, np.ndarra
             col.append(1.0 if rev else 1.0 / L**2)
         else:
             col.append(1.0 if rev else 1.0 / L)
-    row = np.array([1.0 if t == "revolute" else L for t in types])
+    row = np.array([1.0 if t == "revolute" else L for t in (types if row_types is None else row_types)])
     return np.array(col), row
 
 

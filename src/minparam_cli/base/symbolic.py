@@ -91,7 +91,7 @@ class BetaSampler:
         self.desc, self.symbols, self.pins = desc, symbols, pins
         self.extras = chain.layout.extras
         self.kept, self.dependent = list(kept), list(dependent)
-        self.samples = max(2 * -(-chain.layout.size // chain.n), 20)
+        self.samples = max(2 * -(-chain.layout.size // chain.dof), 20)
         self.seed = seed
         self.calls = 0
 

@@ -24,6 +24,22 @@ class Format(str, Enum):
     jsonl = "jsonl"
 
 
+class MimicMode(str, Enum):
+    """What a command does with URDF mimic joints (``describe.urdf.MIMIC_MODES``)."""
+
+    coupled = "coupled"
+    fixed = "fixed"
+
+
+def mimic_option():
+    """The --mimic option every command that loads a robot takes."""
+    return typer.Option(
+        MimicMode.coupled,
+        "--mimic",
+        help="URDF mimic joints: coupled (move with their master; data give only the independent joints) or fixed (frozen at their offset).",
+    )
+
+
 def error_line(message: str) -> None:
     """Print one error line on stderr (never a traceback)."""
     text = " ".join(str(message).split())

@@ -9,7 +9,7 @@ from typing import List, Optional
 import typer
 
 from minparam_cli.cli.batch import expand_paths, run_batch
-from minparam_cli.cli.common import Format, Progress, error_line, guarded, parse_floats, write_output
+from minparam_cli.cli.common import Format, MimicMode, Progress, error_line, guarded, mimic_option, parse_floats, write_output
 from minparam_cli.params import FRICTION_KINDS
 
 HELP = "Base (minimal) inertial parameters of a robot: which are identifiable and how the others regroup."
@@ -20,6 +20,7 @@ Examples:
   minparam derive robots/panda.yaml --method projection --format latex -o panda.tex
   minparam derive robots/ --format jsonl --jobs 2
   minparam derive so100.urdf --snap-angles 1e-4
+  minparam derive panda.urdf --mimic fixed
 
 Exit codes: 0 success, 1 failed computation, 2 bad input (any robot of a batch).
 """
@@ -43,16 +44,18 @@ def derive(
     snap_angles: Optional[float] = typer.Option(
         None, "--snap-angles", metavar="TOL", help="Round joint angles within TOL rad of a multiple of 15° (pi/12) before deriving; every change is printed."
     ),
+    mimic: MimicMode = mimic_option(),
     output: Optional[Path] = typer.Option(None, "--output", "-o", help="Write to this file (atomically) instead of stdout."),
     recursive: bool = typer.Option(False, "--recursive", "-r", help="Also search sub-folders."),
     jobs: int = typer.Option(1, "--jobs", "-j", min=1, help="Parallel worker processes for many robots."),
     quiet: bool = typer.Option(False, "--quiet", "-q", help="No progress bar or notes on stderr."),
 ):
-    _derive(paths, method, fmt, friction, rotor_inertia, gravity, samples, seed, symbolic, snap_angles, output, recursive, jobs, quiet)
+    _derive(paths, method, fmt, friction, rotor_inertia, gravity, samples, seed, symbolic, snap_angles, output, recursive, jobs, quiet, mimic)
 
 
 @guarded
-def _derive(paths, method, fmt, friction, rotor_inertia, gravity, samples, seed, symbolic, snap_angles, output, recursive, jobs, quiet):
+def _derive(paths, method, fmt, friction, rotor_inertia, gravity, samples, seed, symbolic, snap_angles, output, recursive, jobs, quiet,
+            mimic=MimicMode.coupled):
     from minparam_cli.pipeline import DeriveOptions, derive_file
 
     method = Method(method).value
@@ -68,7 +71,7 @@ def _derive(paths, method, fmt, friction, rotor_inertia, gravity, samples, seed,
 
         if not 0.0 < snap_angles < MAX_TOLERANCE:
             raise typer.BadParameter(f"must be a tolerance in radians in (0, {MAX_TOLERANCE:.4g}) (half of 15°), got {snap_angles:g}", param_hint="--snap-angles")
-    opts = DeriveOptions(method, kinds, rotor_inertia, g, samples, seed, symbolic, snap_angles)
+    opts = DeriveOptions(method, kinds, rotor_inertia, g, samples, seed, symbolic, snap_angles, mimic=MimicMode(mimic).value)
     files, any_folder = expand_paths(list(paths), recursive)
 
     if len(files) == 1 and not any_folder:

@@ -12,10 +12,11 @@ ROBOT_SUFFIXES = (".yaml", ".yml", ".urdf")
 __all__ = ["GeomValue", "Inertial", "JointRecord", "RobotDescription", "load_description", "ROBOT_SUFFIXES"]
 
 
-def load_description(path: str | Path, snap_angles: float | None = None) -> RobotDescription:
+def load_description(path: str | Path, snap_angles: float | None = None, mimic: str = "coupled") -> RobotDescription:
     """Load a YAML DH/MDH table or a URDF, chosen by the file suffix.
 
     ``snap_angles`` (rad): round angles within it of a multiple of 15° (``describe/snap.py``).
+    ``mimic``: URDF mimic joints move with their master ("coupled") or stay at their offset ("fixed").
     """
     path = Path(path)
     suffix = path.suffix.lower()
@@ -31,5 +32,5 @@ def load_description(path: str | Path, snap_angles: float | None = None) -> Robo
     if suffix == ".urdf":
         from minparam_cli.describe.urdf import load_urdf
 
-        return load_urdf(path, snap_angles)
+        return load_urdf(path, snap_angles, mimic)
     raise DescriptionError(f"unknown file type {suffix!r}; expected one of .yaml, .yml, .urdf", str(path))

@@ -43,7 +43,7 @@ class Inertial:
 
 @dataclass(frozen=True)
 class JointRecord:
-    """One actuated joint and the link it moves.
+    """One moving joint and the link it moves.
 
     DH/MDH joints keep their four parameters in ``dh`` (keys alpha, a, d,
     theta).  URDF joints keep their origin in ``origin`` (keys x, y, z, roll,
@@ -62,6 +62,9 @@ class JointRecord:
     extras: tuple[str, ...] = ()
     inertial: Inertial | None = None
     limits: tuple[float, float] | None = None
+    # URDF <mimic>: (index of the independent joint that drives this one, multiplier, offset),
+    # q_this = multiplier * q_master + offset; None for an independent joint
+    mimic: tuple[int, float, float] | None = None
 
 
 @dataclass(frozen=True)

@@ -10,7 +10,11 @@
 * revolute, continuous and prismatic joints are actuated; fixed joints are
   lumped: the child link's inertia is added to the moving body it hangs on,
   and joints further out get the fixed transform in front of their origin.
-* floating and planar joints, and mimic joints, are refused as not supported yet.
+* mimic joints (``<mimic joint=... multiplier=m offset=o/>``, q = m·q_master + o) keep their
+  link and move with their master (``mimic="coupled"``, the default: the record names the
+  independent joint that drives it, a mimic of a mimic resolved to the first independent
+  joint), or are frozen at q = o and lumped like fixed joints (``mimic="fixed"``).
+* floating and planar joints are refused as not supported yet.
 * Trees are supported: joints are numbered depth-first from the root, in
   document order, so a parent always comes before its children.
 """
@@ -32,11 +36,16 @@ from minparam_cli.errors import DescriptionError, UnsupportedError
 ACTUATED = {"revolute": "revolute", "continuous": "revolute", "prismatic": "prismatic"}
 KNOWN_TYPES = set(ACTUATED) | {"fixed", "floating", "planar"}
 INERTIA_KEYS = ("ixx", "ixy", "ixz", "iyy", "iyz", "izz")
+# what to do with <mimic> joints: move with their master, or freeze them at their offset
+MIMIC_MODES = ("coupled", "fixed")
 
 
-def load_urdf(path: Path, snap_angles: float | None = None) -> RobotDescription:
+def load_urdf(path: Path, snap_angles: float | None = None, mimic: str = "coupled") -> RobotDescription:
     """Read a URDF; with ``snap_angles`` (rad), joint origin angles within that of a multiple of
-    15° are rounded to it (fixed joints included), each change recorded in ``adjustments``."""
+    15° are rounded to it (fixed joints included), each change recorded in ``adjustments``.
+    ``mimic``: "coupled" (mimic joints move with their master) or "fixed" (frozen at their offset)."""
+    if mimic not in MIMIC_MODES:
+        raise ValueError(f"mimic must be one of {MIMIC_MODES}, got {mimic!r}")
     src = str(path)
     data = read_bounded(path)
     root = parse_xml_safely(data, src)
@@ -49,7 +58,72 @@ def load_urdf(path: Path, snap_angles: float | None = None) -> RobotDescription:
         raise DescriptionError("<robot> has no <link> element: the file describes no robot", src, f"robot[{name}]")
     links, joints = _read_elements(root, src)
     changes = _snap_joint_angles(joints, snap_angles) if snap_angles is not None else ()
-    return replace(_build(name, src, links, joints), adjustments=changes)
+    masters = _mimic_masters(joints, src)
+    if mimic == "fixed":
+        for j in joints:
+            if j["mimic"] is not None:
+                j["frozen"] = _motion_matrix(j["type"], j["axis"], float(j["mimic"][2]))
+                j["type"] = "fixed"
+    desc = _build(name, src, links, joints)
+    if mimic == "coupled" and masters:
+        desc = _couple(desc, masters)
+    return replace(desc, adjustments=changes)
+
+
+def _mimic_masters(joints: list[dict], src: str) -> dict[str, tuple[str, float, float]]:
+    """{mimic joint: (independent joint, multiplier, offset)}, following mimics of mimics:
+    q_a = m1 q_b + o1 and q_b = m2 q_c + o2 give q_a = m1 m2 q_c + m1 o2 + o1."""
+    by_name = {j["name"]: j for j in joints}
+    direct = {}
+    for j in joints:
+        if j["mimic"] is None or j["type"] == "fixed":
+            continue  # a <mimic> on a fixed joint moves nothing
+        master, mult, off = j["mimic"]
+        where = f"joint[{j['name']}]/mimic"
+        if master not in by_name:
+            raise DescriptionError(f"mimic joint '{master}' is not defined", src, where)
+        if master == j["name"]:
+            raise DescriptionError("a joint cannot mimic itself", src, where)
+        if by_name[master]["type"] not in ACTUATED:
+            raise DescriptionError(f"mimic joint '{master}' is a {by_name[master]['type']} joint, expected a moving one", src, where)
+        direct[j["name"]] = (master, float(mult), float(off))
+    out = {}
+    for name in direct:
+        master, m, o = direct[name]
+        seen = [name]
+        while master in direct:
+            if master in seen:
+                raise DescriptionError(f"mimic joints form a loop: {' -> '.join(seen + [master])}", src, f"joint[{name}]/mimic")
+            seen.append(master)
+            nxt, m2, o2 = direct[master]
+            master, m, o = nxt, m * m2, m * o2 + o
+        out[name] = (master, m, o)
+    return out
+
+
+def _couple(desc: RobotDescription, masters: dict) -> RobotDescription:
+    """Records of mimic joints name the independent joint that drives them (``JointRecord.mimic``)."""
+    index = {jr.name: k for k, jr in enumerate(desc.joints)}
+    joints = []
+    for jr in desc.joints:
+        if jr.name in masters:
+            master, m, o = masters[jr.name]
+            jr = replace(jr, mimic=(index[master], m, o))
+        joints.append(jr)
+    return replace(desc, joints=tuple(joints))
+
+
+def _motion_matrix(jtype: str, axis, q: float) -> np.ndarray:
+    """4x4 motion of a joint of type ``jtype`` about/along ``axis`` by q (a frozen mimic joint)."""
+    a = np.asarray(axis, dtype=float)
+    a = a / np.linalg.norm(a)
+    T = np.eye(4)
+    if ACTUATED[jtype] == "revolute":
+        K = np.array([[0, -a[2], a[1]], [a[2], 0, -a[0]], [-a[1], a[0], 0]])
+        T[:3, :3] = np.eye(3) + math.sin(q) * K + (1 - math.cos(q)) * (K @ K)
+    else:
+        T[:3, 3] = q * a
+    return T
 
 
 def _snap_joint_angles(joints: list[dict], tol: float) -> tuple[dict, ...]:
@@ -119,8 +193,16 @@ def _read_elements(root, src: str):
             raise DescriptionError(f"unknown joint type {jtype!r}", src, where)
         if jtype in ("floating", "planar"):
             raise UnsupportedError(f"{jtype} joints are not supported yet", src, where)
-        if el.find("mimic") is not None:
-            raise UnsupportedError("mimic joints are not supported yet", src, where)
+        mimic = None
+        mimic_el = el.find("mimic")
+        if mimic_el is not None:
+            master = (mimic_el.get("joint") or "").strip()
+            if not master:
+                raise DescriptionError("missing required attribute 'joint'", src, f"{where}/mimic")
+            # URDF specification: multiplier 1 and offset 0 when absent
+            mult = _floats(mimic_el.get("multiplier"), 1, src, f"{where}/mimic@multiplier", "1")[0]
+            off = _floats(mimic_el.get("offset"), 1, src, f"{where}/mimic@offset", "0")[0]
+            mimic = (master, mult, off)
         parent, child = el.find("parent"), el.find("child")
         if parent is None or not parent.get("link"):
             raise DescriptionError("missing <parent link=...>", src, where)
@@ -143,7 +225,7 @@ def _read_elements(root, src: str):
         joints.append(
             dict(
                 name=name, type=jtype, parent=parent.get("link"), child=child.get("link"),
-                xyz=xyz, rpy=list(rpy), rpy_deg=[None] * 3, axis=axis, limits=limits,
+                xyz=xyz, rpy=list(rpy), rpy_deg=[None] * 3, axis=axis, limits=limits, mimic=mimic, frozen=None,
             )
         )
     for j in joints:
@@ -280,6 +362,8 @@ def _build(name: str, src: str, links: dict, joints: list[dict]) -> RobotDescrip
         pushed = []
         for j in children[link]:
             Xo = X @ _origin_matrix(j["xyz"], j["rpy"])
+            if j["frozen"] is not None:  # a mimic joint frozen at its offset (mimic="fixed")
+                Xo = Xo @ j["frozen"]
             if j["type"] == "fixed":
                 pushed.append((j["child"], body, Xo, None))
             else:

@@ -22,6 +22,11 @@ tau_k = S_kᵀ · W_j.  Extras add Ia·qdd_k, Fc·sign(qd_k) (or the smooth
 Fc·tanh(qd_k / v_c), ``Chain.coulomb_smoothing``), Fv·qd_k and a constant,
 each in its own column.
 
+Mimic joints (``Chain.coupling``, q_joint = G·q + offset): the regressor of
+every joint is computed at the joint states the coordinates give, then its
+rows are combined by virtual work, Y = Gᵀ·Y_joints (the generalized force on
+a master is τ_master + m·τ_mimic).
+
 Two implementations of the inertial columns give the same numbers: numpy, all
 links and samples at once (the reference, always available), and a compiled
 kernel (``_rnea.c``, one sample at a time, built by setup.py when a C compiler
@@ -158,17 +163,29 @@ def inertial_regressor_numpy(chain: Chain, q, qd, qdd, out: np.ndarray) -> None:
 
 
 def regressor(chain: Chain, q, qd, qdd, include_extras: bool = True, backend: str = "auto") -> np.ndarray:
-    """Y with shape (N, n, P): tau[s, k] = Y[s, k, :] @ phi.
+    """Y with shape (N, dof, P): tau[s, k] = Y[s, k, :] @ phi, one row per independent coordinate.
 
-    P = 10 n inertial columns, plus the extra columns of ``chain.layout`` when
-    ``include_extras``.  ``backend``: "auto" (the compiled kernel when it was
-    built, else numpy), "numpy" or "kernel"; both give the same numbers
-    (tests/test_kernel.py).
+    q, qd, qdd: (N, chain.dof), the independent coordinates (every joint when
+    the chain has no mimic joints).  P = 10 n inertial columns, plus the extra
+    columns of ``chain.layout`` when ``include_extras``.  ``backend``: "auto"
+    (the compiled kernel when it was built, else numpy), "numpy" or "kernel";
+    both give the same numbers (tests/test_kernel.py).
     """
     q, qd, qdd = (np.ascontiguousarray(np.atleast_2d(np.asarray(x, dtype=float))) for x in (q, qd, qdd))
+    if q.shape[1] != chain.dof or qd.shape != q.shape or qdd.shape != q.shape:
+        raise ValueError(f"expected q, qd, qdd with shape (N, {chain.dof})")
+    if chain.coupling is None:
+        return joint_regressor(chain, q, qd, qdd, include_extras, backend)
+    q, qd, qdd = (np.ascontiguousarray(x) for x in chain.coupling.joint_states(q, qd, qdd))
+    return np.matmul(chain.coupling.G.T, joint_regressor(chain, q, qd, qdd, include_extras, backend))
+
+
+def joint_regressor(chain: Chain, q, qd, qdd, include_extras: bool = True, backend: str = "auto") -> np.ndarray:
+    """Y with shape (N, n, P), one row per joint of the chain, mimic joints included (their own
+    torques, before the coupling): q, qd, qdd (N, n) C-contiguous float arrays of every joint."""
     N, n = q.shape
-    if n != chain.n or qd.shape != q.shape or qdd.shape != q.shape:
-        raise ValueError(f"expected q, qd, qdd with shape (N, {chain.n})")
+    if n != chain.n:
+        raise ValueError(f"expected joint states with shape (N, {chain.n})")
     layout = chain.layout
     P = layout.size if include_extras else layout.n_inertial
     Y = np.zeros((N, n, P))
@@ -205,25 +222,25 @@ def coulomb_column(qd: np.ndarray, smoothing: float = 0.0) -> np.ndarray:
 
 
 def random_states(chain: Chain, samples: int, rng):
-    """Random (q, qd, qdd) for rank studies: revolute q uniform on [-pi, pi),
-    prismatic q uniform on ±(largest length of the robot); rates standard normal.
+    """Random (q, qd, qdd) of the independent coordinates (``chain.dof``) for rank studies:
+    revolute q uniform on [-pi, pi), prismatic q uniform on ±(largest length of the robot);
+    rates standard normal.
 
     ``rng``: a seeded ``random.Random`` (what derive uses: the stdlib generator
     spares the command the ~20 ms import of numpy.random) or a numpy Generator.
     """
-    n = chain.n
+    n = chain.dof
+    pris = np.array([t != REVOLUTE for t in chain.coordinate_types])
     if isinstance(rng, random.Random):
         u = _uniforms(rng, 4 * samples * n).reshape(4, samples, n)
         q = np.pi * (2.0 * u[0] - 1.0)
         # Box-Muller: two independent standard normals from two uniforms (1 - u lies in (0, 1])
         radius = np.sqrt(-2.0 * np.log1p(-u[2]))
         qd, qdd = radius * np.cos(2.0 * np.pi * u[3]), radius * np.sin(2.0 * np.pi * u[3])
-        pris = ~chain.revolute
         if pris.any():
             q[:, pris] = (2.0 * u[1][:, pris] - 1.0) * chain.length_scale
         return q, qd, qdd
     q = rng.uniform(-np.pi, np.pi, size=(samples, n))
-    pris = ~chain.revolute
     if pris.any():
         q[:, pris] = rng.uniform(-1.0, 1.0, size=(samples, int(pris.sum()))) * chain.length_scale
     qd = rng.standard_normal((samples, n))

@@ -47,11 +47,18 @@ def base_report(chain: Chain, base: BaseSet, elapsed_s: float) -> dict:
                 "parent": chain.parents[j] + 1,
             }
         )
+    coupling = chain.coupling
+    if coupling is not None:
+        for j in range(chain.n):
+            if j not in coupling.coordinates:
+                i = int(np.flatnonzero(coupling.G[j])[0]) if np.any(coupling.G[j]) else 0
+                master = coupling.coordinates[i]
+                links[j]["mimic"] = {"joint": chain.joint_names[master], "multiplier": float(coupling.G[j, i]), "offset": float(coupling.offset[j])}
     report = {
         "robot": chain.name,
         "source": chain.source,
         "method": base.method,
-        "dof": chain.n,
+        "dof": chain.dof,
         "convention": chain.convention,
         "gravity": [float(g) for g in chain.gravity],
         "gravity_source": chain.gravity_source,

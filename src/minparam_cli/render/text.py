@@ -16,6 +16,11 @@ def _header_lines(r: dict) -> list[tuple[str, str]]:
         ("method", r["method"] + (" (exact rational arithmetic)" if r.get("exact") else "")),
         ("dof", f"{r['dof']} ({r['convention']})"),
         ("gravity", f"({g}) m/s² [{r.get('gravity_source', 'file')}]"),
+    ]
+    mimic = [(link["joint"], link["mimic"]) for link in r.get("links", []) if link.get("mimic")]
+    if mimic:
+        rows.append(("mimic", "; ".join(f"{name} = {_mimic_text(m)}" for name, m in mimic)))
+    rows += [
         ("standard", str(r["n_standard"])),
         ("base", str(r["n_base"])),
     ]
@@ -28,6 +33,13 @@ def _header_lines(r: dict) -> list[tuple[str, str]]:
     elif m:
         rows.append(("rank margin", m.get("criterion", "")))
     return rows
+
+
+def _mimic_text(m: dict) -> str:
+    """{'joint': 'j3', 'multiplier': -0.5, 'offset': 0.1} -> '-0.5·j3 + 0.1'."""
+    mult = {1: "", -1: "-"}.get(m["multiplier"], f"{m['multiplier']:g}·")
+    off = f" {'+' if m['offset'] >= 0 else '-'} {abs(m['offset']):g}" if m["offset"] else ""
+    return f"{mult}{m['joint']}{off}"
 
 
 def render_table(r: dict) -> str:
