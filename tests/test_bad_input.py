@@ -128,8 +128,8 @@ def test_urdf_loop(tmp_path):
     assert_cli_rejects(p2, "loops are not supported")
 
 
-@pytest.mark.parametrize("jtype", ["floating", "planar"])
-def test_urdf_floating_or_planar_joint(tmp_path, jtype):
+@pytest.mark.parametrize("jtype", ["planar"])  # floating roots: tests/test_floating_base.py
+def test_urdf_planar_joint(tmp_path, jtype):
     body = LINK.format(n="a") + LINK.format(n="b") + JOINT.format(n="free", t=jtype, p="a", c="b")
     p = write(tmp_path, "r.urdf", URDF_HEAD + body + "</robot>\n")
     with pytest.raises(UnsupportedError, match="not supported yet"):

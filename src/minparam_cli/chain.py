@@ -81,6 +81,8 @@ class Chain:
     exact_source: RobotDescription | None = field(default=None, repr=False)
     # mimic joints (None: every joint is an independent coordinate)
     coupling: Coupling | None = None
+    # the first six joints are the virtual joints of a floating base (base wrench equations)
+    floating_base: bool = False
 
     @property
     def n(self) -> int:
@@ -154,7 +156,7 @@ class Chain:
     def with_extras(self, extras: tuple[tuple[str, ...], ...]) -> "Chain":
         from dataclasses import replace
 
-        return replace(self, layout=ParamLayout(self.n, extras))
+        return replace(self, layout=ParamLayout(self.n, extras, self.layout.numbers))
 
     def with_coulomb_smoothing(self, velocity: float) -> "Chain":
         """The same chain with Coulomb columns tanh(qd / velocity) (0: sign(qd))."""
@@ -321,11 +323,17 @@ def build_chain(
     if extras is None:
         extras = tuple(j.extras for j in desc.joints)
     phi = None
-    if all(j.inertial is not None for j in desc.joints):
-        phi = np.concatenate([_inertial_to_standard(j.inertial) for j in desc.joints])
+    bodies = [j for j in desc.joints if not j.massless]
+    if all(j.inertial is not None for j in bodies):
+        phi = np.concatenate([_inertial_to_standard(j.inertial) for j in bodies])
+    numbers = None
+    if len(bodies) < desc.dof:  # a floating base: the free link is link 0, massless virtual links have none
+        it = iter(range(len(bodies)))
+        numbers = tuple(None if j.massless else next(it) for j in desc.joints)
     lengths = [abs(x) for x in np.concatenate([pre[:, :3, 3].ravel(), post[:, :3, 3].ravel()]) if abs(x) > 0]
     return Chain(
         coupling=mimic_coupling(desc),
+        floating_base=any(j.virtual for j in desc.joints),
         name=desc.name,
         source=desc.source,
         convention=desc.convention,
@@ -338,7 +346,7 @@ def build_chain(
         post=post,
         gravity=np.asarray(desc.gravity, dtype=float),
         gravity_source=desc.gravity_source,
-        layout=ParamLayout(desc.dof, tuple(tuple(e) for e in extras)),
+        layout=ParamLayout(desc.dof, tuple(tuple(e) for e in extras), numbers),
         phi_nominal=phi,
         limits=tuple(j.limits for j in desc.joints),
         tool=None if desc.tool is None else np.asarray(desc.tool, dtype=float),

@@ -12,6 +12,10 @@ followed, when enabled, by the per-joint extras in this order:
 Columns are ordered link by link (all 10 inertial parameters of link 1, then
 link 2, ...), then the extras joint by joint.  This is the scan order of the
 Gautier/Khalil keep rule used by every base-parameter route.
+
+A floating base is six virtual joints (``describe/urdf.py``) whose first five
+links have no mass and no columns; the sixth carries the free link, numbered 0
+as in Khalil's floating-base notation (XX0 ... M0), the robot's joints 1..n.
 """
 
 from __future__ import annotations
@@ -34,14 +38,31 @@ class ParamLayout:
     n_links: int
     # extras[j] = tuple of extra ids enabled on joint j (0-based), in EXTRA_ORDER
     extras: tuple[tuple[str, ...], ...]
+    # the number each link (and its joint) has in the names, None for a massless virtual link
+    # without columns; None: links 1..n_links
+    numbers: tuple[int | None, ...] | None = None
+
+    @property
+    def link_numbers(self) -> tuple[int | None, ...]:
+        return tuple(range(1, self.n_links + 1)) if self.numbers is None else self.numbers
+
+    @property
+    def links_with_columns(self) -> tuple[int, ...]:
+        """Chain indices of the links that have inertial columns, in column order (10 each)."""
+        return tuple(j for j, k in enumerate(self.link_numbers) if k is not None)
+
+    @property
+    def inertial_columns(self) -> tuple[int, ...]:
+        """Positions of the inertial columns among 10 per link of the chain (every link having 10)."""
+        return tuple(N_LINK_PARAMS * j + i for j in self.links_with_columns for i in range(N_LINK_PARAMS))
 
     @property
     def names(self) -> tuple[str, ...]:
-        return standard_names(self.n_links, self.extras)
+        return standard_names(self.n_links, self.extras, self.numbers)
 
     @property
     def n_inertial(self) -> int:
-        return N_LINK_PARAMS * self.n_links
+        return N_LINK_PARAMS * len(self.links_with_columns)
 
     @property
     def extra_columns(self) -> tuple[tuple[int, str], ...]:
@@ -63,12 +84,13 @@ def link_param_name(kind: str, link: int) -> str:
     return f"{kind}{link}"
 
 
-def standard_names(n_links: int, extras: tuple[tuple[str, ...], ...] = ()) -> tuple[str, ...]:
-    names = [link_param_name(k, j + 1) for j in range(n_links) for k in LINK_PARAMS]
+def standard_names(n_links: int, extras: tuple[tuple[str, ...], ...] = (), numbers: tuple[int | None, ...] | None = None) -> tuple[str, ...]:
+    numbers = tuple(range(1, n_links + 1)) if numbers is None else numbers
+    names = [link_param_name(k, number) for number in numbers if number is not None for k in LINK_PARAMS]
     for j, ex in enumerate(extras):
         for kind in EXTRA_ORDER:
             if kind in ex:
-                names.append(f"{EXTRA_PREFIX[kind]}{j + 1}")
+                names.append(f"{EXTRA_PREFIX[kind]}{numbers[j]}")
     return tuple(names)
 
 

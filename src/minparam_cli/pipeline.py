@@ -32,6 +32,7 @@ class DeriveOptions:
     snap_angles: float | None = None  # rad: round angles this close to a multiple of 15° (None: never)
     explain_weak: bool = True  # look for the geometry behind weakly identifiable parameters
     mimic: str = "coupled"  # URDF mimic joints: "coupled" (move with their master) or "fixed" (frozen at their offset)
+    floating_base: bool = False  # the URDF's root link is free: six virtual base joints in front of it
 
 
 def load_chain(path: str | Path, opts: DeriveOptions):
@@ -39,16 +40,27 @@ def load_chain(path: str | Path, opts: DeriveOptions):
     from minparam_cli.chain import build_chain
     from minparam_cli.describe import load_description
 
-    desc = load_description(path, opts.snap_angles, opts.mimic)
+    desc = load_description(path, opts.snap_angles, opts.mimic, opts.floating_base)
     if opts.gravity is not None:
         desc = replace(desc, gravity=tuple(opts.gravity), gravity_source="cli")
     extras = []
     for j in desc.joints:
+        if j.virtual:  # a floating base's coordinates: no friction, rotor or offset
+            extras.append(())
+            continue
         ex = set(j.extras) | set(opts.friction)
         if opts.rotor_inertia:
             ex.add("rotor_inertia")
         extras.append(tuple(k for k in EXTRA_ORDER if k in ex))
     return desc, build_chain(desc, extras=tuple(extras))
+
+
+def require_fixed_base(chain, command: str) -> None:
+    """One-line refusal for the commands that read joint data only (identify, simulate)."""
+    from minparam_cli.errors import UnsupportedError
+
+    if chain.floating_base:
+        raise UnsupportedError(f"{command} of floating-base robots needs base motion columns: not supported yet", chain.source)
 
 
 def derive_file(path: str | Path, opts: DeriveOptions, progress: Callable[[int, int], None] | None = None) -> dict:

@@ -79,6 +79,8 @@ def projection_cost(chain: Chain) -> dict:
 
 def derive_projection(chain: Chain, progress: Progress | None = None) -> BaseSet:
     """Base parameter set of ``chain`` by the method of projections (``--method projection``)."""
+    if chain.floating_base:
+        raise UnsupportedError("the method of projections does not handle a floating base yet; use --method qr", chain.source)
     if chain.coupling is not None:
         raise UnsupportedError("the method of projections does not handle mimic joints yet; use --method qr (or --mimic fixed)", chain.source)
     t0 = time.perf_counter()

@@ -102,7 +102,7 @@ def physical_scales(layout, types, length: float, row_types=None) -> tuple[np.nd
     """
     L = float(length) if length > 0 else 1.0
     col = []
-    for _ in range(layout.n_links):
+    for _ in layout.links_with_columns:
         col += [1.0] * 6 + [1.0 / L] * 3 + [1.0 / L**2]
     for j, kind in layout.extra_columns:
         rev = types[j] == "revolute"

@@ -40,6 +40,15 @@ def mimic_option():
     )
 
 
+def floating_base_option():
+    """The --floating-base option every command that loads a robot takes."""
+    return typer.Option(
+        False,
+        "--floating-base",
+        help="The URDF's root link is free (a legged robot, a humanoid): add the 6-DOF base and its six base-wrench equations.",
+    )
+
+
 def error_line(message: str) -> None:
     """Print one error line on stderr (never a traceback)."""
     text = " ".join(str(message).split())

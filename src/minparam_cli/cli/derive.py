@@ -9,7 +9,7 @@ from typing import List, Optional
 import typer
 
 from minparam_cli.cli.batch import expand_paths, run_batch
-from minparam_cli.cli.common import Format, MimicMode, Progress, error_line, guarded, mimic_option, parse_floats, write_output
+from minparam_cli.cli.common import Format, MimicMode, Progress, error_line, floating_base_option, guarded, mimic_option, parse_floats, write_output
 from minparam_cli.params import FRICTION_KINDS
 
 HELP = "Base (minimal) inertial parameters of a robot: which are identifiable and how the others regroup."
@@ -21,6 +21,7 @@ Examples:
   minparam derive robots/ --format jsonl --jobs 2
   minparam derive so100.urdf --snap-angles 1e-4
   minparam derive panda.urdf --mimic fixed
+  minparam derive solo12.urdf --floating-base
 
 Exit codes: 0 success, 1 failed computation, 2 bad input (any robot of a batch).
 """
@@ -45,17 +46,18 @@ def derive(
         None, "--snap-angles", metavar="TOL", help="Round joint angles within TOL rad of a multiple of 15° (pi/12) before deriving; every change is printed."
     ),
     mimic: MimicMode = mimic_option(),
+    floating_base: bool = floating_base_option(),
     output: Optional[Path] = typer.Option(None, "--output", "-o", help="Write to this file (atomically) instead of stdout."),
     recursive: bool = typer.Option(False, "--recursive", "-r", help="Also search sub-folders."),
     jobs: int = typer.Option(1, "--jobs", "-j", min=1, help="Parallel worker processes for many robots."),
     quiet: bool = typer.Option(False, "--quiet", "-q", help="No progress bar or notes on stderr."),
 ):
-    _derive(paths, method, fmt, friction, rotor_inertia, gravity, samples, seed, symbolic, snap_angles, output, recursive, jobs, quiet, mimic)
+    _derive(paths, method, fmt, friction, rotor_inertia, gravity, samples, seed, symbolic, snap_angles, output, recursive, jobs, quiet, mimic, floating_base)
 
 
 @guarded
 def _derive(paths, method, fmt, friction, rotor_inertia, gravity, samples, seed, symbolic, snap_angles, output, recursive, jobs, quiet,
-            mimic=MimicMode.coupled):
+            mimic=MimicMode.coupled, floating_base=False):
     from minparam_cli.pipeline import DeriveOptions, derive_file
 
     method = Method(method).value
@@ -71,7 +73,8 @@ def _derive(paths, method, fmt, friction, rotor_inertia, gravity, samples, seed,
 
         if not 0.0 < snap_angles < MAX_TOLERANCE:
             raise typer.BadParameter(f"must be a tolerance in radians in (0, {MAX_TOLERANCE:.4g}) (half of 15°), got {snap_angles:g}", param_hint="--snap-angles")
-    opts = DeriveOptions(method, kinds, rotor_inertia, g, samples, seed, symbolic, snap_angles, mimic=MimicMode(mimic).value)
+    opts = DeriveOptions(method, kinds, rotor_inertia, g, samples, seed, symbolic, snap_angles, mimic=MimicMode(mimic).value,
+                         floating_base=floating_base)
     files, any_folder = expand_paths(list(paths), recursive)
 
     if len(files) == 1 and not any_folder:

@@ -99,7 +99,7 @@ def _identify(robot, data, validate, test, split, columns, cutoff, force_filter,
     from minparam_cli.identify.effects import EFFECT_IDS
     from minparam_cli.identify.stage import IdentifyOptions, identify as run
     from minparam_cli.params import FRICTION_KINDS
-    from minparam_cli.pipeline import DeriveOptions, load_chain
+    from minparam_cli.pipeline import DeriveOptions, load_chain, require_fixed_base
 
     kinds = tuple(k.strip() for k in friction.split(",") if k.strip())
     for k in kinds:
@@ -126,6 +126,7 @@ def _identify(robot, data, validate, test, split, columns, cutoff, force_filter,
         raise typer.BadParameter(f"{plot} is not a folder", param_hint="--plot")
     g = parse_floats(gravity, 3, "--gravity") if gravity is not None else None
     _, chain = load_chain(robot, DeriveOptions(friction=kinds, rotor_inertia=rotor_inertia, gravity=g))
+    require_fixed_base(chain, "identify")
     chain = chain.with_coulomb_smoothing(coulomb_smoothing)
     opts = IdentifyOptions(
         data=DataOptions(columns=_columns(columns), cutoff_hz=cutoff, force_filter=force_filter,

@@ -94,7 +94,10 @@ def _simulate(robot, trajectory, effects, strength, noise, noise_q, seed, durati
     for path in (output, truth):
         if path is not None:
             _check_folder(Path(path))
+    from minparam_cli.pipeline import require_fixed_base
+
     chain = build_chain(load_description(robot))
+    require_fixed_base(chain, "simulate")
     try:
         specs = parse_effects(effects, chain.n)
     except InputError as e:

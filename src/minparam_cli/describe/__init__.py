@@ -12,17 +12,20 @@ ROBOT_SUFFIXES = (".yaml", ".yml", ".urdf")
 __all__ = ["GeomValue", "Inertial", "JointRecord", "RobotDescription", "load_description", "ROBOT_SUFFIXES"]
 
 
-def load_description(path: str | Path, snap_angles: float | None = None, mimic: str = "coupled") -> RobotDescription:
+def load_description(path: str | Path, snap_angles: float | None = None, mimic: str = "coupled", floating_base: bool = False) -> RobotDescription:
     """Load a YAML DH/MDH table or a URDF, chosen by the file suffix.
 
     ``snap_angles`` (rad): round angles within it of a multiple of 15° (``describe/snap.py``).
     ``mimic``: URDF mimic joints move with their master ("coupled") or stay at their offset ("fixed").
+    ``floating_base``: a URDF's root link is free (six virtual base joints); YAML tables refuse it.
     """
     path = Path(path)
     suffix = path.suffix.lower()
     if suffix in (".yaml", ".yml"):
         from minparam_cli.describe.yaml_dh import load_yaml
 
+        if floating_base:
+            raise DescriptionError("--floating-base applies to URDF files (a DH table describes a fixed base)", str(path))
         desc = load_yaml(path)
         if snap_angles is not None:
             from minparam_cli.describe.snap import snap_description
@@ -32,5 +35,5 @@ def load_description(path: str | Path, snap_angles: float | None = None, mimic: 
     if suffix == ".urdf":
         from minparam_cli.describe.urdf import load_urdf
 
-        return load_urdf(path, snap_angles, mimic)
+        return load_urdf(path, snap_angles, mimic, floating_base)
     raise DescriptionError(f"unknown file type {suffix!r}; expected one of .yaml, .yml, .urdf", str(path))

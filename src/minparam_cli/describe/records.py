@@ -65,6 +65,10 @@ class JointRecord:
     # URDF <mimic>: (index of the independent joint that drives this one, multiplier, offset),
     # q_this = multiplier * q_master + offset; None for an independent joint
     mimic: tuple[int, float, float] | None = None
+    # one of the six virtual joints of a floating base (3 prismatic, then 3 revolute): no extras;
+    # ``massless``: its link has no mass and no parameters (all but the sixth, which carries the free link)
+    virtual: bool = False
+    massless: bool = False
 
 
 @dataclass(frozen=True)

@@ -14,7 +14,13 @@
   link and move with their master (``mimic="coupled"``, the default: the record names the
   independent joint that drives it, a mimic of a mimic resolved to the first independent
   joint), or are frozen at q = o and lumped like fixed joints (``mimic="fixed"``).
-* floating and planar joints are refused as not supported yet.
+* a floating base: a ``floating`` joint from the root link, or ``floating_base=True``
+  (``--floating-base``) for a file whose root link is the free body, adds six virtual joints
+  in front of the free link: translations along x, y, z of the root frame, then rotations
+  about the moved x, y, z axes (q = 0: the floating joint's origin).  The first five virtual
+  links have no mass (``JointRecord.massless``); the sixth carries the free link.  Their
+  rows of the regressor are the six base-wrench equations.
+* planar joints, and floating joints inside the tree, are refused as not supported yet.
 * Trees are supported: joints are numbered depth-first from the root, in
   document order, so a parent always comes before its children.
 """
@@ -40,10 +46,11 @@ INERTIA_KEYS = ("ixx", "ixy", "ixz", "iyy", "iyz", "izz")
 MIMIC_MODES = ("coupled", "fixed")
 
 
-def load_urdf(path: Path, snap_angles: float | None = None, mimic: str = "coupled") -> RobotDescription:
+def load_urdf(path: Path, snap_angles: float | None = None, mimic: str = "coupled", floating_base: bool = False) -> RobotDescription:
     """Read a URDF; with ``snap_angles`` (rad), joint origin angles within that of a multiple of
     15° are rounded to it (fixed joints included), each change recorded in ``adjustments``.
-    ``mimic``: "coupled" (mimic joints move with their master) or "fixed" (frozen at their offset)."""
+    ``mimic``: "coupled" (mimic joints move with their master) or "fixed" (frozen at their offset).
+    ``floating_base``: the root link is free (six virtual joints in front of it)."""
     if mimic not in MIMIC_MODES:
         raise ValueError(f"mimic must be one of {MIMIC_MODES}, got {mimic!r}")
     src = str(path)
@@ -64,7 +71,7 @@ def load_urdf(path: Path, snap_angles: float | None = None, mimic: str = "couple
             if j["mimic"] is not None:
                 j["frozen"] = _motion_matrix(j["type"], j["axis"], float(j["mimic"][2]))
                 j["type"] = "fixed"
-    desc = _build(name, src, links, joints)
+    desc = _build(name, src, links, joints, floating_base)
     if mimic == "coupled" and masters:
         desc = _couple(desc, masters)
     return replace(desc, adjustments=changes)
@@ -191,8 +198,8 @@ def _read_elements(root, src: str):
             raise DescriptionError("missing required attribute 'type'", src, where)
         if jtype not in KNOWN_TYPES:
             raise DescriptionError(f"unknown joint type {jtype!r}", src, where)
-        if jtype in ("floating", "planar"):
-            raise UnsupportedError(f"{jtype} joints are not supported yet", src, where)
+        if jtype == "planar":
+            raise UnsupportedError("planar joints are not supported yet", src, where)
         mimic = None
         mimic_el = el.find("mimic")
         if mimic_el is not None:
@@ -317,7 +324,43 @@ def _joint_record(j: dict, body_parent: np.ndarray, parent: int) -> dict:
     )
 
 
-def _build(name: str, src: str, links: dict, joints: list[dict]) -> RobotDescription:
+VIRTUAL = (("x", "prismatic", (1.0, 0.0, 0.0)), ("y", "prismatic", (0.0, 1.0, 0.0)), ("z", "prismatic", (0.0, 0.0, 1.0)),
+           ("rx", "revolute", (1.0, 0.0, 0.0)), ("ry", "revolute", (0.0, 1.0, 0.0)), ("rz", "revolute", (0.0, 0.0, 1.0)))
+
+
+def _free_link(src: str, root: str, joints: list[dict], children: dict, floating_base: bool):
+    """(free link, its floating joint or None) of a floating base, or (None, None) for a fixed base."""
+    floating = [j for j in joints if j["type"] == "floating"]
+    if len(floating) > 1:
+        raise UnsupportedError(f"{len(floating)} floating joints: only one, from the root link, is supported", src, f"joint[{floating[1]['name']}]")
+    if not floating:
+        return (root, None) if floating_base else (None, None)
+    fj = floating[0]
+    if fj["parent"] != root:
+        raise UnsupportedError(f"a floating joint inside the tree (parent '{fj['parent']}', not the root link '{root}') is not supported yet", src, f"joint[{fj['name']}]")
+    others = [j["name"] for j in children[root] if j is not fj]
+    if others:
+        raise UnsupportedError(f"the root link '{root}' has a floating joint and other joints {others[:3]}: not supported", src, f"joint[{fj['name']}]")
+    return fj["child"], fj
+
+
+def _virtual_records(free: str, fj: dict | None, taken: set[str]) -> list[dict]:
+    """The six virtual joints of a floating base (``VIRTUAL``), named <free link>_x ... _rz."""
+    out = []
+    for k, (suffix, kind, axis) in enumerate(VIRTUAL):
+        name = f"{free}_{suffix}"
+        while name in taken:
+            name += "_"
+        j = dict(name=name, type=kind, child=free if k == 5 else "", xyz=["0"] * 3, rpy=["0"] * 3, rpy_deg=[None] * 3, axis=list(axis), limits=None)
+        if k == 0 and fj is not None:  # q = 0 puts the free link where the floating joint's origin does
+            j.update(xyz=fj["xyz"], rpy=fj["rpy"], rpy_deg=fj["rpy_deg"])
+        rec = _joint_record(j, body_parent=np.eye(4), parent=k - 1)
+        rec.update(virtual=True, massless=k < 5)
+        out.append(rec)
+    return out
+
+
+def _build(name: str, src: str, links: dict, joints: list[dict], floating_base: bool = False) -> RobotDescription:
     children: dict[str, list[dict]] = {k: [] for k in links}
     parent_of: dict[str, dict] = {}
     for j in joints:
@@ -334,8 +377,9 @@ def _build(name: str, src: str, links: dict, joints: list[dict]) -> RobotDescrip
         raise DescriptionError("no root link: the joints form a loop", src)
     if len(roots) > 1:
         raise DescriptionError(f"{len(roots)} root links {roots[:4]}: expected one connected tree", src)
+    free, fj = _free_link(src, roots[0], joints, children, floating_base)
     n_act = sum(j["type"] in ACTUATED for j in joints)
-    if n_act == 0:
+    if n_act == 0 and free is None:
         raise DescriptionError("no revolute, continuous or prismatic joint", src)
     if n_act > MAX_JOINTS:
         raise DescriptionError(f"{n_act} actuated joints exceed the limit of {MAX_JOINTS}", src)
@@ -346,6 +390,11 @@ def _build(name: str, src: str, links: dict, joints: list[dict]) -> RobotDescrip
     # transform from the body frame to the link frame, actuated joint entering the link)
     stack: list[tuple] = [(roots[0], -1, np.eye(4), None)]
     visited = 0
+    if free is not None:
+        records = _virtual_records(free, fj, {j["name"] for j in joints})
+        body_phi = [None] * 6
+        stack = [(free, 5, np.eye(4), None)]
+        visited = 0 if fj is None else 1  # the root link the floating joint starts from
     while stack:
         link, body, X, entering = stack.pop()
         visited += 1

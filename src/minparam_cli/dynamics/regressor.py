@@ -189,13 +189,17 @@ def joint_regressor(chain: Chain, q, qd, qdd, include_extras: bool = True, backe
     layout = chain.layout
     P = layout.size if include_extras else layout.n_inertial
     Y = np.zeros((N, n, P))
+    massless = layout.n_inertial < 10 * n  # a floating base's virtual links: no columns
+    Yi = np.zeros((N, n, 10 * n)) if massless else Y
     if backend == "kernel" and _rnea is None:
         raise RuntimeError("the compiled regressor kernel was not built")
     if backend != "numpy" and _rnea is not None:
         terms, axor, parents, revolute, gravity = _kernel_arrays(chain)
-        _rnea.inertial_regressor(Y, q, qd, qdd, terms, axor, parents, revolute, gravity, N, n, P)
+        _rnea.inertial_regressor(Yi, q, qd, qdd, terms, axor, parents, revolute, gravity, N, n, Yi.shape[2])
     else:
-        inertial_regressor_numpy(chain, q, qd, qdd, Y)
+        inertial_regressor_numpy(chain, q, qd, qdd, Yi)
+    if massless:
+        Y[:, :, : layout.n_inertial] = Yi[:, :, list(layout.inertial_columns)]
     if include_extras:
         for c, (k, kind) in enumerate(layout.extra_columns):
             col = layout.n_inertial + c

@@ -37,14 +37,15 @@ def base_report(chain: Chain, base: BaseSet, elapsed_s: float) -> dict:
         terms = base.terms(i)
         base_params.append({"name": bname, "expression": expression(terms), "terms": terms})
     links = []
-    for j in range(chain.n):
+    for j, number in enumerate(chain.layout.link_numbers):
         links.append(
             {
-                "index": j + 1,
+                "index": number,
                 "joint": chain.joint_names[j],
                 "link": chain.link_names[j],
                 "type": chain.types[j],
-                "parent": chain.parents[j] + 1,
+                # the parent link's number; 0 is the fixed base (or, on a floating base, the free link)
+                "parent": chain.layout.link_numbers[chain.parents[j]] if chain.parents[j] >= 0 else (None if chain.floating_base else 0),
             }
         )
     coupling = chain.coupling
@@ -59,6 +60,7 @@ def base_report(chain: Chain, base: BaseSet, elapsed_s: float) -> dict:
         "source": chain.source,
         "method": base.method,
         "dof": chain.dof,
+        "floating_base": chain.floating_base,
         "convention": chain.convention,
         "gravity": [float(g) for g in chain.gravity],
         "gravity_source": chain.gravity_source,

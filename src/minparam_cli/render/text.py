@@ -14,7 +14,7 @@ def _header_lines(r: dict) -> list[tuple[str, str]]:
     rows = [
         ("robot", f"{r['robot']} ({r['source']})"),
         ("method", r["method"] + (" (exact rational arithmetic)" if r.get("exact") else "")),
-        ("dof", f"{r['dof']} ({r['convention']})"),
+        ("dof", f"{r['dof']} ({r['convention']}" + (", floating base: 6 base coordinates + joints)" if r.get("floating_base") else ")")),
         ("gravity", f"({g}) m/s² [{r.get('gravity_source', 'file')}]"),
     ]
     mimic = [(link["joint"], link["mimic"]) for link in r.get("links", []) if link.get("mimic")]
