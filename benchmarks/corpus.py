@@ -6,13 +6,24 @@ then pivoted QR (scipy.linalg.qr, pivoting=True); rank = #{|R_kk| > 1e-8 |R_00|}
 The table also prints the reference's gap (smallest kept and largest dropped
 |R_kk| / |R_00|), so a reader sees how clean each reference decision is.
 
+Mimic joints: pinocchio's model keeps every joint independent (the <mimic> tags
+are not applied); the coupling is read here from the URDF text (q = m q_master
++ o, mimics of mimics followed), the states are drawn for the independent
+joints only, and the regressor's rows are projected, Y_red = Gᵀ Y_full, G the
+(nv x n_independent) coupling Jacobian, before the same pivoted QR.
+
+Floating base (columns "free-flyer"): the reference is the same with
+buildModelFromUrdf(path, JointModelFreeFlyer()) and random configurations
+(pinocchio.randomConfiguration: unit quaternions); minparam runs
+``--floating-base`` (QR only: the projection route refuses a floating base).
+
 minparam: ``derive_file`` with --method qr and --method projection, each timed
 in this process (the first robot also pays the imports).  Verdicts:
 
 * agree: QR equals the reference, and projection too or projection refused
   by its size guard (then the projection column says why);
 * differ: a count differs from the reference;
-* refused: mimic / floating: not supported yet (mimic joints, a floating root);
+* refused: floating: not supported yet (a floating joint inside the tree, planar joints);
 * no moving joint: the file has no revolute, continuous or prismatic joint
   (pinocchio's model has nv = 0 too);
 * invalid file: minparam refuses it with a description error (the message
@@ -65,41 +76,93 @@ def joint_summary(path: Path) -> tuple[str, Counter]:
     return " ".join(parts) or "none", count
 
 
-def reference_rank(path: Path, samples: int, seed: int = 0):
-    """(rank, (kept gap, dropped gap), nv) from pinocchio, or (None, error text, 0)."""
+def mimic_map(path: Path) -> dict[str, tuple[str, float, float]]:
+    """{mimic joint: (independent joint, multiplier, offset)} from the URDF text, chains followed."""
+    root = ET.parse(path).getroot()
+    direct = {}
+    for j in root.iter("joint"):
+        el = j.find("mimic")
+        if el is not None and j.get("type") != "fixed":
+            direct[j.get("name")] = (el.get("joint"), float(el.get("multiplier", 1)), float(el.get("offset", 0)))
+    out = {}
+    for name, (master, m, o) in direct.items():
+        for _ in range(len(direct)):
+            if master not in direct:
+                break
+            nxt, m2, o2 = direct[master]
+            master, m, o = nxt, m * m2, m * o2 + o
+        out[name] = (master, m, o)
+    return out
+
+
+def reference_rank(path: Path, samples: int, seed: int = 0, free_flyer: bool = False):
+    """(rank, (kept gap, dropped gap), nv) from pinocchio, or (None, error text, 0); mimic joints
+    through their coupling, the base a free-flyer when asked."""
     import pinocchio as pin
     import scipy.linalg
 
     try:
-        model = pin.buildModelFromUrdf(str(path))
+        model = pin.buildModelFromUrdf(str(path), pin.JointModelFreeFlyer()) if free_flyer else pin.buildModelFromUrdf(str(path))
     except Exception as e:  # pinocchio raises ValueError/RuntimeError on malformed files
         return None, "pinocchio: " + str(e).strip().splitlines()[0].replace(str(path), path.name), 0
     if model.nv == 0:
         return None, "nv = 0", 0
     data = model.createData()
     rng = np.random.default_rng(seed)
+    mimic = mimic_map(path)
+    names = list(model.names)
+    joints = list(model.joints)
+    indep = [k for k in range(1, model.njoints) if names[k] not in mimic]
+    # G: every velocity index of the model from the independent ones (a free-flyer's 6 included)
+    cols = {}
+    for k in indep:
+        for i in range(joints[k].nv):
+            cols[(k, i)] = len(cols)
+    G = np.zeros((model.nv, len(cols)))
+    for k in range(1, model.njoints):
+        jm = joints[k]
+        if names[k] in mimic:
+            master, m, _ = mimic[names[k]]
+            G[jm.idx_v, cols[(names.index(master), 0)]] = m
+        else:
+            for i in range(jm.nv):
+                G[jm.idx_v + i, cols[(k, i)]] = 1.0
+    lower, upper = -np.pi * np.ones(model.nq), np.pi * np.ones(model.nq)
     rows = []
     for _ in range(samples):
-        q = pin.neutral(model)
-        for joint in model.joints[1:]:
-            if joint.nq == 2 and joint.nv == 1:  # continuous: (cos, sin)
-                a = rng.uniform(-np.pi, np.pi)
-                q[joint.idx_q : joint.idx_q + 2] = np.cos(a), np.sin(a)
+        q = pin.randomConfiguration(model, lower, upper) if free_flyer else pin.neutral(model)
+        angle = {}
+        for k in indep:
+            joint = joints[k]
+            if joint.nq == 7:  # the free-flyer: randomConfiguration's
+                continue
+            angle[names[k]] = rng.uniform(-np.pi, np.pi, joint.nq if joint.nq != 2 else 1)
+        for k in range(1, model.njoints):
+            joint = joints[k]
+            if joint.nq == 7:
+                continue
+            if names[k] in mimic:
+                master, m, o = mimic[names[k]]
+                a = m * angle[master] + o
             else:
-                q[joint.idx_q : joint.idx_q + joint.nq] = rng.uniform(-np.pi, np.pi, joint.nq)
-        v, a = rng.standard_normal(model.nv), rng.standard_normal(model.nv)
-        rows.append(pin.computeJointTorqueRegressor(model, data, q, v, a).copy())
+                a = angle[names[k]]
+            if joint.nq == 2 and joint.nv == 1:  # continuous: (cos, sin)
+                q[joint.idx_q : joint.idx_q + 2] = np.cos(a[0]), np.sin(a[0])
+            else:
+                q[joint.idx_q : joint.idx_q + joint.nq] = a
+        v, a = G @ rng.standard_normal(G.shape[1]), G @ rng.standard_normal(G.shape[1])
+        rows.append(G.T @ pin.computeJointTorqueRegressor(model, data, q, v, a))
     R = scipy.linalg.qr(np.vstack(rows), mode="r", pivoting=True)[0]
     r = np.abs(np.diagonal(R))
     rank = int(np.sum(r > REFERENCE_RTOL * r[0]))
     return rank, (r[rank - 1] / r[0], r[rank] / r[0] if rank < len(r) else 0.0), model.nv
 
 
-def run_minparam(path: Path, method: str, samples: int) -> tuple[object, float, str]:
+def run_minparam(path: Path, method: str, samples: int, floating_base: bool = False) -> tuple[object, float, str]:
     """(count or refusal text, seconds, weak summary)."""
     t0 = time.perf_counter()
     try:
-        rep = derive_file(path, DeriveOptions(method=method, samples=samples))
+        rep = derive_file(path, DeriveOptions(method=method, samples=samples, floating_base=floating_base))
     except UnsupportedError as e:
         msg = str(e)
         kind = "mimic" if "mimic" in msg else "floating" if ("floating" in msg or "planar" in msg) else "unsupported"
@@ -121,8 +184,6 @@ def run_minparam(path: Path, method: str, samples: int) -> tuple[object, float, 
 
 def verdict(ref, qr, proj, count: Counter) -> str:
     if isinstance(qr, str):
-        if qr.startswith("refused: mimic") or (count["mimic"] and ref is not None and qr.startswith("refused")):
-            return "refused: mimic"
         if qr.startswith("refused: floating"):
             return "refused: floating"
         if qr == "no moving joint" and ref is None:
@@ -134,7 +195,7 @@ def verdict(ref, qr, proj, count: Counter) -> str:
         return "differ"
     if isinstance(proj, int) and proj != ref:
         return "differ"
-    if isinstance(proj, str) and proj != "refused: size":
+    if isinstance(proj, str) and proj not in ("refused: size", "refused: mimic", "skipped"):
         return "differ"
     return "agree"
 
@@ -144,11 +205,12 @@ def main(argv=None) -> int:
     ap.add_argument("--robots", type=Path, default=None, help="folder of URDFs (default: example-robot-data's)")
     ap.add_argument("--samples", type=int, default=100, help="random states, both for the reference and for --method qr")
     ap.add_argument("--no-projection", action="store_true", help="skip --method projection")
+    ap.add_argument("--no-floating", action="store_true", help="skip the free-flyer columns")
     ap.add_argument("--markdown", action="store_true", help="GitHub table instead of plain text")
     args = ap.parse_args(argv)
     robots = args.robots or find_robots()
     files = sorted(robots.rglob("*.urdf"))
-    table, verdicts, notes = [], Counter(), []
+    table, verdicts, notes, floating = [], Counter(), [], Counter()
     t_all = time.perf_counter()
     for path in files:
         joints, count = joint_summary(path)
@@ -157,22 +219,33 @@ def main(argv=None) -> int:
         proj, t_proj = ("skipped", 0.0) if args.no_projection else run_minparam(path, "projection", args.samples)[:2]
         v = verdict(ref, qr, proj, count)
         verdicts[v] += 1
+        ff_text, ff_qr = "skipped", "skipped"
+        if not args.no_floating:
+            ff_ref, ff_gap, _ = reference_rank(path, args.samples, free_flyer=True)
+            ff_qr = run_minparam(path, "qr", args.samples, floating_base=True)[0]
+            ff_text = f"{ff_ref}" if ff_ref is not None else "-"
+            fv = "agree" if ff_ref is not None and ff_qr == ff_ref else ("differ" if ff_ref is not None else "-")
+            floating[fv] += 1
+            ff_qr = f"{ff_qr} ({fv})" if fv != "-" else ff_qr
         name = str(path.relative_to(robots))
         if isinstance(qr, str) and qr.startswith("invalid: "):
             notes.append(f"{name}: minparam: {qr[len('invalid: '):]}; {gap}")
             qr = proj = "invalid (below)"
         ref_text = f"{ref} ({gap[0]:.0e} / {gap[1]:.0e})" if ref is not None else "-"
-        table.append((name, joints, ref_text, qr, f"{t_qr:.2f}", proj, f"{t_proj:.2f}", weak, v))
+        table.append((name, joints, ref_text, qr, f"{t_qr:.2f}", proj, f"{t_proj:.2f}", weak, v, ff_text, ff_qr))
         print(f"{v:18s} {path.relative_to(robots)}", file=sys.stderr, flush=True)
-    headers = ["robot", "joints", "reference (kept / dropped gap)", "qr", "qr s", "projection", "proj s", "weak (min margin)", "verdict"]
+    headers = ["robot", "joints", "reference (kept / dropped gap)", "qr", "qr s", "projection", "proj s", "weak (min margin)", "verdict", "free-flyer ref", "--floating-base"]
     print(tabulate(table, headers=headers, tablefmt="github" if args.markdown else "simple"))
     print()
     for n in notes:
         print(n)
     order = ["agree", "differ", "refused: mimic", "refused: floating", "no moving joint", "invalid file"]
     print(f"{len(files)} URDFs: " + ", ".join(f"{verdicts[k]} {k}" for k in order if verdicts[k] or k in ("agree", "differ")))
+    if not args.no_floating:
+        print(f"floating base (free-flyer reference vs --floating-base): {floating['agree']} agree, {floating['differ']} differ"
+              + (f", {floating['-']} without a reference" if floating["-"] else ""))
     print(f"total time {time.perf_counter() - t_all:.1f} s (reference included)")
-    return 0 if verdicts["differ"] == 0 else 1
+    return 0 if verdicts["differ"] == 0 and floating["differ"] == 0 else 1
 
 
 if __name__ == "__main__":
