@@ -249,3 +249,17 @@ def test_mimic_loop_is_refused(tmp_path):
     path = write(tmp_path, "loop", joints, ["base", "l1", "l2", "l3"])
     with pytest.raises(DescriptionError, match="mimic joints form a loop: j2 -> j3 -> j2"):
         load_chain(path, DeriveOptions())
+
+
+def test_simulate_and_identify_refuse_coupled_mimic_in_one_line_and_simulate_takes_mimic_fixed(tmp_path):
+    path = gripper_arm(tmp_path)
+    data = tmp_path / "d.csv"
+    r = CliRunner().invoke(app, ["simulate", str(path), "--duration", "2", "-o", str(data), "-q"])
+    assert r.exit_code == 2 and "simulate of robots with coupled mimic joints is not supported yet" in r.stderr
+    assert r.stderr.count("\n") == 1 and not data.exists()
+    r = CliRunner().invoke(app, ["simulate", str(path), "--duration", "2", "--mimic", "fixed", "-o", str(data), "-q"])
+    assert r.exit_code == 0, r.output
+    assert data.read_text().splitlines()[0] == "t,q1,q2,q3,q4,dq1,dq2,dq3,dq4,ddq1,ddq2,ddq3,ddq4,tau1,tau2,tau3,tau4"
+    r = CliRunner().invoke(app, ["identify", str(path), str(data)])
+    assert r.exit_code == 2 and "identify of robots with coupled mimic joints is not supported yet" in r.stderr
+    assert r.stderr.count("\n") == 1

@@ -18,7 +18,7 @@ from typing import Optional
 import numpy as np
 import typer
 
-from minparam_cli.cli.common import guarded, write_output
+from minparam_cli.cli.common import MimicMode, guarded, mimic_option, write_output
 from minparam_cli.errors import InputError
 
 HELP = (
@@ -75,14 +75,15 @@ def simulate(
     truth: Optional[Path] = typer.Option(None, "--truth", help="Also write the truth record (JSON) here."),
     coulomb_smoothing: float = typer.Option(0.0, "--coulomb-smoothing", help="Smooth Coulomb friction: tanh(dq/V) for sign(dq) in the injected friction effects, V in rad/s (m/s); 0: sign."),
     quiet: bool = typer.Option(False, "--quiet", "-q", help="No summary or notes on stderr."),
+    mimic: MimicMode = mimic_option(),
 ):
     _simulate(robot, trajectory, effects, strength, noise, noise_q, seed, duration, rate, harmonics, base_frequency,
-              random_inertia, no_ddq, output, truth, quiet, coulomb_smoothing)
+              random_inertia, no_ddq, output, truth, quiet, coulomb_smoothing, mimic)
 
 
 @guarded
 def _simulate(robot, trajectory, effects, strength, noise, noise_q, seed, duration, rate, harmonics, base_frequency,
-              random_inertia, no_ddq, output, truth, quiet, coulomb_smoothing=0.0):
+              random_inertia, no_ddq, output, truth, quiet, coulomb_smoothing=0.0, mimic=MimicMode.coupled):
     from minparam_cli.chain import build_chain
     from minparam_cli.describe import load_description
     from minparam_cli.identify.simulate import SimulationOptions, parse_effects, simulate as run, truth_record, validate_options
@@ -96,7 +97,7 @@ def _simulate(robot, trajectory, effects, strength, noise, noise_q, seed, durati
             _check_folder(Path(path))
     from minparam_cli.pipeline import require_fixed_base
 
-    chain = build_chain(load_description(robot))
+    chain = build_chain(load_description(robot, mimic=MimicMode(mimic).value))
     require_fixed_base(chain, "simulate")
     try:
         specs = parse_effects(effects, chain.n)
