@@ -111,6 +111,9 @@ def reference_rank(path: Path, samples: int, seed: int = 0, free_flyer: bool = F
     rng = np.random.default_rng(seed)
     mimic = mimic_map(path)
     names = list(model.names)
+    for name, (master, _, _) in mimic.items():
+        if master not in names:  # pinocchio builds the model but the coupling cannot be applied
+            return None, f"reference: mimic joint '{master}' of '{name}' is not in the model", 0
     joints = list(model.joints)
     indep = [k for k in range(1, model.njoints) if names[k] not in mimic]
     # G: every velocity index of the model from the independent ones (a free-flyer's 6 included)
