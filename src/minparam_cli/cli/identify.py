@@ -36,6 +36,11 @@ Exit codes: 0 success, 1 failed computation, 2 bad input.
 """
 
 
+class Prior(str, Enum):
+    none = "none"
+    nominal = "nominal"
+
+
 class Fmt(str, Enum):
     table = "table"
     json = "json"
@@ -73,6 +78,9 @@ def identify(
     effects: str = typer.Option("", "--effects", help="Restrict the diagnosis to these effect ids (default: the whole library)."),
     no_diagnose: bool = typer.Option(False, "--no-diagnose", help="Fit the declared model only."),
     min_gain: float = typer.Option(0.02, "--min-gain", help="Smallest share of the selection residual energy an effect must remove."),
+    physical: bool = typer.Option(False, "--physical", help="Also fit the full parameters as a convex program: every link a real body (pseudo-inertia ⪰ 0), friction and rotor inertia ≥ 0 (needs the [physical] extra)."),
+    prior: Prior = typer.Option(Prior.none, "--prior", help="With --physical: pull the full parameters toward the description's nominal inertias (nominal) or not (none)."),
+    prior_weight: float = typer.Option(1e-3, "--prior-weight", help="With --prior nominal: weight of the prior against the mean squared weighted residual."),
     ols: bool = typer.Option(False, "--ols", help="Ordinary least squares instead of Gautier's per-joint weighting, in the diagnosis and the final fit."),
     fmt: Fmt = typer.Option(Fmt.table, "--format", "-f", help="Output format."),
     output: Optional[Path] = typer.Option(None, "--output", "-o", help="Write the report to this file (atomically)."),
@@ -92,8 +100,8 @@ def _split(text: str) -> tuple[float, float, float]:
 
 @guarded
 def _identify(robot, data, validate, test, split, columns, cutoff, force_filter, rate, decimate, trim_still, still_speed,
-              friction, rotor_inertia, coulomb_smoothing, gravity, effects, no_diagnose, min_gain, ols, fmt, output, plot,
-              seed, quiet):
+              friction, rotor_inertia, coulomb_smoothing, gravity, effects, no_diagnose, min_gain, physical, prior,
+              prior_weight, ols, fmt, output, plot, seed, quiet):
     from minparam_cli.identify.data import DataOptions
     from minparam_cli.identify.diagnose import DiagnosisOptions
     from minparam_cli.identify.effects import EFFECT_IDS
@@ -124,6 +132,15 @@ def _identify(robot, data, validate, test, split, columns, cutoff, force_filter,
         raise typer.BadParameter("must be a finite velocity >= 0 (0: sign)", param_hint="--coulomb-smoothing")
     if plot is not None and not plot.is_dir():
         raise typer.BadParameter(f"{plot} is not a folder", param_hint="--plot")
+    if not (math.isfinite(prior_weight) and prior_weight > 0):
+        raise typer.BadParameter("must be a positive number", param_hint="--prior-weight")
+    if prior != Prior.none and not physical:
+        raise typer.BadParameter("a prior needs --physical", param_hint="--prior")
+    physical_opts = None
+    if physical:
+        from minparam_cli.identify.physical import PhysicalOptions
+
+        physical_opts = PhysicalOptions(prior=prior.value, prior_weight=prior_weight)
     g = parse_floats(gravity, 3, "--gravity") if gravity is not None else None
     _, chain = load_chain(robot, DeriveOptions(friction=kinds, rotor_inertia=rotor_inertia, gravity=g))
     require_fixed_base(chain, "identify")
@@ -139,6 +156,7 @@ def _identify(robot, data, validate, test, split, columns, cutoff, force_filter,
         diagnose=not no_diagnose,
         diagnosis=DiagnosisOptions(effects=ids, min_gain=min_gain, weighted=not ols),
         seed=seed,
+        physical=physical_opts,
     )
     bar = Progress(1, "diagnosis", quiet)
     try:

@@ -27,7 +27,8 @@ from minparam_cli.identify.diagnose import DiagnosisOptions, diagnose
 from minparam_cli.identify.effects import source_columns
 from minparam_cli.identify.fit import Accumulator, errors, solve
 from minparam_cli.identify.explain import describe_rejected, describe_terms, nominal_notes
-from minparam_cli.identify.quality import COND_LIMIT, check_excitation, flags, keep_physical
+from minparam_cli.identify.physical import PhysicalOptions
+from minparam_cli.identify.quality import COND_LIMIT, check_excitation, flags, full_theta, keep_physical
 from minparam_cli.identify.roles import DEFAULT_SPLIT, FIT, SELECTION, TEST, Source, describe, overlaps, parts, plan
 from minparam_cli.identify.slots import block_rows, final_maps, slot_sources
 
@@ -47,6 +48,7 @@ class IdentifyOptions:
     diagnosis_cap: int = DIAGNOSIS_CAP
     seed: int = 0
     cond_limit: float = COND_LIMIT
+    physical: PhysicalOptions | None = None  # --physical: the convex fit over the full parameters as well
 
 
 class _Thinned:
@@ -136,10 +138,15 @@ def _finite_rows(design: Design, slots, b: Block, path: Path) -> np.ndarray:
 
 @dataclass
 class Artifacts:
-    """What plots need beside the report: selection samples and each step's model."""
+    """What plots and a saved model need beside the report."""
 
-    hold: Block | None = None
-    models: list = field(default_factory=list)  # (label, design, theta)
+    hold: Block | None = None  # selection samples of the diagnosis
+    models: list = field(default_factory=list)  # (label, design, theta) of every step
+    design: Design | None = None  # the final design (its theta_model and t0 set)
+    theta: np.ndarray | None = None  # its parameters, every column (0 where regrouped on this data)
+    std_percent: np.ndarray | None = None  # their relative σ (inf where regrouped)
+    base: object | None = None  # the BaseSet the design's base columns come from
+    physical: object | None = None  # PhysicalFit, with --physical
 
 
 def identify(chain: Chain, data_path: str | Path, opts: IdentifyOptions, progress=None) -> tuple[dict, Artifacts]:
@@ -171,7 +178,9 @@ def _identify(chain: Chain, data_path: Path, opts: IdentifyOptions, progress) ->
             raise DataError(f"{data_path}: the {key} data have too few samples ({int(acc_all[key].rows[0])})"
                             + (f" for {design.p} parameters" if key == FIT else ""))
     acc = {k: (a.restrict(list(range(design.p))) if slots else a) for k, a in acc_all.items()}
-    cond_scaled = check_excitation(acc[FIT], design, motion, opts.cond_limit)
+    prior = opts.physical is not None and opts.physical.prior != "none"
+    # with a prior, the data need not inform every parameter: the prior holds the others (and says which)
+    cond_scaled = check_excitation(acc[FIT], design, motion, float("inf") if prior else opts.cond_limit)
     fit0 = solve(acc[FIT], design.names, opts.weighted)
     before = errors(acc[SELECTION], fit0.theta, fit0.columns)
     test_keys = [k for k in keys if k not in (FIT, SELECTION)]
@@ -214,6 +223,13 @@ def _identify(chain: Chain, data_path: Path, opts: IdentifyOptions, progress) ->
                 # the last step's errors are the refit on all the fit data, measured on all selection samples
                 steps_out[-1].update(_errs(after))
     tests_final = {k: errors(acc_final[k], final_fit.theta, final_fit.columns) for k in test_keys}
+    artifacts.design, artifacts.base = final_design, base
+    artifacts.theta = full_theta(final_fit, final_design.p)
+    artifacts.std_percent = np.full(final_design.p, np.inf)
+    artifacts.std_percent[list(final_fit.columns)] = final_fit.std_percent
+    physical = None
+    if opts.physical is not None:
+        physical, artifacts.physical = _physical(chain, base, final_design, final_fit, acc_final, opts.physical, test_keys)
 
     data_reports = [{"path": r.path, **r.as_dict()} for r in reports]
     dropped: dict = {}
@@ -255,6 +271,8 @@ def _identify(chain: Chain, data_path: Path, opts: IdentifyOptions, progress) ->
         "diagnosis": diag_info,
         "seed": opts.seed,
     }
+    if physical is not None:
+        report["physical"] = physical
     report["flags"] = flags(report, final_fit)
     if not test_keys:
         report["flags"].insert(0, "no test data (--split test share 0, no --test file): every figure comes from "
@@ -264,6 +282,36 @@ def _identify(chain: Chain, data_path: Path, opts: IdentifyOptions, progress) ->
                                   "in-sample figures there, and the effects were chosen on data that also fitted them")
     report["elapsed_s"] = round(time.perf_counter() - t_start, 4)
     return report, artifacts
+
+
+def _physical(chain: Chain, base, design: Design, fit, acc: dict, popts: PhysicalOptions, test_keys: list):
+    """The convex fit on the fit data (same weights as the unconstrained fit), its errors on the
+    selection and test data beside the unconstrained ones, and its bodies."""
+    from minparam_cli.identify.physical import fit_physical, link_bodies
+
+    weights = fit.sigma if fit.method == "wls" else np.ones(chain.n)
+    R = acc[FIT].stacked(weights)
+    pf = fit_physical(chain, base.K, design, R, int(acc[FIT].rows.sum()), popts)
+    n_links = chain.layout.n_inertial // 10
+    bodies = link_bodies(pf.phi, n_links)
+    for b, informed in zip(bodies, pf.informed):
+        b["informed_directions"] = informed  # of its 10 parameters' directions, set by the data
+    nb = len(design.kept)
+    out = {
+        "solver": pf.solver, "status": pf.status, "prior": popts.prior,
+        "prior_weight": popts.prior_weight if popts.prior != "none" else None,
+        "margin_kg": popts.margin, "data_cost": pf.data_cost, "prior_cost": pf.prior_cost,
+        "elapsed_s": round(pf.elapsed_s, 4),
+        "selection": _errs(errors(acc[SELECTION], pf.theta)),
+        "test": {k: _errs(errors(acc[k], pf.theta)) for k in test_keys},
+        "base_parameters": {nm: float(v) for nm, v in zip(design.names[:nb], pf.theta[:nb])},
+        "effect_coefficients": {nm: float(v) for nm, v in zip(design.names[nb:], pf.theta[nb:])},
+        "phi": {nm: float(v) for nm, v in zip(pf.names, pf.phi)},
+        "links": bodies,
+        "not_informed": [b["link"] for b in bodies if b["informed_directions"] == 0],
+        "partly_informed": [b["link"] for b in bodies if 0 < b["informed_directions"] < 10],
+    }
+    return out, pf
 
 
 def _errs(e) -> dict:

@@ -25,14 +25,36 @@ def _error_rows(r: dict) -> list[tuple]:
     def row(label, e, data):
         return (label, *[f"{x:.4g}" for x in e["rms_per_joint"]], f"{e['rms_total']:.4g}", _pct(e["relative_error"]), data)
 
+    phys = r.get("physical")
     rows.append(row("before", r["before"], "selection"))
     rows.append(row("after", r["after"], "selection"))
+    if phys:
+        rows.append(row("physical", phys["selection"], "selection"))
     files = r["test"]["files"]
     for k, f in enumerate(files):
         tag = "test" if len(files) == 1 else f"test {k + 1}"
         rows.append(row("before", f["rigid"], tag))
         rows.append(row("after", f["final"], tag))
+        if phys:
+            rows.append(row("physical", phys["test"][f["part"]], tag))
     return rows
+
+
+def _physical_lines(p: dict) -> list[str]:
+    """The bodies of the physically consistent fit, one row per link."""
+    out = [f"Physically consistent fit ({p['solver']}, {p['status']}, {p['elapsed_s']:.2f} s; prior: {p['prior']}"
+           + (f", weight {p['prior_weight']:g})" if p["prior_weight"] else ")")]
+    rows = []
+    for b in p["links"]:
+        rows.append((b["link"], f"{b['mass']:.4g}", " ".join(f"{x:.3g}" for x in b["com"]),
+                     " ".join(f"{x:.3g}" for x in b["principal_moments"]), f"{b['pseudo_inertia_min_eig']:.2g}",
+                     f"{b['informed_directions']}/10"))
+    out.append(columns(rows, ("link", "mass kg", "centre of mass m", "principal moments kg·m²", "min eig J", "data-set directions"),
+                       right=(0, 1, 4, 5)))
+    if p["not_informed"]:
+        out.append(f"links the data did not inform (held by the {'prior' if p['prior'] != 'none' else 'lightest-body tie-break'}): "
+                   + ", ".join(str(x) for x in p["not_informed"]))
+    return out
 
 
 def render_identify(r: dict) -> str:
@@ -60,7 +82,8 @@ def render_identify(r: dict) -> str:
     ]
     out = [columns(head), ""]
     n = len(r["before"]["rms_per_joint"])
-    out.append("Error, rms (N·m or N): before = rigid-body model, after = final model, both fitted on the fit data")
+    out.append("Error, rms (N·m or N): before = rigid-body model, after = final model, both fitted on the fit data"
+               + ("; physical = the final model's physically consistent fit" if r.get("physical") else ""))
     hdr = ("", *[f"j{j + 1}" for j in range(n)], "total", "‖r‖/‖τ‖", "data")
     out.append(columns(_error_rows(r), hdr, right=tuple(range(1, n + 3))))
     out.append("")
@@ -86,8 +109,16 @@ def render_identify(r: dict) -> str:
     for f in r.get("flags", []):
         out.append(f"flag: {f}")
     out.append("")
-    prows = [(k, f"{v['value']:.6g}", "-" if v["std_percent"] is None else f"{v['std_percent']:.3g}") for k, v in r["parameters"].items()]
-    out.append(columns(prows, ("parameter", "value", "σ %"), right=(1, 2)))
+    phys = r.get("physical")
+    if phys:
+        out += _physical_lines(phys) + [""]
+        both = {**phys["base_parameters"], **phys["effect_coefficients"]}
+        prows = [(k, f"{v['value']:.6g}", "-" if v["std_percent"] is None else f"{v['std_percent']:.3g}",
+                  f"{both[k]:.6g}" if k in both else "-") for k, v in r["parameters"].items()]
+        out.append(columns(prows, ("parameter", "value", "σ %", "physical"), right=(1, 2, 3)))
+    else:
+        prows = [(k, f"{v['value']:.6g}", "-" if v["std_percent"] is None else f"{v['std_percent']:.3g}") for k, v in r["parameters"].items()]
+        out.append(columns(prows, ("parameter", "value", "σ %"), right=(1, 2)))
     for note in r.get("nominal_notes", []):
         out.append(f"note: {note}")
     out.append("")
