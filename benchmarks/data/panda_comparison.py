@@ -10,6 +10,8 @@ Runs, from the repository root, exactly the commands a user would type:
     minparam identify robots/panda.yaml DATA --validate DATA --split 1,0,0 --no-diagnose \\
         --friction coulomb,viscous,offset --format json
         (column "all data": fit on every sample; its errors are in-sample)
+    minparam identify robots/panda.yaml DATA --no-diagnose --friction coulomb,viscous,offset --physical --format json
+        (column "physical": every link a body, friction >= 0; the same split as "minparam")
     minparam derive robots/panda.yaml --symbolic --format json
         (the expression of each base parameter)
 
@@ -34,6 +36,12 @@ ROOT = Path(__file__).resolve().parents[2]
 DEFAULT_DATA = Path("..") / "shared" / "data" / "panda-gaz2019" / "panda_exciting_traj_1.csv"
 REFERENCE = ROOT / "docs" / "data" / "panda_gaz2019_table3.md"
 ROBOT = "robots/panda.yaml"
+# Gaz et al. 2019, supplementary Table VIII (the retrieved feasible parameters p̂): masses in kg and centres of
+# mass in the link frames, m (c1z not given); see ../shared/data/panda-gaz2019/README.txt
+GAZ_MASS = (4.970684, 0.646926, 3.228604, 3.587895, 1.225946, 1.666555, 0.735522)
+GAZ_COM = ((3.875e-3, 2.081e-3, None), (-3.141e-3, -2.872e-2, 3.495e-3), (2.7518e-2, 3.9252e-2, -6.6502e-2),
+           (-5.317e-2, 1.04419e-1, 2.7454e-2), (-1.1953e-2, 4.1065e-2, -3.8437e-2), (6.0149e-2, -1.4117e-2, -1.0517e-2),
+           (1.0517e-2, -4.252e-3, 6.1597e-2))
 FRICTION = "coulomb,viscous,offset"
 
 # Table III's rows 1..64 in order: the base parameter of minparam with the same combination
@@ -156,6 +164,43 @@ def fmt_err(e: dict) -> str:
     return f"rms per joint {joints} N·m, total {e['rms_total']:.4f} N·m, ‖r‖/‖τ‖ {100 * e['relative_error']:.3f} %"
 
 
+def physical_section(d: dict, ref: list[dict]) -> None:
+    """The physically consistent fit against the authors' feasible estimates: π(p̂) (their retrieved
+    parameters, Tables VIII-IX) and π̂_OSI (their one-step physically consistent identification)."""
+    p = d["physical"]
+    print("## Physically consistent fit\n")
+    print(f"* solver {p['solver']}, {p['status']}, {p['elapsed_s']:.2f} s; prior {p['prior']}")
+    print(f"* selection data: unconstrained {fmt_err(d['after'])}")
+    print(f"* selection data: physical {fmt_err(p['selection'])}")
+    for k, e in p["test"].items():
+        print(f"* test data ({k}): unconstrained {fmt_err(d['test']['final'])}")
+        print(f"* test data ({k}): physical {fmt_err(e)}")
+    print()
+    print("| link | mass kg (physical) | mass kg (Gaz p̂) | centre of mass m (physical) | centre of mass m (Gaz p̂) | min eig J | data-set directions |")
+    print("|---|---|---|---|---|---|---|")
+    for b, m, c in zip(p["links"], GAZ_MASS, GAZ_COM):
+        gaz_c = " ".join("n/a" if x is None else f"{x:+.4f}" for x in c)
+        print(f"| {b['link']} | {b['mass']:.4f} | {m:.4f} | {' '.join(f'{x:+.4f}' for x in b['com'])} | {gaz_c} | "
+              f"{b['pseudo_inertia_min_eig']:.2g} | {b['informed_directions']}/10 |")
+    print()
+    print("| parameter | physical | unconstrained (WLS) | Gaz π(p̂) | Gaz OSI | Gaz CLS |")
+    print("|---|---|---|---|---|---|")
+    both = {**p["base_parameters"], **{k: v for k, v in p["phi"].items()}}
+    closer = {"physical": 0, "unconstrained": 0}
+    for name, r in zip(ROWS, ref):
+        v = both.get(name)
+        w = d["parameters"][name]["value"]
+        ph = "–" if r["p_hat"] is None else f"{r['p_hat']:+.4f}"
+        osi = "–" if r["osi"] is None else f"{r['osi']:+.4f}"
+        print(f"| {name} | {v:+.4f} | {w:+.4f} | {ph} | {osi} | {r['cls']:+.4f} |")
+        if r["osi"] is not None:
+            closer["physical" if abs(v - r["osi"]) < abs(w - r["osi"]) else "unconstrained"] += 1
+    print()
+    print(f"* nearer to Gaz OSI: physical {closer['physical']}, unconstrained {closer['unconstrained']} "
+          f"(of {sum(closer.values())} parameters with an OSI value)")
+    print()
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--data", default=str(DEFAULT_DATA), help="the recording, relative to the repository root")
@@ -166,10 +211,11 @@ def main() -> None:
     common = ["--no-diagnose", "--friction", FRICTION]
     split = run(["identify", ROBOT, data, *common])
     whole = run(["identify", ROBOT, data, "--validate", data, "--split", "1,0,0", *common])
+    phys = run(["identify", ROBOT, data, *common, "--physical"])
     derive = run(["derive", ROBOT, "--symbolic"])
     if args.keep:
         args.keep.mkdir(parents=True, exist_ok=True)
-        for name, d in (("split", split), ("all_data", whole), ("derive", derive)):
+        for name, d in (("split", split), ("all_data", whole), ("physical", phys), ("derive", derive)):
             (args.keep / f"{name}.json").write_text(json.dumps(d, indent=1), encoding="utf-8")
     base = {b["name"]: b for b in derive["base_parameters"]}
 
@@ -178,6 +224,7 @@ def main() -> None:
     print(f"minparam identify {ROBOT} {data} --no-diagnose --friction {FRICTION}            # column \"minparam\"")
     print(f"minparam identify {ROBOT} {data} --validate {data} --split 1,0,0 --no-diagnose --friction {FRICTION}"
           "  # column \"all data\"")
+    print(f"minparam identify {ROBOT} {data} --no-diagnose --friction {FRICTION} --physical  # column \"physical\"")
     print(f"minparam derive {ROBOT} --symbolic --format json  # expressions")
     print("```\n")
     for label, d in (("minparam (default split)", split), ("all data", whole)):
@@ -214,6 +261,8 @@ def main() -> None:
         stats.append({"name": name, "row": r["row"], "m": m["value"], "m_std": m["std_percent"], "w": w["value"],
                       "cls": r["cls"], "re": r["re"], "p_hat": r["p_hat"], "z": z, "mismatch": mismatch})
     print()
+
+    physical_section(phys, ref)
 
     print("## Checks and counts\n")
     bad = [(s["row"], s["name"], s["mismatch"]) for s in stats if s["mismatch"]]
