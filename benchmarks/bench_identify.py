@@ -5,12 +5,18 @@ Writes synthetic Panda data (random physically consistent inertia, Coulomb +
 viscous friction, noise) as CSV in chunks to a temporary folder, then runs the
 real command as a separate process and records wall time and peak RSS.
 
-Run: python benchmarks/bench_identify.py [--sizes 100000,300000,1000000]
+With --physical each size is also run with `identify --physical` (the convex
+fit over the full parameters, on the accumulated triangular factors: its
+program does not grow with the samples); the table then adds the solver's own
+time from the report [issue 13 target: <= 5 s for the convex solve].
+
+Run: python benchmarks/bench_identify.py [--sizes 100000,300000,1000000] [--physical]
 """
 
 from __future__ import annotations
 
 import argparse
+import json
 import os
 import sys
 import tempfile
@@ -54,6 +60,7 @@ def write_data(path: Path, samples: int, seed: int = 0) -> None:
 def main() -> None:
     ap = argparse.ArgumentParser()
     ap.add_argument("--sizes", default="100000,300000,1000000")
+    ap.add_argument("--physical", action="store_true", help="also time identify --physical")
     args = ap.parse_args()
     rows = []
     with tempfile.TemporaryDirectory() as tmp:
@@ -61,12 +68,17 @@ def main() -> None:
             data = Path(tmp) / f"panda_{n}.csv"
             write_data(data, n)
             size_mb = os.path.getsize(data) / 1e6
-            cmd = minparam_cmd() + ["identify", "robots/panda.yaml", str(data), "--format", "json", "--quiet"]
-            t, peak = run_process(cmd, repeats=1)
-            rows.append([f"{n:,}", f"{size_mb:.0f} MB", f"{t:.1f} s", f"{peak:.0f} MB"])
+            report = Path(tmp) / "report.json"
+            for extra in ([], ["--physical"]) if args.physical else ([],):
+                cmd = minparam_cmd() + ["identify", "robots/panda.yaml", str(data), "--format", "json", "--quiet",
+                                        "-o", str(report), *extra]
+                t, peak = run_process(cmd, repeats=1)
+                solve = json.loads(report.read_text())["physical"]["elapsed_s"] if extra else None
+                rows.append([f"{n:,}", f"{size_mb:.0f} MB", "physical" if extra else "least squares", f"{t:.1f} s",
+                             "-" if solve is None else f"{solve:.2f} s", f"{peak:.0f} MB"])
             data.unlink()
     print("minparam identify, Panda (7 joints), CSV with q, dq, ddq, tau; Coulomb + viscous hidden; diagnosis on")
-    print(tabulate(rows, headers=["samples", "file", "wall time", "peak RSS"], tablefmt="github"))
+    print(tabulate(rows, headers=["samples", "file", "fit", "wall time", "convex solve", "peak RSS"], tablefmt="github"))
 
 
 if __name__ == "__main__":
