@@ -62,6 +62,7 @@ COMMANDS = {
     "derive": _add_derive,
     "check": _add_check,
     "identify": _add_module("identify"),
+    "evaluate": _add_module("evaluate"),
     "simulate": _add_module("simulate"),
     "singular": _add_module("singular"),
     "platform": _add_module("platform"),

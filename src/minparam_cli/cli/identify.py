@@ -10,7 +10,7 @@ from typing import List, Optional
 
 import typer
 
-from minparam_cli.cli.common import Progress, guarded, parse_floats, save_png, write_output
+from minparam_cli.cli.common import MimicMode, Progress, guarded, mimic_option, parse_floats, save_png, write_output
 
 HELP = (
     "Identify the base parameters from measured joint data (CSV with a header row, or .npz), find what the "
@@ -86,6 +86,10 @@ def identify(
     output: Optional[Path] = typer.Option(None, "--output", "-o", help="Write the report to this file (atomically)."),
     plot: Optional[Path] = typer.Option(None, "--plot", help="Folder for PNG figures (residual vs velocity, measured vs predicted)."),
     seed: int = typer.Option(0, "--seed", help="Seed of the base-set computation (reported)."),
+    save_model: Optional[Path] = typer.Option(None, "--save-model", help="Write the identified model as JSON (robot file and its hash, base set, design, parameters, data settings) for 'minparam evaluate'."),
+    export_urdf: Optional[Path] = typer.Option(None, "--export-urdf", help="With --physical: write the robot as URDF with the identified masses, centres of mass and inertias."),
+    export_yaml: Optional[Path] = typer.Option(None, "--export-yaml", help="With --physical, for a YAML (DH/MDH) robot: write its YAML with the identified inertials."),
+    mimic: MimicMode = mimic_option(),
     quiet: bool = typer.Option(False, "--quiet", "-q", help="No progress bar."),
 ):
     _identify(**locals())
@@ -101,7 +105,7 @@ def _split(text: str) -> tuple[float, float, float]:
 @guarded
 def _identify(robot, data, validate, test, split, columns, cutoff, force_filter, rate, decimate, trim_still, still_speed,
               friction, rotor_inertia, coulomb_smoothing, gravity, effects, no_diagnose, min_gain, physical, prior,
-              prior_weight, ols, fmt, output, plot, seed, quiet):
+              prior_weight, ols, fmt, output, plot, seed, save_model, export_urdf, export_yaml, mimic, quiet):
     from minparam_cli.identify.data import DataOptions
     from minparam_cli.identify.diagnose import DiagnosisOptions
     from minparam_cli.identify.effects import EFFECT_IDS
@@ -136,13 +140,15 @@ def _identify(robot, data, validate, test, split, columns, cutoff, force_filter,
         raise typer.BadParameter("must be a positive number", param_hint="--prior-weight")
     if prior != Prior.none and not physical:
         raise typer.BadParameter("a prior needs --physical", param_hint="--prior")
+    _check_exports(robot, physical, export_urdf, export_yaml)
     physical_opts = None
     if physical:
         from minparam_cli.identify.physical import PhysicalOptions
 
         physical_opts = PhysicalOptions(prior=prior.value, prior_weight=prior_weight)
     g = parse_floats(gravity, 3, "--gravity") if gravity is not None else None
-    _, chain = load_chain(robot, DeriveOptions(friction=kinds, rotor_inertia=rotor_inertia, gravity=g))
+    _, chain = load_chain(robot, DeriveOptions(friction=kinds, rotor_inertia=rotor_inertia, gravity=g,
+                                               mimic=MimicMode(mimic).value))
     require_fixed_base(chain, "identify")
     chain = chain.with_coulomb_smoothing(coulomb_smoothing)
     opts = IdentifyOptions(
@@ -172,6 +178,13 @@ def _identify(robot, data, validate, test, split, columns, cutoff, force_filter,
         if len(art.models) == 1:
             save_png(residual_vs_velocity(art.hold, art.models[0], art.models[0], f"{chain.name}: rigid-body residual (selection data)"), plot / "residual_vs_velocity_step0.png")
         save_png(measured_vs_predicted(art.hold, art.models[-1], f"{chain.name}: selection-data torque"), plot / "measured_vs_predicted.png")
+    if save_model is not None or export_urdf is not None or export_yaml is not None:
+        from minparam_cli.cli.model_files import write_identify_outputs
+        from minparam_cli.identify.model import LoadSettings
+
+        load = LoadSettings(friction=kinds, rotor_inertia=rotor_inertia, gravity=g, coulomb_smoothing=coulomb_smoothing,
+                            mimic=MimicMode(mimic).value)
+        write_identify_outputs(robot, chain, load, opts, report, art, save_model, export_urdf, export_yaml)
     if fmt == Fmt.json:
         text = json.dumps(report, indent=2, ensure_ascii=False)
     else:
@@ -179,6 +192,18 @@ def _identify(robot, data, validate, test, split, columns, cutoff, force_filter,
 
         text = render_identify(report)
     write_output(text, output)
+
+
+def _check_exports(robot: Path, physical: bool, export_urdf, export_yaml) -> None:
+    """Refuse an export the run cannot make before the fit runs (one line, exit 2)."""
+    from minparam_cli.errors import InputError
+
+    for flag, path in (("--export-urdf", export_urdf), ("--export-yaml", export_yaml)):
+        if path is not None and not physical:
+            raise InputError(f"{flag} needs --physical: the exported inertias are the bodies of the physical fit")
+    if export_yaml is not None and robot.suffix.lower() not in (".yaml", ".yml"):
+        raise InputError(f"--export-yaml needs a YAML (DH/MDH) robot; {robot} is a URDF, whose joints are not DH rows "
+                         "(use --export-urdf)")
 
 
 def register(app: typer.Typer) -> None:

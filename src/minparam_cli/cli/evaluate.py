@@ -1,0 +1,123 @@
+"""`minparam evaluate`: predict torques with a saved model (identify --save-model) and report the errors."""
+
+from __future__ import annotations
+
+import json
+from enum import Enum
+from pathlib import Path
+from typing import List, Optional
+
+import typer
+
+from minparam_cli.cli.common import guarded, write_output
+
+HELP = ("Predict joint torques with a model saved by 'identify --save-model' and report the errors on data files: "
+        "RMS per joint, total RMS and ‖r‖/‖τ‖, per file and pooled.")
+EPILOG = """\b
+Examples:
+  minparam identify robots/puma560_mdh.yaml run1.csv --test run2.csv --save-model model.json
+  minparam evaluate model.json run3.csv run4.csv
+  minparam evaluate model.json run3.csv --predictions pred.csv --format json -o eval.json
+
+\b
+The data are read with the model's settings (columns, cut-off, filter, decimation, rate,
+standstill trimming).  The robot file is the one the model names, or --robot; its SHA-256
+must be the model's.  Exit codes: 0 success, 1 failed computation, 2 bad input.
+"""
+
+
+class Which(str, Enum):
+    physical = "physical"
+    fit = "fit"
+
+
+class Fmt(str, Enum):
+    table = "table"
+    json = "json"
+
+
+def evaluate(
+    model: Path = typer.Argument(..., help="Model file written by 'identify --save-model'.", show_default=False),
+    data: List[Path] = typer.Argument(..., help="Data files (CSV with a header row, or .npz).", show_default=False),
+    which: Optional[Which] = typer.Option(None, "--model", help="Parameters to use: the physical fit (default when the model has one) or the unconstrained fit."),
+    predictions: Optional[Path] = typer.Option(None, "--predictions", help="Write t, tau_meas1..n, tau_pred1..n of the (one) DATA file as CSV (atomically)."),
+    fmt: Fmt = typer.Option(Fmt.table, "--format", "-f", help="Output format."),
+    output: Optional[Path] = typer.Option(None, "--output", "-o", help="Write the report to this file (atomically)."),
+    robot: Optional[Path] = typer.Option(None, "--robot", help="Robot file to use instead of the one the model names (same SHA-256)."),
+):
+    _evaluate(model, data, which, predictions, fmt, output, robot)
+
+
+@guarded
+def _evaluate(model, data, which, predictions, fmt, output, robot):
+    from minparam_cli.cli.model_files import read_robot_bytes
+    from minparam_cli.errors import InputError
+    from minparam_cli.identify.model import ModelError, check_robot, evaluate as run, model_design, parse_model
+    from minparam_cli.pipeline import load_chain, require_fixed_base
+
+    if predictions is not None and len(data) > 1:
+        raise InputError(f"--predictions writes one file: give one DATA file (got {len(data)})")
+    try:
+        text = model.read_text(encoding="utf-8")
+    except (OSError, UnicodeDecodeError) as e:
+        raise ModelError(f"{model}: cannot read the model file ({getattr(e, 'strerror', None) or e})") from None
+    m = parse_model(text, str(model))
+    robot_path = robot if robot is not None else Path(m.robot)
+    if not robot_path.is_file():
+        raise ModelError(f"{model}: robot file {robot_path} not found" + ("" if robot else " (give it with --robot)"))
+    check_robot(m, str(model), str(robot_path), read_robot_bytes(robot_path))
+    for p in data:
+        if not p.is_file():
+            raise InputError(f"{p}: data file not found")
+    _, chain = load_chain(robot_path, m.load.derive_options(m.seed))
+    require_fixed_base(chain, "evaluate")
+    chain = chain.with_coulomb_smoothing(m.load.coulomb_smoothing)
+    design = model_design(m, chain, str(model))
+    kind = (which.value if which is not None else ("physical" if m.physical is not None else "fit"))
+    theta = m.fit_theta(kind)
+
+    if predictions is None:
+        result = run(design, theta, data, m.data, kind)
+    else:
+        result = _with_predictions(predictions, design, theta, data, m, kind, run)
+    report = {"model_file": str(model), "robot": str(robot_path), "parameters": len(theta), **result.to_dict()}
+    ident = ((m.figures.get("physical") or {}).get("test") if kind == "physical" else None)
+    test = m.figures.get("test") or {}
+    if kind == "fit" and test.get("final"):
+        report["identify_test"] = test["final"]
+    elif kind == "physical" and ident and len(ident) == 1:
+        report["identify_test"] = next(iter(ident.values()))
+    if fmt == Fmt.json:
+        text = json.dumps(report, indent=2, ensure_ascii=False)
+    else:
+        from minparam_cli.render.evaluate_text import render_evaluate
+
+        text = render_evaluate(report)
+    write_output(text, output)
+
+
+def _with_predictions(path: Path, design, theta, data, m, kind, run):
+    """Evaluate while streaming every block's predictions into a temporary file renamed at the end."""
+    import numpy as np
+
+    from minparam_cli.cli.common import atomic_write
+
+    n = design.chain.dof
+    header = ",".join(["t"] + [f"tau_meas{j}" for j in range(1, n + 1)] + [f"tau_pred{j}" for j in range(1, n + 1)])
+    out = {}
+
+    def write(tmp: str) -> None:
+        with open(tmp, "w", encoding="utf-8") as fh:
+            fh.write(header + "\n")
+
+            def sink(t, tau, pred):
+                np.savetxt(fh, np.column_stack([t, tau, pred]), delimiter=",", fmt="%.12g")
+
+            out["result"] = run(design, theta, data, m.data, kind, sink=sink)
+
+    atomic_write(path, write, suffix=".csv")
+    return out["result"]
+
+
+def register(app: typer.Typer) -> None:
+    app.command(name="evaluate", help=HELP, epilog=EPILOG)(evaluate)

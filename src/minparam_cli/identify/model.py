@@ -1,0 +1,452 @@
+"""The model file: what `identify --save-model` writes and `minparam evaluate` reads.
+
+One JSON document holds everything needed to predict torques again:
+
+* the robot file (path as given, and the SHA-256 of its bytes) and the options it was loaded
+  with (declared friction, rotor inertia, gravity override, Coulomb smoothing, mimic and
+  floating-base handling);
+* the base set: the seed of the QR route and the kept columns with their names.  On loading,
+  the same route with the same seed on the same robot must keep the same columns, or the
+  parameters would be paired with other columns: the model is refused then;
+* the final design's terms (effect id, joints, grid value), ``theta_model`` (the rigid-body
+  parameters the gain and load-Coulomb columns read) and ``t0`` (the drift origin);
+* the final parameters θ (every design column, 0 where regrouped on the identify data) with
+  their names and relative σ; with ``--physical`` the full standard parameters φ and the physical
+  fit's θ;
+* the data settings (``DataOptions``) and the identify report's headline figures.
+
+``evaluate`` streams data files block by block (``iter_blocks`` with the model's settings),
+predicts τ = X(block)·θ and sums the squares per joint, so memory does not grow with the file.
+No function here reads or writes a file other than the data files it evaluates.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Callable
+
+import numpy as np
+
+from minparam_cli.errors import DataError, InputError
+from minparam_cli.identify.data import DataOptions, DataReport, iter_blocks
+from minparam_cli.identify.design import Design, Term
+from minparam_cli.identify.effects import EFFECTS
+
+FORMAT = "minparam-model"
+VERSION = 1
+FITS = ("fit", "physical")
+REGRESSOR_ROWS = 4096  # samples per regressor evaluation: the full regressor is n·10n numbers a sample
+# DataOptions fields a version-1 model stores (all of them)
+DATA_KEYS = ("columns", "cutoff_hz", "force_filter", "chunk_rows", "decimate", "step_s", "still_speed", "trim_still_s")
+
+
+class ModelError(InputError):
+    """A model file that cannot be used (exit code 2)."""
+
+
+@dataclass(frozen=True)
+class LoadSettings:
+    """How the robot file was turned into the chain (``pipeline.DeriveOptions`` plus Coulomb smoothing)."""
+
+    friction: tuple[str, ...] = ()
+    rotor_inertia: bool = False
+    gravity: tuple[float, float, float] | None = None
+    coulomb_smoothing: float = 0.0
+    mimic: str = "coupled"
+    floating_base: bool = False
+
+    def derive_options(self, seed: int):
+        from minparam_cli.pipeline import DeriveOptions
+
+        return DeriveOptions(friction=self.friction, rotor_inertia=self.rotor_inertia, gravity=self.gravity,
+                             seed=seed, mimic=self.mimic, floating_base=self.floating_base)
+
+    def to_dict(self) -> dict:
+        return {"friction": list(self.friction), "rotor_inertia": self.rotor_inertia,
+                "gravity": None if self.gravity is None else list(self.gravity),
+                "coulomb_smoothing": self.coulomb_smoothing, "mimic": self.mimic, "floating_base": self.floating_base}
+
+
+@dataclass(frozen=True)
+class PhysicalParameters:
+    phi_names: tuple[str, ...]
+    phi: np.ndarray  # full standard parameters, chain.layout order
+    theta: np.ndarray  # the design's parameters of the physical fit: [K·φ; effect coefficients]
+
+
+@dataclass(frozen=True)
+class SavedModel:
+    """A parsed model file (fields as in the module docstring; ``to_dict`` is the JSON contract)."""
+
+    robot: str
+    robot_sha256: str
+    load: LoadSettings
+    seed: int
+    kept: tuple[int, ...]
+    base_names: tuple[str, ...]
+    terms: tuple[Term, ...]
+    theta_model: np.ndarray | None
+    t0: float | None
+    names: tuple[str, ...]
+    theta: np.ndarray
+    std_percent: tuple[float | None, ...]
+    data: DataOptions
+    physical: PhysicalParameters | None = None
+    figures: dict = field(default_factory=dict)
+
+    def to_dict(self) -> dict:
+        out = {
+            "format": FORMAT,
+            "version": VERSION,
+            "robot": {"path": self.robot, "sha256": self.robot_sha256},
+            "load": self.load.to_dict(),
+            "base": {"method": "qr", "seed": self.seed, "kept": list(self.kept), "names": list(self.base_names)},
+            "design": {
+                "terms": [{"effect": t.effect, "joints": [j + 1 for j in t.joints], "hyper": t.hyper} for t in self.terms],
+                "theta_model": None if self.theta_model is None else [float(x) for x in self.theta_model],
+                "t0": self.t0,
+            },
+            "parameters": {"names": list(self.names), "theta": [float(x) for x in self.theta],
+                           "std_percent": list(self.std_percent)},
+            "physical": None,
+            "data": {k: (dict(v) if k == "columns" else v) for k, v in ((k, getattr(self.data, k)) for k in DATA_KEYS)},
+            "figures": self.figures,
+        }
+        if self.physical is not None:
+            out["physical"] = {"phi_names": list(self.physical.phi_names), "phi": [float(x) for x in self.physical.phi],
+                               "theta": [float(x) for x in self.physical.theta]}
+        return out
+
+    def fit_theta(self, which: str) -> np.ndarray:
+        """θ of the unconstrained fit ("fit") or of the physical fit ("physical")."""
+        if which == "physical":
+            if self.physical is None:
+                raise ModelError("the model has no physical fit (identify was run without --physical); use --model fit")
+            return self.physical.theta
+        return self.theta
+
+
+def sha256_hex(data: bytes) -> str:
+    return hashlib.sha256(data).hexdigest()
+
+
+def saved_model(robot: str, robot_bytes: bytes, load: LoadSettings, data: DataOptions, seed: int, artifacts, report: dict) -> SavedModel:
+    """The model of one identify run: its ``Artifacts`` (final design, θ, σ, physical fit) and report."""
+    d = artifacts.design
+    physical = None
+    if artifacts.physical is not None:
+        pf = artifacts.physical
+        physical = PhysicalParameters(tuple(pf.names), np.asarray(pf.phi, dtype=float), np.asarray(pf.theta, dtype=float))
+    figures = {"selection": {"before": report["before"], "after": report["after"]}, "test": report["test"]}
+    if "physical" in report:
+        figures["physical"] = {"selection": report["physical"]["selection"], "test": report["physical"]["test"]}
+    return SavedModel(
+        robot=str(robot), robot_sha256=sha256_hex(robot_bytes), load=load, seed=int(seed),
+        kept=tuple(int(k) for k in d.kept), base_names=tuple(d.base_names), terms=tuple(d.terms),
+        theta_model=None if d.theta_model is None else np.asarray(d.theta_model, dtype=float),
+        t0=None if d.t0 is None else float(d.t0), names=tuple(d.names), theta=np.asarray(artifacts.theta, dtype=float),
+        std_percent=tuple(float(s) if math.isfinite(s) else None for s in artifacts.std_percent),
+        data=data, physical=physical, figures=figures,
+    )
+
+
+def dumps(model: SavedModel) -> str:
+    """The model as JSON: objects one key a line, lists on one line (a parameter vector stays a line)."""
+
+    def fmt(v, depth: int) -> str:
+        if isinstance(v, dict) and v and depth < 3:
+            pad = " " * (depth + 1)
+            items = ",\n".join(f"{pad}{json.dumps(k)}: {fmt(x, depth + 1)}" for k, x in v.items())
+            return "{\n" + items + "\n" + " " * depth + "}"
+        return json.dumps(v, ensure_ascii=False, allow_nan=False)
+
+    return fmt(model.to_dict(), 0) + "\n"
+
+
+# --- parsing: every problem is one ModelError naming the file and the key ---------------------------
+
+
+class _Reader:
+    def __init__(self, source: str):
+        self.source = source
+
+    def fail(self, where: str, what: str):
+        raise ModelError(f"{self.source}: {where}: {what}")
+
+    def get(self, d, key: str, where: str):
+        if not isinstance(d, dict):
+            self.fail(where, "expected a JSON object")
+        if key not in d:
+            self.fail(where, f"missing key '{key}'")
+        return d[key]
+
+    def number(self, v, where: str, allow_none: bool = False) -> float | None:
+        if v is None and allow_none:
+            return None
+        if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
+            self.fail(where, f"expected a finite number, got {json.dumps(v)[:40]}")
+        return float(v)
+
+    def integer(self, v, where: str, lo: int | None = None) -> int:
+        if isinstance(v, bool) or not isinstance(v, int) or (lo is not None and v < lo):
+            self.fail(where, f"expected an integer{f' >= {lo}' if lo is not None else ''}, got {json.dumps(v)[:40]}")
+        return int(v)
+
+    def text(self, v, where: str) -> str:
+        if not isinstance(v, str) or not v:
+            self.fail(where, f"expected a non-empty string, got {json.dumps(v)[:40]}")
+        return v
+
+    def flag(self, v, where: str) -> bool:
+        if not isinstance(v, bool):
+            self.fail(where, f"expected true or false, got {json.dumps(v)[:40]}")
+        return v
+
+    def numbers(self, v, where: str, n: int | None = None, allow_none: bool = False) -> list:
+        if not isinstance(v, list) or (n is not None and len(v) != n):
+            self.fail(where, f"expected a list of {n} numbers" if n is not None else "expected a list of numbers")
+        return [self.number(x, f"{where}[{i}]", allow_none) for i, x in enumerate(v)]
+
+    def texts(self, v, where: str, n: int | None = None) -> tuple[str, ...]:
+        if not isinstance(v, list) or (n is not None and len(v) != n):
+            self.fail(where, f"expected a list of {n} names" if n is not None else "expected a list of names")
+        return tuple(self.text(x, f"{where}[{i}]") for i, x in enumerate(v))
+
+
+def parse_model(text: str, source: str) -> SavedModel:
+    """The model in ``text`` (a model file's contents); ``source`` names it in errors."""
+    r = _Reader(source)
+    try:
+        doc = json.loads(text)
+    except ValueError as e:
+        raise ModelError(f"{source}: not a JSON document ({e})") from None
+    if not isinstance(doc, dict) or doc.get("format") != FORMAT:
+        raise ModelError(f"{source}: not a minparam model file (expected \"format\": \"{FORMAT}\")")
+    version = r.get(doc, "version", "version")
+    if version != VERSION:
+        r.fail("version", f"format version {json.dumps(version)} is not supported (this minparam reads version {VERSION})")
+
+    robot = r.get(doc, "robot", "robot")
+    path = r.text(r.get(robot, "path", "robot"), "robot.path")
+    sha = r.text(r.get(robot, "sha256", "robot"), "robot.sha256")
+    if len(sha) != 64 or any(c not in "0123456789abcdef" for c in sha):
+        r.fail("robot.sha256", "expected 64 lower-case hex digits")
+
+    ld = r.get(doc, "load", "load")
+    friction = r.texts(r.get(ld, "friction", "load"), "load.friction")
+    gravity = r.get(ld, "gravity", "load")
+    load = LoadSettings(
+        friction=friction,
+        rotor_inertia=r.flag(r.get(ld, "rotor_inertia", "load"), "load.rotor_inertia"),
+        gravity=None if gravity is None else tuple(r.numbers(gravity, "load.gravity", 3)),
+        coulomb_smoothing=r.number(r.get(ld, "coulomb_smoothing", "load"), "load.coulomb_smoothing"),
+        mimic=r.text(r.get(ld, "mimic", "load"), "load.mimic"),
+        floating_base=r.flag(r.get(ld, "floating_base", "load"), "load.floating_base"),
+    )
+    from minparam_cli.params import FRICTION_KINDS
+
+    for k in load.friction:
+        if k not in FRICTION_KINDS:
+            r.fail("load.friction", f"unknown friction kind {k!r}")
+    if load.coulomb_smoothing < 0:
+        r.fail("load.coulomb_smoothing", "expected a velocity >= 0")
+
+    base = r.get(doc, "base", "base")
+    seed = r.integer(r.get(base, "seed", "base"), "base.seed")
+    kept_raw = r.get(base, "kept", "base")
+    if not isinstance(kept_raw, list) or not kept_raw:
+        r.fail("base.kept", "expected a non-empty list of column indices")
+    kept = tuple(r.integer(k, f"base.kept[{i}]", 0) for i, k in enumerate(kept_raw))
+    base_names = r.texts(r.get(base, "names", "base"), "base.names", len(kept))
+
+    dd = r.get(doc, "design", "design")
+    terms_raw = r.get(dd, "terms", "design")
+    if not isinstance(terms_raw, list):
+        r.fail("design.terms", "expected a list")
+    terms = []
+    for i, t in enumerate(terms_raw):
+        where = f"design.terms[{i}]"
+        effect = r.text(r.get(t, "effect", where), f"{where}.effect")
+        if effect not in EFFECTS:
+            r.fail(f"{where}.effect", f"unknown effect {effect!r}")
+        joints_raw = r.get(t, "joints", where)
+        if not isinstance(joints_raw, list) or not joints_raw:
+            r.fail(f"{where}.joints", "expected a non-empty list of joint numbers (1-based)")
+        joints = tuple(r.integer(j, f"{where}.joints", 1) - 1 for j in joints_raw)
+        hyper = r.number(r.get(t, "hyper", where), f"{where}.hyper", allow_none=True)
+        if (hyper is None) != (not EFFECTS[effect].grid):
+            r.fail(f"{where}.hyper", f"effect {effect} {'needs' if EFFECTS[effect].grid else 'takes no'} grid value")
+        terms.append(Term(effect, joints, hyper))
+    tm = r.get(dd, "theta_model", "design")
+    theta_model = None if tm is None else np.array(r.numbers(tm, "design.theta_model"))
+    t0 = r.number(r.get(dd, "t0", "design"), "design.t0", allow_none=True)
+
+    pp = r.get(doc, "parameters", "parameters")
+    names = r.texts(r.get(pp, "names", "parameters"), "parameters.names")
+    theta = np.array(r.numbers(r.get(pp, "theta", "parameters"), "parameters.theta", len(names)))
+    std = tuple(r.numbers(r.get(pp, "std_percent", "parameters"), "parameters.std_percent", len(names), allow_none=True))
+    if names[: len(kept)] != base_names:
+        r.fail("parameters.names", "the first names are not the base names (base.names)")
+    if theta_model is not None and len(theta_model) < len(kept):
+        r.fail("design.theta_model", f"expected at least {len(kept)} numbers, one per base parameter")
+
+    physical = None
+    ph = r.get(doc, "physical", "physical")
+    if ph is not None:
+        phi_names = r.texts(r.get(ph, "phi_names", "physical"), "physical.phi_names")
+        phi = np.array(r.numbers(r.get(ph, "phi", "physical"), "physical.phi", len(phi_names)))
+        ptheta = np.array(r.numbers(r.get(ph, "theta", "physical"), "physical.theta", len(names)))
+        physical = PhysicalParameters(phi_names, phi, ptheta)
+
+    da = r.get(doc, "data", "data")
+    for k in DATA_KEYS:
+        r.get(da, k, "data")
+    columns = da["columns"]
+    if not isinstance(columns, dict) or not all(isinstance(k, str) and isinstance(v, str) for k, v in columns.items()):
+        r.fail("data.columns", "expected an object of KEY: NAME strings")
+    decimate = da["decimate"]
+    data = DataOptions(
+        columns=dict(columns),
+        cutoff_hz=r.number(da["cutoff_hz"], "data.cutoff_hz"),
+        force_filter=r.flag(da["force_filter"], "data.force_filter"),
+        chunk_rows=r.integer(da["chunk_rows"], "data.chunk_rows", 1),
+        decimate=None if decimate is None else r.integer(decimate, "data.decimate", 1),
+        step_s=r.number(da["step_s"], "data.step_s", allow_none=True),
+        still_speed=r.number(da["still_speed"], "data.still_speed"),
+        trim_still_s=r.number(da["trim_still_s"], "data.trim_still_s", allow_none=True),
+    )
+    figures = doc.get("figures") or {}
+    if not isinstance(figures, dict):
+        r.fail("figures", "expected a JSON object")
+    return SavedModel(path, sha, load, seed, kept, base_names, tuple(terms), theta_model, t0, names, theta, std,
+                      data, physical, figures)
+
+
+# --- the robot and the design ---------------------------------------------------------------------
+
+
+def check_robot(model: SavedModel, model_source: str, robot: str, robot_bytes: bytes) -> None:
+    """Refuse a robot file whose bytes are not the ones the model was made for."""
+    sha = sha256_hex(robot_bytes)
+    if sha == model.robot_sha256:
+        return
+    made = f"{model_source} was made for {model.robot} (sha256 {model.robot_sha256[:12]}…)"
+    if Path(robot) == Path(model.robot):
+        raise ModelError(f"{made}; {robot} has changed since (sha256 {sha[:12]}…)")
+    raise ModelError(f"{made}, not for {robot} (sha256 {sha[:12]}…)")
+
+
+def model_design(model: SavedModel, chain, model_source: str) -> Design:
+    """The model's design on ``chain``: its base columns checked against the QR route with the model's
+    seed (the parameters θ are only meaningful on the columns they were fitted to)."""
+    from minparam_cli.base.qr import derive_qr
+
+    if model.physical is not None and tuple(chain.layout.names) != model.physical.phi_names:
+        raise ModelError(f"{model_source}: the robot's standard parameters ({len(chain.layout.names)}) are not the "
+                         f"model's physical.phi_names ({len(model.physical.phi_names)})")
+    for i, t in enumerate(model.terms):
+        if max(t.joints) >= chain.dof:
+            raise ModelError(f"{model_source}: design.terms[{i}] names joint {max(t.joints) + 1}; the robot has {chain.dof}")
+    base = derive_qr(chain, seed=model.seed)
+    if tuple(base.kept) != model.kept or tuple(base.base_names) != model.base_names:
+        raise ModelError(f"{model_source}: the QR route with seed {model.seed} keeps other base columns on this robot "
+                         f"({len(base.kept)} base parameters, the model has {len(model.kept)}): the parameters would "
+                         "not match their columns")
+    design = Design(chain, model.kept, model.base_names, model.terms, model.theta_model, model.t0)
+    if design.names != model.names:
+        raise ModelError(f"{model_source}: parameters.names are not the names of the design's columns")
+    return design
+
+
+# --- evaluation -----------------------------------------------------------------------------------
+
+
+@dataclass
+class Sums:
+    """Per joint: samples, Σ r², Σ τ² of the residual r = τ − τ_pred."""
+
+    rows: np.ndarray
+    rss: np.ndarray
+    y2: np.ndarray
+
+    @staticmethod
+    def zeros(n: int) -> "Sums":
+        return Sums(np.zeros(n, dtype=np.int64), np.zeros(n), np.zeros(n))
+
+    def add(self, tau: np.ndarray, pred: np.ndarray) -> None:
+        r = tau - pred
+        self.rows += len(tau)
+        self.rss += np.einsum("ij,ij->j", r, r)
+        self.y2 += np.einsum("ij,ij->j", tau, tau)
+
+    def __add__(self, other: "Sums") -> "Sums":
+        return Sums(self.rows + other.rows, self.rss + other.rss, self.y2 + other.y2)
+
+    def as_dict(self) -> dict:
+        """The identify report's figures (``fit.errors``): RMS per joint and in total, ‖r‖/‖τ‖."""
+        rows = np.maximum(self.rows, 1)
+        y2 = float(self.y2.sum())
+        return {
+            "samples": int(self.rows[0]) if len(self.rows) else 0,
+            "rms_total": float(np.sqrt(self.rss.sum() / rows.sum())),
+            "rms_per_joint": [float(x) for x in np.sqrt(self.rss / rows)],
+            "relative_error": float(np.sqrt(self.rss.sum() / y2)) if y2 > 0 else float("nan"),
+        }
+
+
+@dataclass(frozen=True)
+class Evaluation:
+    which: str  # "fit" | "physical"
+    files: tuple[tuple[str, Sums, DataReport], ...]
+    pooled: Sums
+
+    def to_dict(self) -> dict:
+        return {
+            "model": self.which,
+            "files": [{"path": p, **s.as_dict(), "preprocessing": rep.as_dict()} for p, s, rep in self.files],
+            "pooled": self.pooled.as_dict(),
+        }
+
+
+def predict(design: Design, theta: np.ndarray, block) -> np.ndarray:
+    """τ_pred (N, n) = X(block)·θ, the regressor built a few thousand samples at a time."""
+    out = np.empty_like(block.tau)
+    for s0 in range(0, len(block), REGRESSOR_ROWS):
+        sub = block.take(slice(s0, s0 + REGRESSOR_ROWS))
+        with np.errstate(over="ignore", invalid="ignore"):
+            out[s0 : s0 + len(sub)] = design.columns(sub) @ theta
+    return out
+
+
+Sink = Callable[[np.ndarray, np.ndarray, np.ndarray], None]  # (t, tau measured, tau predicted) per block
+
+
+def evaluate(design: Design, theta: np.ndarray, paths, data: DataOptions, which: str = "fit", sink: Sink | None = None) -> Evaluation:
+    """Errors of the model τ = X·θ on every data file, per file and pooled (sums streamed block by block).
+    ``sink`` receives each block's time, measured and predicted torques (the CLI writes them)."""
+    n = design.chain.dof
+    files = []
+    for path in paths:
+        rep = DataReport(str(path))
+        sums = Sums.zeros(n)
+        for b in iter_blocks(path, n, data, rep):
+            if not len(b):
+                continue
+            pred = predict(design, theta, b)
+            bad = ~np.isfinite(pred).all(axis=1)
+            if bad.any():
+                i = int(np.argmax(bad))
+                raise DataError(f"{path}: the sample at t = {b.t[i]:.6g} s gives a non-finite predicted torque "
+                                "(a value of q, dq, ddq there is too large to use)")
+            sums.add(b.tau, pred)
+            if sink is not None:
+                sink(b.t, b.tau, pred)
+        files.append((str(path), sums, rep))
+    pooled = Sums.zeros(n)
+    for _, s, _ in files:
+        pooled = pooled + s
+    return Evaluation(which, tuple(files), pooled)
