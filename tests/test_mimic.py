@@ -251,15 +251,44 @@ def test_mimic_loop_is_refused(tmp_path):
         load_chain(path, DeriveOptions())
 
 
-def test_simulate_and_identify_refuse_coupled_mimic_in_one_line_and_simulate_takes_mimic_fixed(tmp_path):
+@pytest.mark.parametrize("name", sorted(ROBOTS))
+def test_simulate_and_identify_treat_mimic_joints_as_driven_by_their_master(tmp_path, name):
+    """Data files carry the independent joints only; identify recovers the model from data made
+    through the coupling: no effect, the test error at the noise floor, and the torques that a
+    Newton–Euler of every joint pushed through G would give."""
+    import json
+
+    path = ROBOTS[name](tmp_path)
+    chain = load_chain(path, DeriveOptions())[1]
+    data = tmp_path / "d.csv"
+    r = CliRunner().invoke(app, ["simulate", str(path), "--noise", "0.001", "--seed", "2", "-o", str(data), "-q"])
+    assert r.exit_code == 0, r.output
+    header = data.read_text().splitlines()[0].split(",")
+    assert [h for h in header if h.startswith("q")] == [f"q{k}" for k in range(1, chain.dof + 1)]
+    r = CliRunner().invoke(app, ["identify", str(path), str(data), "--format", "json", "-q"])
+    assert r.exit_code == 0, r.output
+    rep = json.loads(r.output)
+    assert rep["effects"] == [] and len(rep["before"]["rms_per_joint"]) == chain.dof
+    assert rep["test"]["final"]["rms_total"] <= 1.5 * 0.001
+    # the simulated torque is the Lagrange reference of every joint pushed through the coupling
+    table = np.loadtxt(data, delimiter=",", skiprows=1, max_rows=50)
+    d = chain.dof
+    q, qd, qdd, tau = (table[:, 1 + k * d : 1 + (k + 1) * d] for k in range(4))
+    G, o, _ = coupling_matrix(name)
+    phi = np.asarray(chain.phi_nominal)
+    expected = np.array([G.T @ ref.inverse_dynamics(chain, phi, G @ q[i] + o, G @ qd[i], G @ qdd[i]) for i in range(len(q))])
+    assert np.max(np.abs(tau - expected)) < 0.01  # the noise is 0.001: 10 sigma
+
+
+def test_mimic_fixed_data_have_the_free_joints_only_and_identify_takes_mimic_fixed(tmp_path):
     path = gripper_arm(tmp_path)
     data = tmp_path / "d.csv"
-    r = CliRunner().invoke(app, ["simulate", str(path), "--duration", "2", "-o", str(data), "-q"])
-    assert r.exit_code == 2 and "simulate of robots with coupled mimic joints is not supported yet" in r.stderr
-    assert r.stderr.count("\n") == 1 and not data.exists()
     r = CliRunner().invoke(app, ["simulate", str(path), "--duration", "2", "--mimic", "fixed", "-o", str(data), "-q"])
     assert r.exit_code == 0, r.output
     assert data.read_text().splitlines()[0] == "t,q1,q2,q3,q4,dq1,dq2,dq3,dq4,ddq1,ddq2,ddq3,ddq4,tau1,tau2,tau3,tau4"
-    r = CliRunner().invoke(app, ["identify", str(path), str(data)])
-    assert r.exit_code == 2 and "identify of robots with coupled mimic joints is not supported yet" in r.stderr
-    assert r.stderr.count("\n") == 1
+    r = CliRunner().invoke(app, ["identify", str(path), str(data), "--mimic", "fixed", "--noise-free"][:-1] + ["-q", "-f", "json"])
+    assert r.exit_code == 0, r.output
+    import json
+
+    rep = json.loads(r.output)
+    assert rep["effects"] == [] and rep["test"]["final"]["relative_error"] < 1e-6  # noise-free data, same model

@@ -56,18 +56,12 @@ def load_chain(path: str | Path, opts: DeriveOptions):
 
 
 def require_fixed_base(chain, command: str) -> None:
-    """One-line refusals for the commands that read or write joint data (identify, simulate): a
-    floating base (no base motion columns), coupled mimic joints (their data loop is not written yet)."""
+    """One-line refusal for the commands that read or write joint data (identify, simulate): a
+    floating base (no base motion columns)."""
     from minparam_cli.errors import UnsupportedError
 
     if chain.floating_base:
         raise UnsupportedError(f"{command} of floating-base robots needs base motion columns: not supported yet", chain.source)
-    if chain.coupling is not None:
-        raise UnsupportedError(
-            f"{command} of robots with coupled mimic joints is not supported yet; derive handles them "
-            "(freeze the mimic joints at their offset with --mimic fixed where the command offers it)",
-            chain.source,
-        )
 
 
 def derive_file(path: str | Path, opts: DeriveOptions, progress: Callable[[int, int], None] | None = None) -> dict:

@@ -100,7 +100,7 @@ def _simulate(robot, trajectory, effects, strength, noise, noise_q, seed, durati
     chain = build_chain(load_description(robot, mimic=MimicMode(mimic).value))
     require_fixed_base(chain, "simulate")
     try:
-        specs = parse_effects(effects, chain.n)
+        specs = parse_effects(effects, chain.dof)
     except InputError as e:
         raise InputError(f"--effects: {e}") from None
     opts = SimulationOptions(

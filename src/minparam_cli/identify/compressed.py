@@ -55,7 +55,7 @@ def _factor(design: Design, b: Block, cat: Catalogue, rows: int = 2048) -> list[
     accumulated ``rows`` samples at a time (the catalogue is ~180 columns a joint)."""
     from minparam_cli.identify.slots import all_joints
 
-    n = design.chain.n
+    n = design.chain.dof
     T = [np.zeros((0, cat.y + 1))] * n
     for s0 in range(0, len(b), rows):
         sub = b.take(slice(s0, s0 + rows))

@@ -92,4 +92,4 @@ class Design:
         if not self.terms:
             return Xb
         s = self.signals(b, Xb)
-        return np.concatenate([Xb] + [term_columns(t, s, self.chain.n) for t in self.terms], axis=2)
+        return np.concatenate([Xb] + [term_columns(t, s, self.chain.dof) for t in self.terms], axis=2)

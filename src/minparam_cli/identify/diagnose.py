@@ -47,6 +47,8 @@ from minparam_cli.identify.effects import EFFECT_IDS, EFFECTS, in_bounds
 from minparam_cli.identify.scoring import score
 
 BIC_THRESHOLD = -10.0
+# a selection error below this (relative) is the data's own rounding: no effect is looked for in it
+ROUNDING = 1e-9
 DEFAULT_MIN_GAIN = 0.02
 MAX_STEPS = 25
 PER_JOINT_ONLY = {"cogging"}
@@ -97,15 +99,17 @@ def present_effects(design: Design) -> set[tuple[str, int]]:
     """(effect, joint) already in the model: declared extras and added terms (asymmetric Coulomb
     contains plain Coulomb: its two columns sum to sign q̇)."""
     present = {(t.effect, j) for t in design.terms for j in t.joints}
+    coordinate = {joint: k for k, joint in enumerate(design.chain.coordinates)}  # terms number the data's joints
     for j, extras in enumerate(design.chain.layout.extras):
         for e in extras:
-            present.add((DECLARED.get(e, e), j))
+            if j in coordinate:
+                present.add((DECLARED.get(e, e), coordinate[j]))
     present |= {("coulomb", j) for e, j in list(present) if e == "asymmetric_coulomb"}
     return present
 
 
 def candidates(design: Design, allowed: tuple[str, ...]) -> list[Term]:
-    n = design.chain.n
+    n = design.chain.dof
     present = present_effects(design)
     out = []
     for eid in allowed:
@@ -196,6 +200,11 @@ def diagnose(design: Design, train: Block, hold: Block, opts: DiagnosisOptions, 
         if step == 0:
             out.steps.append(Step(None, {"rss_fit_weighted": rss0, "rss_selection_weighted": rssh0}, data.selection_errors(sel, theta), out.design, theta))
         if step == opts.max_steps:
+            break
+        rel = data.selection_errors(sel, theta)["relative_error"]
+        if rel < ROUNDING:
+            out.stop_reason = (f"the model explains the selection data to their rounding (relative error {rel:.1g}): "
+                               "nothing left to trace")
             break
         cands = candidates(out.design, opts.effects)
         scores = score(data, sel, sigma, Q, back, r0, rh0, cands)

@@ -33,7 +33,7 @@ MIN_PERIODS = 3  # a ripple seen over fewer periods than this is not told apart 
 
 def _units(design: Design, joints) -> tuple[str, str]:
     """(torque unit, velocity unit) of these joints."""
-    prismatic = [design.chain.types[j] == "prismatic" for j in joints]
+    prismatic = [design.chain.coordinate_types[j] == "prismatic" for j in joints]
     if all(prismatic):
         return "N", "m/s"
     if any(prismatic):
@@ -136,7 +136,7 @@ def _rotor_homes(chain, seed: int) -> dict[str, list[tuple[int, float]]]:
     base = derive_qr(chain.with_extras(extras), seed=seed)
     names = base.standard_names
     homes: dict[str, list[int]] = {}
-    for j in range(chain.n):
+    for j in chain.coordinates:
         col = names.index(f"Ia{j + 1}")
         for i, bname in enumerate(base.base_names):
             if bname != f"Ia{j + 1}" and abs(base.K[i, col]) > 0:

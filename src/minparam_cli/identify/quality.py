@@ -53,9 +53,10 @@ def check_excitation(acc, design: Design, motion, limit: float = COND_LIMIT) -> 
         return cond
     chain = design.chain
     rng = motion.range
-    still = [j for j in range(chain.n) if rng[j] < MOTION_MIN.get(chain.types[j], MOTION_MIN["revolute"])]
+    types = chain.coordinate_types  # the data's joints (mimic joints follow their master)
+    still = [j for j in range(chain.dof) if rng[j] < MOTION_MIN.get(types[j], MOTION_MIN["revolute"])]
     if still:
-        unit = lambda j: "m" if chain.types[j] == "prismatic" else "rad"  # noqa: E731
+        unit = lambda j: "m" if types[j] == "prismatic" else "rad"  # noqa: E731
         why = "joint{} {} barely moved ({})".format(
             "s" if len(still) > 1 else "", ", ".join(str(j + 1) for j in still),
             ", ".join(f"{j + 1}: range {rng[j]:.2g} {unit(j)}" for j in still))

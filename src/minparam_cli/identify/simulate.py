@@ -320,11 +320,12 @@ def simulate(chain: Chain, options: SimulationOptions, rng: np.random.Generator)
     """Synthetic measured data for ``chain`` (see the module docstring for every equation)."""
     samples = validate_options(options)
     for spec in options.effects:
-        if any(not 0 <= j < chain.n for j in spec.joints):
-            raise InputError(f"effect {spec.text or spec.effect!r}: joints out of range 1..{chain.n}")
+        if any(not 0 <= j < chain.dof for j in spec.joints):
+            raise InputError(f"effect {spec.text or spec.effect!r}: joints out of range 1..{chain.dof}")
     traj_rng, inertia_rng, effect_rng, noise_rng, noise_q_rng = child_generators(rng, 5)
 
-    ranges = joint_ranges(chain.types, chain.limits)
+    # the independent joints move (mimic joints follow their master: q_mimic = multiplier·q + offset)
+    ranges = joint_ranges(chain.coordinate_types, [chain.limits[j] for j in chain.coordinates] if chain.limits else None)
     traj = fourier_excitation(ranges, options.harmonics, options.base_frequency, traj_rng, options.margin)
     t = np.arange(samples) / options.rate
     q, dq, ddq = traj.evaluate(t)

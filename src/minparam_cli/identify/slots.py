@@ -52,7 +52,7 @@ def all_joints(effect: str, s: Signals, n: int, hyper: float | None = None) -> n
 def block_rows(design: Design, sources, b: Block) -> np.ndarray:
     """Rows of a block for the accumulators: (N, n, design.p + slots + 1), joint j's
     [design columns | slot columns of joint j | τ_j] in [:, j]."""
-    n, N = design.chain.n, len(b)
+    n, N = design.chain.dof, len(b)
     out = np.empty((N, n, source_columns(sources, design.p)[1] + 1))
     X = out[:, :, : design.p]
     X[...] = design.columns(b)
@@ -69,7 +69,7 @@ def block_rows(design: Design, sources, b: Block) -> np.ndarray:
 
 def final_maps(design: Design, sources) -> list[np.ndarray] | None:
     """Per joint, M_j with [X_j | S_j | τ_j] M_j = [columns of ``design`` on joint j | τ_j]; None if a term has no slot."""
-    n, p = design.chain.n, len(design.kept)
+    n, p = design.chain.dof, len(design.kept)
     at, k = source_columns(sources)
     width = design.p
     maps = []

@@ -160,7 +160,7 @@ def _identify(chain: Chain, data_path: Path, opts: IdentifyOptions, progress) ->
     from minparam_cli.base.qr import derive_qr
 
     t_start = time.perf_counter()
-    n = chain.n
+    n = chain.dof  # data columns and torque rows: the independent joints (mimic joints follow their master)
     base = derive_qr(chain, seed=opts.seed)
     design = Design(chain, base.kept, base.base_names)
     tests = tuple(Path(t) for t in opts.tests)
@@ -289,7 +289,7 @@ def _physical(chain: Chain, base, design: Design, fit, acc: dict, popts: Physica
     selection and test data beside the unconstrained ones, and its bodies."""
     from minparam_cli.identify.physical import fit_physical, link_bodies
 
-    weights = fit.sigma if fit.method == "wls" else np.ones(chain.n)
+    weights = fit.sigma if fit.method == "wls" else np.ones(chain.dof)
     R = acc[FIT].stacked(weights)
     pf = fit_physical(chain, base.K, design, R, int(acc[FIT].rows.sum()), popts)
     n_links = chain.layout.n_inertial // 10
