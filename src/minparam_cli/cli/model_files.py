@@ -27,7 +27,7 @@ def write_identify_outputs(robot: Path, chain, load, opts, report: dict, art, sa
     from minparam_cli.render import export_robot
 
     phi = art.physical.phi
-    note = f"identified by minparam identify --physical from {report['data']} (robot file {robot})"
+    note = f"inertials: physical fit of minparam identify on {report['data']} (robot file {robot})"
     if export_urdf is not None:
         if robot.suffix.lower() == ".urdf":
             text = export_robot.urdf_with_inertials(data, chain, phi, note)

@@ -63,6 +63,13 @@ def link_phi(chain, phi: np.ndarray) -> list[np.ndarray]:
     return [np.asarray(phi[N_LINK_PARAMS * i : N_LINK_PARAMS * (i + 1)], dtype=float) for i in range(len(links))]
 
 
+def _comment_text(text: str) -> str:
+    """Text an XML comment may hold: no '--' (and no trailing '-')."""
+    while "--" in text:
+        text = text.replace("--", "- -")
+    return text.rstrip("-")
+
+
 def _num(x: float) -> str:
     return repr(float(x)) if x != 0 else "0"
 
@@ -112,11 +119,11 @@ def urdf_with_inertials(data: bytes, chain, phi: np.ndarray, note: str = "") -> 
             stack += fixed_children.get(child, [])
             old = links[child].find("inertial")
             if old is not None:
-                comment = etree.Comment(f" inertial lumped into the identified body of link '{name}' ")
+                comment = etree.Comment(_comment_text(f" inertial lumped into the identified body of link '{name}' "))
                 comment.tail = old.tail
                 links[child].replace(old, comment)
     if note:
-        c = etree.Comment(f" {note} ")
+        c = etree.Comment(f" {_comment_text(note)} ")
         c.tail = "\n"
         root.addprevious(c)
     return etree.tostring(root.getroottree(), xml_declaration=True, encoding="utf-8").decode("utf-8") + "\n"
@@ -156,7 +163,7 @@ def urdf_from_chain(chain, phi: np.ndarray, note: str = "") -> str:
     names = chain.layout.names
     lines = ['<?xml version="1.0" encoding="utf-8"?>']
     if note:
-        lines.append(f"<!-- {note} -->")
+        lines.append(f"<!-- {_comment_text(note)} -->")
     g = chain.gravity
     lines.append(f"<!-- gravity of the description: {_xyz(g)} m/s^2 (a URDF has none) -->")
     lines.append(f"<robot name={quoteattr(chain.name)}>")
