@@ -300,3 +300,20 @@ def test_final_refit_keeps_a_term_only_where_it_is_physical(tmp_path):
     assert all(c >= 0 for c in term_coefficients(kept, full_theta(fit2, kept.p))[0][:, 0])
     assert len(steps) == 1 and steps[0]["joints"] == [1, 3, 4, 5, 6] and "Fv2 = -" in steps[0]["statistic"]["why"]
     assert acc2["fit"].p == kept.p
+
+
+def test_a_test_block_that_mostly_stands_still_is_flagged(tmp_path):
+    data = simulate(tmp_path / "d.csv", effects="coulomb:amp=0.1")
+    header, table = read(data)
+    t = table[:, 0]
+    still = t >= 17.0  # 3 s of the 4 s test block
+    k = int(np.argmax(still))
+    for j in range(1, 7):
+        table[still, header.index(f"q{j}")] = table[k, header.index(f"q{j}")]
+        for p in ("dq", "ddq"):
+            table[still, header.index(f"{p}{j}")] = 0.0
+    rep = identify("puma560_mdh.yaml", write(tmp_path / "s.csv", header, table))
+    (entry,) = rep["roles"]["test"]
+    assert 0.7 < entry["still_share"] < 0.8 and rep["roles"]["fit"][0]["still_share"] < 0.05
+    assert any(f.startswith("the test data") and "stand still in 75 %" in f for f in rep["flags"])
+    assert not any(f.startswith("the selection data") for f in rep["flags"])

@@ -38,6 +38,7 @@ COND_LIMIT = 1e4
 MOTION_MIN = {"revolute": 0.05, "prismatic": 0.005}
 RISE_FLAG = 0.10  # per-joint error rise (relative) that is flagged
 STILL_FLAG = 0.20  # share of still samples on a joint that is flagged
+STILL_PART_FLAG = 0.30  # share of all-joints-still samples in a selection or test block that is flagged
 
 
 def check_excitation(acc, design: Design, motion, limit: float = COND_LIMIT) -> float:
@@ -158,6 +159,12 @@ def flags(report: dict, fit) -> list[str]:
             what = {"Fc": "Coulomb friction", "Fv": "viscous friction", "Ia": "rotor inertia"}[kind]
             out.append(f"declared {what} {name} = {v:.4g} is negative: not {what} (a model error or a "
                        "standstill artefact is taking its place)")
+    for role in ("selection", "test"):
+        for entry in report["roles"][role]:
+            share = entry.get("still_share")
+            if share is not None and share > STILL_PART_FLAG:
+                out.append(f"the {role} data ({span_text(entry)}) stand still in {100 * share:.0f} % of their samples "
+                           "(every joint): their figures measure standstill more than motion")
     for f in report["files"]:
         still = [(j, s) for j, s in enumerate(f.get("still_share") or []) if s > STILL_FLAG]
         if still:

@@ -99,6 +99,7 @@ def _stream(design: Design, sources: list[Source], n: int, opts: IdentifyOptions
                     acc[piece.part].add_rows(_finite_rows(design, slots, sub, src.path))
                 if piece.role == FIT:
                     motion.add(sub_block)
+                motion.count_still(piece.part, sub_block, opts.data.still_speed)
                 if keep and piece.part in thin:
                     thin[piece.part].add(sub_block)
             b = sub_block = sub = None  # not alive while the next block is read
@@ -107,10 +108,22 @@ def _stream(design: Design, sources: list[Source], n: int, opts: IdentifyOptions
 
 
 class Motion:
-    """Range of every joint's position over the fit data: names the joints an excitation missed."""
+    """Range of every joint's position over the fit data (names the joints an excitation missed), and
+    per part the samples in which every joint stands still (a test block that mostly stands measures
+    standstill, where the model has no static friction)."""
 
     def __init__(self, n: int):
         self.lo, self.hi = np.full(n, np.inf), np.full(n, -np.inf)
+        self.still: dict[str, list[int]] = {}
+
+    def count_still(self, part: str, b: Block, speed: float) -> None:
+        c = self.still.setdefault(part, [0, 0])
+        c[0] += int(np.all(np.abs(b.dq) < speed, axis=1).sum())
+        c[1] += len(b)
+
+    def still_share(self, part: str) -> float | None:
+        still, total = self.still.get(part, (0, 0))
+        return still / total if total else None
 
     def add(self, b: Block) -> None:
         self.lo = np.minimum(self.lo, b.q.min(axis=0))
@@ -239,6 +252,9 @@ def _identify(chain: Chain, data_path: Path, opts: IdentifyOptions, progress) ->
     roles = describe(sources)
     for entry in roles[TEST]:
         entry["samples"] = int(acc[entry["part"]].rows[0])
+    for entries in roles.values():
+        for entry in entries:
+            entry["still_share"] = motion.still_share(entry["part"])
     report = {
         "robot": chain.name,
         "data": str(data_path),
