@@ -122,11 +122,13 @@ def urdf_with_inertials(data: bytes, chain, phi: np.ndarray, note: str = "") -> 
                 comment = etree.Comment(_comment_text(f" inertial lumped into the identified body of link '{name}' "))
                 comment.tail = old.tail
                 links[child].replace(old, comment)
+    # the prolog line by line (lxml writes the comments before the root on the declaration's line)
+    lines = ['<?xml version="1.0" encoding="utf-8"?>']
+    lines += [etree.tostring(el, encoding="unicode", with_tail=False) for el in reversed(list(root.itersiblings(preceding=True)))]
     if note:
-        c = etree.Comment(f" {_comment_text(note)} ")
-        c.tail = "\n"
-        root.addprevious(c)
-    return etree.tostring(root.getroottree(), xml_declaration=True, encoding="utf-8").decode("utf-8") + "\n"
+        lines.append(f"<!-- {_comment_text(note)} -->")
+    lines.append(etree.tostring(root, encoding="unicode", with_tail=False))
+    return "\n".join(lines) + "\n"
 
 
 def _indent_of(el) -> str:
