@@ -53,15 +53,16 @@ def write(tmp_path, name, joints_xml, links):
     return path
 
 
-def gripper_arm(tmp_path, finger_mimic=("finger_left", 1, 0), name="gripper_arm"):
-    """3 revolute joints, a fixed hand, two prismatic fingers (the right one mimics the left)."""
+def gripper_arm(tmp_path, finger_mimic=("finger_left", 1, 0), name="gripper_arm", right=None):
+    """3 revolute joints, a fixed hand, two prismatic fingers (the right one mimics the left, unless
+    ``right`` gives its joint element instead)."""
     joints = [
         joint("j1", "revolute", "base", "l1", "0 0 0.333", "0 0 1"),
         joint("j2", "revolute", "l1", "l2", "0 0 0", "0 1 0", rpy="-1.5707963267948966 0 0"),
         joint("j3", "revolute", "l2", "l3", "0.0825 -0.316 0", "0 0 1", rpy="1.5707963267948966 0 0"),
         joint("hand", "fixed", "l3", "hand", "0 0 0.107", "0 0 1", rpy="0 0 -0.785398163397"),
         joint("finger_left", "prismatic", "hand", "left", "0 0 0.0584", "0 1 0"),
-        joint("finger_right", "prismatic", "hand", "right", "0 0 0.0584", "0 -1 0", mimic=finger_mimic),
+        right or joint("finger_right", "prismatic", "hand", "right", "0 0 0.0584", "0 -1 0", mimic=finger_mimic),
     ]
     return write(tmp_path, name, joints, ["base", "l1", "l2", "l3", "hand", "left", "right"])
 
@@ -185,15 +186,8 @@ def test_mimic_fixed_equals_the_joint_written_as_fixed(tmp_path):
     """--mimic fixed freezes the mimic joint at its offset: the same as a fixed joint moved by it."""
     a = gripper_arm(tmp_path, finger_mimic=("finger_left", 1, 0.01), name="a")
     rep = derive_file(a, DeriveOptions(mimic="fixed"))
-    joints = [
-        joint("j1", "revolute", "base", "l1", "0 0 0.333", "0 0 1"),
-        joint("j2", "revolute", "l1", "l2", "0 0 0", "0 1 0", rpy="-1.5707963267948966 0 0"),
-        joint("j3", "revolute", "l2", "l3", "0.0825 -0.316 0", "0 0 1", rpy="1.5707963267948966 0 0"),
-        joint("hand", "fixed", "l3", "hand", "0 0 0.107", "0 0 1", rpy="0 0 -0.785398163397"),
-        joint("finger_left", "prismatic", "hand", "left", "0 0 0.0584", "0 1 0"),
-        joint("finger_right", "fixed", "hand", "right", "0 -0.01 0.0584", "0 -1 0"),  # offset 0.01 along -y
-    ]
-    b = write(tmp_path, "b", joints, ["base", "l1", "l2", "l3", "hand", "left", "right"])
+    # the right finger written as a fixed joint at the offset: 0.01 along its axis -y
+    b = gripper_arm(tmp_path, name="b", right=joint("finger_right", "fixed", "hand", "right", "0 -0.01 0.0584", "0 -1 0"))
     ref_rep = derive_file(b, DeriveOptions())
     assert rep["dof"] == ref_rep["dof"] == 4 and rep["n_standard"] == 40
     assert [p["expression"] for p in rep["base_parameters"]] == [p["expression"] for p in ref_rep["base_parameters"]]
