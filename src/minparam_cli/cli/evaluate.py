@@ -52,7 +52,8 @@ def evaluate(
 def _evaluate(model, data, which, predictions, fmt, output, robot):
     from minparam_cli.cli.model_files import read_robot_bytes
     from minparam_cli.errors import InputError
-    from minparam_cli.identify.model import ModelError, check_robot, evaluate as run, model_design, parse_model
+    from minparam_cli.identify.evaluation import evaluate as run
+    from minparam_cli.identify.model import ModelError, check_robot, model_design, parse_model
     from minparam_cli.pipeline import load_chain, require_fixed_base
 
     if predictions is not None and len(data) > 1:
