@@ -160,7 +160,7 @@ def flags(report: dict, fit) -> list[str]:
             out.append(f"declared {what} {name} = {v:.4g} is negative: not {what} (a model error or a "
                        "standstill artefact is taking its place)")
     for role in ("selection", "test"):
-        for entry in report["roles"][role]:
+        for entry in report.get("roles", {}).get(role, []):
             share = entry.get("still_share")
             if share is not None and share > STILL_PART_FLAG:
                 out.append(f"the {role} data ({span_text(entry)}) stand still in {100 * share:.0f} % of their samples "
