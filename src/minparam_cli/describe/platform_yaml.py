@@ -30,7 +30,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from minparam_cli.describe.safety import read_yaml
+from minparam_cli.describe.safety import MAX_ABS_VALUE, finite_number, key_list, read_yaml, short_repr
 from minparam_cli.errors import DescriptionError
 
 LENGTH_UNITS = ("mm", "cm", "m")
@@ -95,11 +95,11 @@ def platform_from_mapping(doc: Any, src: str) -> PlatformDescription:
     if not isinstance(doc, dict):
         raise DescriptionError("expected a mapping with 'kind: platform', 'units' and 'legs'", src)
     if doc.get("kind") != "platform":
-        got = "missing" if "kind" not in doc else repr(doc.get("kind"))
+        got = "missing" if "kind" not in doc else short_repr(doc.get("kind"))
         raise DescriptionError(f"expected 'kind: platform' ({got}); arm tables are read by 'derive'", src, "kind")
     unknown = set(doc) - TOP_KEYS
     if unknown:
-        raise DescriptionError(f"unknown key(s) {sorted(map(str, unknown))}", src)
+        raise DescriptionError(f"unknown key(s) {key_list(unknown)}", src)
     has_sides = "base" in doc or "platform" in doc
     if has_sides and "nodes" in doc:
         raise DescriptionError("give either 'base' and 'platform' or 'nodes' (a free truss), not both", src)
@@ -113,7 +113,7 @@ def platform_from_mapping(doc: Any, src: str) -> PlatformDescription:
         if key not in doc:
             raise DescriptionError(f"missing required field '{key}'", src)
     length_unit, angle_unit = _units(doc["units"], src, need_angle=structure == "platform")
-    name = str(doc.get("name") or Path(src).stem)
+    name = _name(doc.get("name"), src, "name") if doc.get("name") not in (None, "") else Path(src).stem
 
     if structure == "platform":
         bnames, bcoords = _side(doc["base"], "base", "B", angle_unit, src)
@@ -162,42 +162,48 @@ def _units(units, src, need_angle):
         raise DescriptionError("expected a mapping like {length: mm, angle: deg}", src, "units")
     unknown = set(units) - {"length", "angle"}
     if unknown:
-        raise DescriptionError(f"unknown key(s) {sorted(map(str, unknown))}", src, "units")
+        raise DescriptionError(f"unknown key(s) {key_list(unknown)}", src, "units")
     if "length" not in units:
         raise DescriptionError(f"missing 'length' (one of {', '.join(LENGTH_UNITS)})", src, "units")
     lu = units["length"]
-    if lu not in LENGTH_UNITS:
-        raise DescriptionError(f"unknown length unit {lu!r}; expected one of {', '.join(LENGTH_UNITS)}", src, "units.length")
+    if not isinstance(lu, str) or lu not in LENGTH_UNITS:
+        raise DescriptionError(f"unknown length unit {short_repr(lu)}; expected one of {', '.join(LENGTH_UNITS)}", src, "units.length")
     au = units.get("angle")
     if au is None and need_angle:
         raise DescriptionError("missing 'angle' (deg or rad): poses and polar angles need it", src, "units")
-    if au is not None and au not in ANGLE_UNITS:
-        raise DescriptionError(f"unknown angle unit {au!r}; expected 'deg' or 'rad'", src, "units.angle")
+    if au is not None and (not isinstance(au, str) or au not in ANGLE_UNITS):
+        raise DescriptionError(f"unknown angle unit {short_repr(au)}; expected 'deg' or 'rad'", src, "units.angle")
     return lu, au
 
 
 def _number(value, src, where) -> float:
-    if isinstance(value, bool) or not isinstance(value, (int, float)):
-        raise DescriptionError(f"expected a number, got {value!r}", src, where)
-    x = float(value)
-    if not math.isfinite(x):
-        raise DescriptionError(f"expected a finite number, got {value!r}", src, where)
-    return x
+    return finite_number(value, src, where)
+
+
+def _name(value, src, where) -> str:
+    """A node or leg name: text or a number, at most 64 characters."""
+    if isinstance(value, bool) or not isinstance(value, (str, int, float)) or len(str(value)) > 64:
+        raise DescriptionError(f"expected a name (text of at most 64 characters), got {short_repr(value)}", src, where)
+    return str(value)
 
 
 def _angle(value, angle_unit, src, where) -> float:
     """An angle in the file's unit, or an expression like '7*pi/6' (radians only) -> radians."""
     if isinstance(value, str):
-        m = _PI_RE.match(value)
+        m = _PI_RE.match(value) if len(value) <= 64 else None
         if not m:
-            raise DescriptionError(f"expected a number or an expression like '7*pi/6', got {value!r}", src, where)
+            raise DescriptionError(f"expected a number or an expression like '7*pi/6', got {short_repr(value)}", src, where)
         if angle_unit != "rad":
             raise DescriptionError(f"{value!r} is in radians but units.angle is {angle_unit!r}", src, where)
         coef = m.group(1)
-        coef = 1.0 if coef in ("", "+") else -1.0 if coef == "-" else float(coef)
+        coef = 1.0 if coef in ("", "+") else -1.0 if coef == "-" else float(coef) if coef.strip("+-.") else None
+        if coef is None:
+            raise DescriptionError(f"expected a number or an expression like '7*pi/6', got {value!r}", src, where)
         den = float(m.group(2)) if m.group(2) else 1.0
         if den == 0:
             raise DescriptionError(f"division by zero in {value!r}", src, where)
+        if abs(coef / den) > MAX_ABS_VALUE:
+            raise DescriptionError(f"{value!r} is out of range", src, where)
         return coef * math.pi / den
     x = _number(value, src, where)
     return math.radians(x) if angle_unit == "deg" else x
@@ -205,7 +211,7 @@ def _angle(value, angle_unit, src, where) -> float:
 
 def _vector(value, src, where, n=3) -> tuple[float, ...]:
     if not isinstance(value, (list, tuple)) or len(value) != n:
-        raise DescriptionError(f"expected a list of {n} numbers, got {value!r}", src, where)
+        raise DescriptionError(f"expected a list of {n} numbers, got {short_repr(value)}", src, where)
     return tuple(_number(v, src, f"{where}[{i}]") for i, v in enumerate(value))
 
 
@@ -214,7 +220,7 @@ def _explicit(nodes, src, where):
         raise DescriptionError("expected a mapping of node names to [x, y, z]", src, where)
     if len(nodes) > MAX_NODES:
         raise DescriptionError(f"{len(nodes)} nodes exceed the limit of {MAX_NODES}", src, where)
-    names = tuple(str(k) for k in nodes)
+    names = tuple(_name(k, src, where) for k in nodes)
     coords = tuple(_vector(v, src, f"{where}.{k}") for k, v in nodes.items())
     return names, coords
 
@@ -224,7 +230,7 @@ def _side(spec, side, prefix, angle_unit, src):
         raise DescriptionError("expected a mapping with 'radius' and 'angles', or 'nodes'", src, side)
     unknown = set(spec) - SIDE_KEYS
     if unknown:
-        raise DescriptionError(f"unknown key(s) {sorted(map(str, unknown))}", src, side)
+        raise DescriptionError(f"unknown key(s) {key_list(unknown)}", src, side)
     if "nodes" in spec:
         extra = {"radius", "angles", "names"} & set(spec)
         if extra:
@@ -247,7 +253,7 @@ def _side(spec, side, prefix, angle_unit, src):
         names = [f"{prefix}{i + 1}" for i in range(len(rad))]
     if not isinstance(names, list) or len(names) != len(rad):
         raise DescriptionError(f"expected a list of {len(rad)} node names, one per angle", src, f"{side}.names")
-    names = [str(n) for n in names]
+    names = [_name(n, src, f"{side}.names") for n in names]
     if len(set(names)) != len(names):
         raise DescriptionError("node names must be unique", src, f"{side}.names")
     coords = tuple((radius * math.cos(a), radius * math.sin(a), 0.0) for a in rad)
@@ -291,18 +297,18 @@ def _legs(items, structure, bnames, pnames, default_limits, src):
         if isinstance(item, dict):
             unknown = set(item) - LEG_KEYS
             if unknown:
-                raise DescriptionError(f"unknown key(s) {sorted(map(str, unknown))}", src, where)
+                raise DescriptionError(f"unknown key(s) {key_list(unknown)}", src, where)
             if "nodes" not in item:
                 raise DescriptionError("missing required field 'nodes'", src, where)
-            name = str(item.get("name", name))
+            name = _name(item.get("name", name), src, f"{where}.name")
             if item.get("limits") is not None:
                 limits = _limits(item["limits"], src, f"{where}.limits")
             pair = item["nodes"]
         else:
             pair = item
         if not isinstance(pair, (list, tuple)) or len(pair) != 2:
-            raise DescriptionError(f"expected a pair of node names, got {pair!r}", src, where)
-        a, b = str(pair[0]), str(pair[1])
+            raise DescriptionError(f"expected a pair of node names, got {short_repr(pair)}", src, where)
+        a, b = _name(pair[0], src, where), _name(pair[1], src, where)
         known = set(bnames) | set(pnames)
         for n in (a, b):
             if n not in known:
@@ -347,7 +353,7 @@ def _workspace(spec, angle_unit, src):
         raise DescriptionError("expected a mapping like {x: [-100, 100], z: [0, 300]}", src, "workspace")
     unknown = set(spec) - set(BOX_KEYS)
     if unknown:
-        raise DescriptionError(f"unknown key(s) {sorted(map(str, unknown))}", src, "workspace")
+        raise DescriptionError(f"unknown key(s) {key_list(unknown)}", src, "workspace")
     out = []
     for key in BOX_KEYS:
         if key not in spec:
@@ -355,7 +361,7 @@ def _workspace(spec, angle_unit, src):
         where = f"workspace.{key}"
         v = spec[key]
         if not isinstance(v, (list, tuple)) or len(v) != 2:
-            raise DescriptionError(f"expected [low, high], got {v!r}", src, where)
+            raise DescriptionError(f"expected [low, high], got {short_repr(v)}", src, where)
         if key in ("roll", "pitch", "yaw"):
             lo, hi = (_angle(x, angle_unit or "rad", src, where) for x in v)
         else:

@@ -36,7 +36,7 @@ from pathlib import Path
 import numpy as np
 
 from minparam_cli.describe.records import GeomValue, Inertial, JointRecord, RobotDescription
-from minparam_cli.describe.safety import MAX_JOINTS, parse_xml_safely, read_bounded
+from minparam_cli.describe.safety import MAX_JOINTS, MAX_NUMBER_CHARS, bounded, parse_xml_safely, read_bounded, short_repr
 from minparam_cli.errors import DescriptionError, UnsupportedError
 
 ACTUATED = {"revolute": "revolute", "continuous": "revolute", "prismatic": "prismatic"}
@@ -156,14 +156,17 @@ def _floats(text: str | None, n: int, src: str, where: str, default: str | None 
         text = default
     parts = text.split()
     if len(parts) != n:
-        raise DescriptionError(f"expected {n} numbers, got {text!r}", src, where)
+        raise DescriptionError(f"expected {n} numbers, got {short_repr(text)}", src, where)
     for p in parts:
+        if len(p) > MAX_NUMBER_CHARS:
+            raise DescriptionError(f"a number written with {len(p)} characters (at most {MAX_NUMBER_CHARS})", src, where)
         try:
             x = float(p)
         except ValueError:
             raise DescriptionError(f"expected a number, got {p!r}", src, where) from None
         if not math.isfinite(x):
             raise DescriptionError(f"expected a finite number, got {p!r}", src, where)
+        bounded(x, src, where)
     return parts
 
 
@@ -197,7 +200,7 @@ def _read_elements(root, src: str):
         if jtype is None:
             raise DescriptionError("missing required attribute 'type'", src, where)
         if jtype not in KNOWN_TYPES:
-            raise DescriptionError(f"unknown joint type {jtype!r}", src, where)
+            raise DescriptionError(f"unknown joint type {short_repr(jtype)}", src, where)
         if jtype == "planar":
             raise UnsupportedError("planar joints are not supported yet", src, where)
         mimic = None
@@ -223,6 +226,8 @@ def _read_elements(root, src: str):
         axis = [float(x) for x in _floats(axis_el.get("xyz") if axis_el is not None else None, 3, src, f"{where}/axis@xyz", "1 0 0")]
         if jtype != "fixed" and np.linalg.norm(axis) == 0:
             raise DescriptionError("joint axis is the zero vector", src, f"{where}/axis")
+        if jtype != "fixed" and np.linalg.norm(axis) < 1e-6:
+            raise DescriptionError(f"joint axis {' '.join(axis_el.get('xyz').split())} is too short to give a direction (length below 1e-6)", src, f"{where}/axis")
         limits = None
         lim = el.find("limit")
         if jtype in ("revolute", "prismatic") and lim is not None and lim.get("lower") is not None and lim.get("upper") is not None:

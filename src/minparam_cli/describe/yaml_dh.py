@@ -25,7 +25,7 @@ from pathlib import Path
 from typing import Any
 
 from minparam_cli.describe.records import GeomValue, Inertial, JointRecord, RobotDescription
-from minparam_cli.describe.safety import MAX_JOINTS, read_yaml
+from minparam_cli.describe.safety import MAX_ABS_VALUE, MAX_JOINTS, finite_number, key_list, read_yaml, short_repr
 from minparam_cli.errors import DescriptionError, NotARobotError
 from minparam_cli.params import FRICTION_KINDS
 
@@ -49,27 +49,27 @@ def description_from_mapping(doc: Any, src: str) -> RobotDescription:
     if doc.get("kind", "robot") != "robot":
         if doc.get("kind") == "platform":
             raise NotARobotError("is a parallel-platform description; use 'minparam platform'", src)
-        raise DescriptionError(f"unknown kind {doc.get('kind')!r}; expected 'robot'", src, "kind")
+        raise DescriptionError(f"unknown kind {short_repr(doc.get('kind'))}; expected 'robot'", src, "kind")
     unknown = set(doc) - TOP_KEYS
     if unknown:
-        raise DescriptionError(f"unknown key(s) {sorted(map(str, unknown))}", src)
+        raise DescriptionError(f"unknown key(s) {key_list(unknown)}", src)
     for key in ("convention", "joints"):
         if key not in doc:
             raise DescriptionError(f"missing required field '{key}'", src)
-    name = str(doc.get("name") or Path(src).stem)
+    name = _text(doc.get("name"), src, "name") or Path(src).stem
     convention = doc["convention"]
-    if convention not in CONVENTIONS:
-        raise DescriptionError(f"unknown convention {convention!r}; expected 'dh' or 'mdh'", src, "convention")
+    if not isinstance(convention, str) or convention not in CONVENTIONS:
+        raise DescriptionError(f"unknown convention {short_repr(convention)}; expected 'dh' or 'mdh'", src, "convention")
 
     units = doc.get("units") or {}
     if not isinstance(units, dict):
         raise DescriptionError("expected a mapping like {length: mm, angle: deg}", src, "units")
     lu = units.get("length", "m")
     au = units.get("angle", "rad")
-    if lu not in LENGTH_UNITS:
-        raise DescriptionError(f"unknown length unit {lu!r}; expected 'm' or 'mm'", src, "units.length")
-    if au not in ANGLE_UNITS:
-        raise DescriptionError(f"unknown angle unit {au!r}; expected 'deg' or 'rad'", src, "units.angle")
+    if not isinstance(lu, str) or lu not in LENGTH_UNITS:
+        raise DescriptionError(f"unknown length unit {short_repr(lu)}; expected 'm' or 'mm'", src, "units.length")
+    if not isinstance(au, str) or au not in ANGLE_UNITS:
+        raise DescriptionError(f"unknown angle unit {short_repr(au)}; expected 'deg' or 'rad'", src, "units.angle")
     scale = LENGTH_UNITS[lu]
 
     gravity = _vector(doc.get("gravity", [0.0, 0.0, -9.81]), src, "gravity")
@@ -93,12 +93,12 @@ def description_from_mapping(doc: Any, src: str) -> RobotDescription:
             raise DescriptionError("expected a mapping with type, alpha, a, d, theta", src, where)
         unknown = set(jd) - JOINT_KEYS
         if unknown:
-            raise DescriptionError(f"unknown key(s) {sorted(map(str, unknown))}", src, where)
+            raise DescriptionError(f"unknown key(s) {key_list(unknown)}", src, where)
         jtype = jd.get("type")
         if jtype is None:
             raise DescriptionError("missing required field 'type'", src, where)
-        if jtype not in JOINT_TYPES:
-            raise DescriptionError(f"unknown joint type {jtype!r}; expected revolute or prismatic", src, f"{where}.type")
+        if not isinstance(jtype, str) or jtype not in JOINT_TYPES:
+            raise DescriptionError(f"unknown joint type {short_repr(jtype)}; expected revolute or prismatic", src, f"{where}.type")
         dh = {}
         for key in ("alpha", "a", "d", "theta"):
             if key not in jd:
@@ -121,7 +121,7 @@ def description_from_mapping(doc: Any, src: str) -> RobotDescription:
         inertial = _inertial(jd.get("inertial"), scale, src, f"{where}.inertial")
         joints.append(
             JointRecord(
-                name=str(jd.get("name", f"joint{j}")),
+                name=_text(jd.get("name"), src, f"{where}.name") or f"joint{j}",
                 type=jtype,
                 parent=i - 1,
                 link_name=f"link{j}",
@@ -144,22 +144,30 @@ def description_from_mapping(doc: Any, src: str) -> RobotDescription:
 
 
 def _number(v: Any, src: str, where: str) -> float:
-    if isinstance(v, bool) or not isinstance(v, (int, float)):
-        raise DescriptionError(f"expected a number, got {v!r}", src, where)
-    if not math.isfinite(v):
-        raise DescriptionError(f"expected a finite number, got {v!r}", src, where)
-    return float(v)
+    return finite_number(v, src, where)
+
+
+def _text(v: Any, src: str, where: str) -> str | None:
+    """A name: text (or a number written as one); None when absent."""
+    if v is None or v == "":
+        return None
+    if isinstance(v, bool) or not isinstance(v, (str, int, float)):
+        raise DescriptionError(f"expected a name, got {short_repr(v)}", src, where)
+    text = str(v)
+    if len(text) > 200:
+        raise DescriptionError(f"a name of {len(text)} characters (at most 200)", src, where)
+    return text
 
 
 def _vector(v: Any, src: str, where: str, n: int = 3) -> tuple[float, ...]:
     if not isinstance(v, (list, tuple)) or len(v) != n:
-        raise DescriptionError(f"expected a list of {n} numbers, got {v!r}", src, where)
+        raise DescriptionError(f"expected a list of {n} numbers, got {short_repr(v)}", src, where)
     return tuple(_number(x, src, where) for x in v)
 
 
 def _bool(v: Any, src: str, where: str) -> bool:
     if not isinstance(v, bool):
-        raise DescriptionError(f"expected true or false, got {v!r}", src, where)
+        raise DescriptionError(f"expected true or false, got {short_repr(v)}", src, where)
     return v
 
 
@@ -169,21 +177,25 @@ def _friction(v: Any, src: str, where: str) -> tuple[str, ...]:
     if not isinstance(v, list):
         raise DescriptionError(f"expected a list drawn from {list(FRICTION_KINDS)}", src, where)
     for k in v:
-        if k not in FRICTION_KINDS:
-            raise DescriptionError(f"unknown friction kind {k!r}; expected any of {list(FRICTION_KINDS)}", src, where)
+        if not isinstance(k, str) or k not in FRICTION_KINDS:
+            raise DescriptionError(f"unknown friction kind {short_repr(k)}; expected any of {list(FRICTION_KINDS)}", src, where)
     return tuple(v)
 
 
 def parse_angle(v: Any, unit: str, src: str, where: str) -> tuple[float, Fraction | None]:
     """Angle -> (radians, exact degrees or None).  Accepts numbers and 'pi/2'-style strings."""
     if isinstance(v, str):
-        m = _PI_RE.match(v)
+        m = _PI_RE.match(v) if len(v) <= 64 else None
         if not m:
-            raise DescriptionError(f"expected a number or a multiple of pi like '-pi/2', got {v!r}", src, where)
+            raise DescriptionError(f"expected a number or a multiple of pi like '-pi/2', got {short_repr(v)}", src, where)
         coef = m.group(1)
         num = Fraction(coef) if coef not in ("", "+", "-") else Fraction(-1 if coef == "-" else 1)
         den = Fraction(m.group(2)) if m.group(2) else Fraction(1)
+        if den == 0:
+            raise DescriptionError(f"division by zero in {v!r}", src, where)
         deg = num / den * 180
+        if abs(deg) > MAX_ABS_VALUE:
+            raise DescriptionError(f"{v!r} is out of range: expected at most {MAX_ABS_VALUE:g} degrees", src, where)
         return float(deg) * math.pi / 180, deg
     x = _number(v, src, where)
     if unit == "deg":
@@ -196,12 +208,12 @@ def _geom(v: Any, key: str, j: int, is_angle: bool, scale: Fraction, au: str, sr
     symbol = f"{key}{j}"
     named = False
     if isinstance(v, dict):
-        if set(v) - {"symbol", "value"} or "value" not in v:
+        if set(map(str, v)) - {"symbol", "value"} or "value" not in v:
             raise DescriptionError("expected {symbol: NAME, value: NUMBER}", src, where)
         if "symbol" in v:
-            symbol = str(v["symbol"])
-            if not re.match(r"^[A-Za-z_][A-Za-z0-9_]*$", symbol):
-                raise DescriptionError(f"symbol {symbol!r} is not a valid identifier", src, where)
+            symbol = str(v["symbol"]) if isinstance(v["symbol"], str) else ""
+            if len(symbol) > 64 or not re.match(r"^[A-Za-z_][A-Za-z0-9_]*$", symbol):
+                raise DescriptionError(f"symbol {short_repr(v['symbol'])} is not a valid identifier (at most 64 characters)", src, where)
             named = True
         v = v["value"]
     if is_angle:
