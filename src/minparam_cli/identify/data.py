@@ -23,7 +23,6 @@ Everything dropped is counted and reported, with the reason.
 from __future__ import annotations
 
 import math
-import zipfile
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Iterator
@@ -167,12 +166,17 @@ def time_span(path: str | Path, opts: DataOptions) -> tuple[float, float]:
     """
     path = Path(path)
     name = opts.columns.get("t", "t")
+    from minparam_cli.identify.reading import _short, open_npz, require_data_file
+
+    require_data_file(path)
     if path.suffix.lower() == ".npz":
-        try:
-            with np.load(path, allow_pickle=False) as z:
+        with open_npz(path) as z:
+            try:
                 t = np.asarray(z[name], dtype=float)
-        except (OSError, ValueError, KeyError, EOFError, zipfile.BadZipFile) as e:
-            raise DataError(f"{path}: cannot read time array '{name}' ({e})") from e
+            except MemoryError:
+                raise
+            except Exception as e:  # noqa: BLE001 - a missing or damaged member
+                raise DataError(f"{path}: cannot read time array '{name}' ({_short(e)})") from None
         t = t[np.isfinite(t)]
         if len(t) < 2:
             raise DataError(f"{path}: fewer than two time stamps")

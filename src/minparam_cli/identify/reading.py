@@ -15,7 +15,6 @@ import signal
 import sys
 import threading
 import warnings
-import zipfile
 from pathlib import Path
 from typing import Iterator
 
@@ -97,14 +96,15 @@ def split(table: np.ndarray, layout: dict) -> dict:
 def raw_chunks(path: Path, n: int, opts: DataOptions) -> Iterator[tuple[np.ndarray, dict]]:
     """Chunk by chunk: a table of the used columns (t, q, [dq], [ddq], tau) and its layout."""
     src = str(path)
-    if not path.exists():
-        raise DataError(f"{src}: no such file")
+    require_data_file(path)
     if path.suffix.lower() == ".npz":
-        try:
-            with np.load(path, allow_pickle=False) as z:
+        with open_npz(path) as z:
+            try:
                 arrays = {k: (np.asarray(z[opts.columns.get(k, k)], dtype=float) if opts.columns.get(k, k) in z.files else None) for k in KEYS}
-        except (OSError, ValueError, EOFError, zipfile.BadZipFile) as e:
-            raise DataError(f"{src}: cannot read .npz ({e})") from e
+            except MemoryError:
+                raise
+            except Exception as e:  # noqa: BLE001 - a damaged member: zlib, zipfile, format or dtype errors
+                raise DataError(f"{src}: cannot read .npz ({_short(e)})") from None
         for k in ("t", "q", "tau"):
             if arrays[k] is None:
                 raise DataError(f"{src}: missing array '{opts.columns.get(k, k)}'")
@@ -138,7 +138,9 @@ def raw_chunks(path: Path, n: int, opts: DataOptions) -> Iterator[tuple[np.ndarr
         raise DataError(f"{src}: cannot read file ({e.strerror})") from e
     with fh:
         try:
-            header_line = fh.readline()
+            header_line = fh.readline(MAX_LINE_CHARS)
+            if len(header_line) == MAX_LINE_CHARS and not header_line.endswith("\n"):
+                raise DataError(f"{src}: line 1 (the header) is longer than {MAX_LINE_CHARS} characters")
         except UnicodeDecodeError as e:  # the decoder reads ahead: the bad byte may be in a data row
             header_line = _header_bytes(path).decode("utf-8", "replace")
             if "\ufffd" in header_line:
@@ -174,6 +176,50 @@ def raw_chunks(path: Path, n: int, opts: DataOptions) -> Iterator[tuple[np.ndarr
 
 
 MAX_LINE_CHARS = 2**20
+# arrays of an .npz file: their total size once decompressed (a "zip bomb" is refused before it is inflated)
+MAX_NPZ_BYTES = 16 * 2**30
+
+
+def require_data_file(path: Path) -> None:
+    """A data file must be a regular file: a FIFO would wait for a writer, a device (/dev/zero,
+    /dev/urandom) never ends, a folder is not data.  Refused at once, without opening it."""
+    from minparam_cli.describe.safety import require_regular_file
+
+    require_regular_file(Path(path), DataError)
+
+
+def _short(e: BaseException) -> str:
+    text = " ".join(str(e).split()) or type(e).__name__
+    return text if len(text) <= 160 else text[:157] + "..."
+
+
+@contextlib.contextmanager
+def open_npz(path: Path):
+    """np.load of an .npz archive (no pickles), every failure to open it a one-line DataError; refuses a
+    file that is not an .npz archive (a lone .npy array, random bytes) and members whose declared
+    size exceeds MAX_NPZ_BYTES."""
+    src = str(path)
+    try:
+        with open(path, "rb") as fh:
+            magic = fh.read(4)
+    except OSError as e:
+        raise DataError(f"{src}: cannot read file ({e.strerror})") from None
+    if magic != b"PK\x03\x04":
+        what = "a single .npy array" if magic.startswith(b"\x93NUM") else "empty" if not magic else "no zip header"
+        raise DataError(f"{src}: not an .npz archive ({what}); expected arrays t, q, tau, ... saved by numpy.savez")
+    try:
+        z = np.load(path, allow_pickle=False)
+    except MemoryError:
+        raise
+    except Exception as e:  # noqa: BLE001 - numpy and zipfile raise many kinds for a damaged file
+        raise DataError(f"{src}: cannot read .npz ({_short(e)})") from None
+    if not isinstance(z, np.lib.npyio.NpzFile):
+        raise DataError(f"{src}: not an .npz archive; expected arrays t, q, tau, ... saved by numpy.savez")
+    with z:
+        declared = sum(info.file_size for info in z.zip.infolist())
+        if declared > MAX_NPZ_BYTES:
+            raise DataError(f"{src}: its arrays hold {declared} bytes once decompressed, more than the {MAX_NPZ_BYTES}-byte limit")
+        yield z
 
 
 def _header_bytes(path: Path) -> bytes:
