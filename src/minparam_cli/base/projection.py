@@ -30,7 +30,7 @@ from typing import Callable
 import numpy as np
 
 from minparam_cli.base.echelon import ExactRowSpace, FloatRowSpace, integer_rref
-from minparam_cli.base.result import RANK_RTOL, BaseSet, beta_from_unit_columns, physical_scales, regrouping_matrix, scan_margin
+from minparam_cli.base.result import RANK_RTOL, BaseSet, beta_from_unit_columns, physical_scales, regrouping_matrix, scan_in_order, scan_margin
 from minparam_cli.chain import REVOLUTE, Chain
 from minparam_cli.dynamics.projection import (
     KINETIC,
@@ -237,27 +237,6 @@ def _exact_result(geom: ProjectionGeometry, stream: dict):
 # --- step 3-4, floating point ------------------------------------------------------
 
 
-def _scan_in_order(Zn: np.ndarray, rel: np.ndarray) -> tuple[list[int], np.ndarray]:
-    """Keep rule: r[i] = distance of unit-norm column i from the span of the kept columns before
-    it (Gram–Schmidt, each projection done twice for orthogonality), times ``rel[i]``, the column's
-    size in physical units relative to the largest; kept when r[i] > RANK_RTOL."""
-    rows, P = Zn.shape
-    Q = np.zeros((rows, min(rows, P)))
-    r = np.zeros(P)
-    kept: list[int] = []
-    for i in range(P):
-        v = Zn[:, i].copy()
-        Qk = Q[:, : len(kept)]
-        for _ in range(2):
-            v -= Qk @ (Qk.T @ v)
-        res = np.linalg.norm(v)
-        r[i] = res * rel[i]
-        if r[i] > RANK_RTOL and len(kept) < Q.shape[1]:
-            Q[:, len(kept)] = v / res
-            kept.append(i)
-    return kept, r
-
-
 def _float_result(geom: ProjectionGeometry, stream: dict):
     chain = geom.chain
     P = chain.layout.size
@@ -280,7 +259,7 @@ def _float_result(geom: ProjectionGeometry, stream: dict):
     Zn = np.zeros_like(Zs)
     Zn[:, effect] = Zs[:, effect] / norms[effect]
     rel = np.where(effect, size / largest if largest > 0 else 0.0, 0.0)
-    kept, r = _scan_in_order(Zn, rel)
+    kept, r = scan_in_order(Zn, rel)  # the keep rule of both routes (result.scan_in_order)
     unident = [i for i in range(P) if not effect[i]]
     dropped = [i for i in range(P) if i not in set(kept)]
     if dropped and kept:
@@ -289,7 +268,7 @@ def _float_result(geom: ProjectionGeometry, stream: dict):
     else:
         beta = np.zeros((len(kept), len(dropped)))
     K = regrouping_matrix(kept, beta, dropped, P)
-    criterion = "|R_ii| / largest column of Z, columns in physical units (lengths in units of the robot's size), scan order"
+    criterion = "distance from the kept columns before it / largest column of Z, columns in physical units (lengths in units of the robot's size), scan order, full-size columns first"
     margin = scan_margin(r, kept, dropped, effect, criterion, RANK_RTOL, rows_z)
     return kept, K, unident, margin, None
 

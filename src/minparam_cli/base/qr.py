@@ -8,13 +8,18 @@
    axis) is not magnified up to the size of the others.
 3. Keep rule (Gautier & Khalil 1990): scan the columns in the standard order
    (link 1..n, XX..M within a link, then the extras) and keep a column unless
-   it is a combination of the columns already kept.  This is Householder QR
-   in the scan order, without pivoting: |R_ii| is the norm of column i's part
-   orthogonal to the columns before it.  It is kept when |R_ii| exceeds
-   RANK_RTOL (1e-8) times the largest column norm; a column whose whole norm is
-   below that has no effect.  (Paper 003 pivots the QR; pivoting picks the kept
-   set by size, not by the documented order, so the order is fixed here and
-   the pivot's job, the rank, is confirmed by the singular values.)
+   it is a combination of the columns already kept: r_i, the norm of column
+   i's part orthogonal to the kept columns before it, relative to the largest
+   column, exceeds RANK_RTOL (1e-8); a column whose whole norm is below that
+   has no effect.  The scan runs on the R factor of one Householder QR (same
+   inner products, square) and twice (``result.scan_in_order``): columns above
+   WEAK_RTOL (1e-4) first, then the rest above RANK_RTOL, so that a column
+   independent only by a hair (romeo.urdf's float32 cos(pi/2) in its hand
+   axes) does not take the place of a later full-size one and leave every
+   later decision at the cut's size (docs/methods/qr.md, "The rank cut").
+   (Paper 003 pivots the QR; pivoting picks the kept set by size, not by the
+   documented order, so the order is fixed here and the pivot's job, the
+   rank, is confirmed by the singular values.)
 4. The count is confirmed independently by the singular values of the same
    matrix, cut at RANK_RTOL times the largest.
 5. A second QR of the kept columns, W_kept = Q1 R1, gives β = R1⁻¹ Q1ᵀ W_dropped
@@ -30,7 +35,7 @@ import time
 
 import numpy as np
 
-from minparam_cli.base.result import RANK_RTOL, BaseSet, beta_from_unit_columns, physical_scales, regrouping_matrix, scan_margin
+from minparam_cli.base.result import RANK_RTOL, BaseSet, beta_from_unit_columns, physical_scales, regrouping_matrix, scan_in_order, scan_margin
 from minparam_cli.chain import Chain
 from minparam_cli.dynamics.regressor import random_states, regressor
 from minparam_cli.errors import ComputationError, InputError
@@ -96,15 +101,15 @@ def base_from_regressor(W: np.ndarray, source: str = "", col_scale: np.ndarray |
     cols = np.flatnonzero(effect)
     Wn = W[:, cols]
     Wn *= 1.0 / norms[cols]
-    # one Householder QR in scan order: Wn = Q R, Q orthogonal, so R carries
-    # every column norm, singular value and least-squares solution of Wn;
-    # scaling a column scales its column of R, so |R_ii| * size_i is the
-    # residual of column i in physical units
+    # one Householder QR: Wn = Q R, Q orthogonal, so R's columns have Wn's inner products and
+    # carry every residual, singular value and least-squares solution of Wn in a square matrix;
+    # scaling a column scales its column of R
     R = np.linalg.qr(Wn, mode="r")
     rel = size[cols] / largest if cols.size else size[cols]
+    kept_c, r_c = scan_in_order(R, rel)  # the keep rule, on R's columns (result.scan_in_order)
     r = np.zeros(P)
-    r[cols] = np.abs(np.diagonal(R)) * rel
-    kept = [int(i) for i in cols if r[i] > RANK_RTOL]
+    r[cols] = r_c
+    kept = [int(cols[i]) for i in kept_c]
     unident = [i for i in range(P) if not effect[i]]
 
     # independent confirmation of the count: singular values of the same matrix, same relative cut
@@ -112,7 +117,7 @@ def base_from_regressor(W: np.ndarray, source: str = "", col_scale: np.ndarray |
     rank_svd = int(np.sum(sv > sv[0] * RANK_RTOL)) if sv.size else 0
     if rank_svd != len(kept):
         raise ComputationError(
-            f"{source}: the ordered QR keeps {len(kept)} columns but the singular values give rank {rank_svd}; "
+            f"{source}: the ordered scan keeps {len(kept)} columns but the singular values give rank {rank_svd}; "
             "the rank decision is too close to call (try more --samples or another --seed)"
         )
     kept_set = set(kept)
@@ -129,7 +134,7 @@ def base_from_regressor(W: np.ndarray, source: str = "", col_scale: np.ndarray |
     beta = beta_from_unit_columns(beta_n, norms, effect, kept, dropped)
     K = regrouping_matrix(kept, beta, dropped, P)
 
-    criterion = "|R_ii| / largest column, columns in physical units (lengths in units of the robot's size), QR in scan order"
+    criterion = "distance from the kept columns before it / largest column, columns in physical units (lengths in units of the robot's size), scan order, full-size columns first"
     margin = scan_margin(r, kept, dropped, effect, criterion, RANK_RTOL, rows)
     margin["svd_rank"] = rank_svd
     margin["svd_gap"] = [

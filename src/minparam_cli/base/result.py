@@ -14,7 +14,8 @@ COEFFICIENT_CUTOFF = 1e-10
 # physical units, lengths in units of the robot's size (``physical_scales``), a column is kept when
 # its part orthogonal to the kept columns before it exceeds RANK_RTOL times the largest column.
 # Rounding leaves ~1e-13 on exactly dependent columns (69 real URDFs); any real effect above
-# 1e-8 of the largest is kept.
+# 1e-8 of the largest is kept, those below WEAK_RTOL only where no full-size column later in the
+# scan carries the same direction (``scan_in_order``).
 RANK_RTOL = 1e-8
 # kept parameters whose relative residual is below this are weakly identifiable: they are
 # named with their margin and, where one is found, the near-special geometry that keeps them
@@ -112,6 +113,54 @@ def physical_scales(layout, types, length: float, row_types=None) -> tuple[np.nd
             col.append(1.0 if rev else 1.0 / L)
     row = np.array([1.0 if t == "revolute" else L for t in (types if row_types is None else row_types)])
     return np.array(col), row
+
+
+def scan_in_order(A: np.ndarray, rel: np.ndarray, block: int = 64) -> tuple[list[int], np.ndarray]:
+    """The keep rule of both numeric routes (docs/methods/qr.md, "The rank cut").
+
+    ``A``: unit-norm columns in the standard order (zero for columns without effect), any number
+    of rows with the same inner products as the regressor's columns (its R factor will do);
+    ``rel``: each column's size in physical units relative to the largest (0: no effect).
+
+    Gautier & Khalil's rule: scan the columns in order and keep a column unless it is a
+    combination of the *kept* columns before it.  r[i] is the distance of column i from the span
+    of the kept columns (Gram–Schmidt, each projection done twice), times rel[i].  The scan runs
+    twice: first it keeps the columns with r above WEAK_RTOL only, then, over the columns left,
+    those above RANK_RTOL.  A column that is independent only by a hair (a tilt of 4e-8 rad
+    written in the file) is so kept only where no full-size column of the scan carries the same
+    direction: kept first, it would make that column a combination of itself and the other kept
+    ones to within ~ε/r (~1e-8 for r ~ 1e-8, the size of the cut), and every later decision
+    ambiguous.  Without such columns (every exact geometry) both passes give the one-pass scan.
+
+    Returns the kept columns (ascending) and r: for a kept column its residual when it was kept,
+    for the others their residual against the final kept set.
+    """
+    rows, P = A.shape
+    Q = np.zeros((rows, min(rows, P)))
+    r = np.zeros(P)
+    is_kept = np.zeros(P, dtype=bool)
+    k = 0
+    for tol in (WEAK_RTOL, RANK_RTOL):
+        todo = [i for i in range(P) if not is_kept[i] and rel[i] > 0]
+        for start in range(0, len(todo), block):
+            idx = todo[start : start + block]
+            V = A[:, idx].copy()
+            Qk = Q[:, :k]
+            for _ in range(2):  # against the kept basis so far, as one matrix product
+                V -= Qk @ (Qk.T @ V)
+            k0 = k
+            for b, i in enumerate(idx):  # then column by column against the block's own kept ones
+                v = V[:, b]
+                Qb = Q[:, k0:k]
+                for _ in range(2):
+                    v -= Qb @ (Qb.T @ v)
+                res = float(np.linalg.norm(v))
+                r[i] = res * rel[i]
+                if r[i] > tol and k < Q.shape[1]:
+                    Q[:, k] = v / res
+                    k += 1
+                    is_kept[i] = True
+    return [int(i) for i in np.flatnonzero(is_kept)], r
 
 
 def regrouping_matrix(kept: list[int], beta: np.ndarray, dropped: list[int], n: int) -> np.ndarray:
