@@ -232,7 +232,9 @@ def main(argv=None) -> int:
             ff_qr = f"{ff_qr} ({fv})" if fv != "-" else ff_qr
         name = str(path.relative_to(robots))
         if isinstance(qr, str) and qr.startswith("invalid: "):
-            notes.append(f"{name}: minparam: {qr[len('invalid: '):]}; {gap}")
+            # gap is pinocchio's error text, or its (kept, dropped) gap when it reads the file
+            ref_note = gap if ref is None else f"pinocchio reads it: rank {ref}"
+            notes.append(f"{name}: minparam: {qr[len('invalid: '):]}; {ref_note}")
             qr = proj = "invalid (below)"
         ref_text = f"{ref} ({gap[0]:.0e} / {gap[1]:.0e})" if ref is not None else "-"
         table.append((name, joints, ref_text, qr, f"{t_qr:.2f}", proj, f"{t_proj:.2f}", weak, v, ff_text, ff_qr))
