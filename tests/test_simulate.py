@@ -399,7 +399,7 @@ def test_cli_negative_coulomb_smoothing(app, tmp_path):
 
 def test_cli_negative_seed(app, tmp_path):
     r = run(app, PLANAR, "--seed", "-1", "-o", str(tmp_path / "d.csv"))
-    assert_one_line_error(r, "--seed must be >= 0")
+    assert_one_line_error(r, "Invalid value for '--seed': -1 is not in the range x>=0")
 
 
 def test_cli_bad_output_folder(app, tmp_path):

@@ -79,6 +79,11 @@ def derive_file(path: str | Path, opts: DeriveOptions, progress: Callable[[int, 
 
         base = derive_qr(chain, samples=opts.samples, seed=opts.seed)
     report = base_report(chain, base, 0.0)
+    from minparam_cli.describe.bodies import body_problems, problems_text
+
+    problems = body_problems(desc)
+    if problems:  # derive never uses them: a warning, not an error
+        report["warnings"] = [problems_text(desc, problems) + "; derive does not use them, simulate and --prior nominal refuse them"]
     if opts.snap_angles is not None:
         report["snap_angles"] = {"tolerance_rad": opts.snap_angles, "changed": [dict(a) for a in desc.adjustments]}
     weak = base.rank_margin.get("weak") or []
@@ -99,8 +104,15 @@ def check_file(path: str | Path) -> dict:
     from minparam_cli.chain import build_chain
     from minparam_cli.describe import load_description
 
+    from minparam_cli.describe.bodies import body_verdicts, problems_text
+    from minparam_cli.errors import DescriptionError
+
     desc = load_description(path)
     chain = build_chain(desc)
+    verdicts = body_verdicts(desc)
+    problems = [(link, problem) for link, problem in verdicts if problem is not None]
+    if problems:
+        raise DescriptionError(problems_text(desc, problems, shown=len(problems)))
     return {
         "robot": desc.name,
         "source": str(path),
@@ -111,4 +123,6 @@ def check_file(path: str | Path) -> dict:
         "exact": chain.exact is not None,
         "inertial": chain.phi_nominal is not None,
         "finite": bool(np.all(np.isfinite(chain.pre)) and np.all(np.isfinite(chain.post))),
+        # per link with inertial values: "ok" (a real body); an impossible one makes the file fail above
+        "bodies": {link: "ok" for link, _ in verdicts},
     }

@@ -71,7 +71,10 @@ COMMANDS = {
 
 def build_app(names: tuple[str, ...] | None = None) -> typer.Typer:
     """The typer app with the commands ``names`` (every command when None), in COMMANDS order."""
+    from minparam_cli.cli.common import OneLineGroup
+
     app = typer.Typer(
+        cls=OneLineGroup,
         name="minparam",
         help="Base inertial parameters, identification and kinematics of robot arms from DH/MDH tables or URDF.",
         no_args_is_help=True,

@@ -49,13 +49,14 @@ def _check(paths, recursive, as_json, quiet):
         for r in results:
             if r["ok"]:
                 c = r["result"]
-                rows.append((r["path"], c["robot"], c["dof"], c["types"], c["convention"], "yes" if c["exact"] else "no", "ok"))
+                bodies = f"{len(c['bodies'])} real" if c["bodies"] else "no data"
+                rows.append((r["path"], c["robot"], c["dof"], c["types"], c["convention"], "yes" if c["exact"] else "no", bodies, "ok"))
             else:
-                rows.append((r["path"], "", "", "", "", "", f"{r['status']}: {r['error']}"))
-        print(tabulate(rows, headers=["file", "robot", "dof", "joints", "convention", "exact", "status"], tablefmt="simple"))
+                # an error's line goes to stderr below; a skipped file says why here
+                rows.append((r["path"], "", "", "", "", "", "", r["status"] if r["status"] == "error" else f"{r['status']}: {r['error']}"))
+        print(tabulate(rows, headers=["file", "robot", "dof", "joints", "convention", "exact", "bodies", "status"], tablefmt="simple"))
     failed = [r for r in results if not r["ok"] and r["status"] == "error"]
-    if quiet:
-        for r in failed:
-            error_line(r["error"])
+    for r in failed:  # on stderr, one line each, whatever the output format
+        error_line(r["error"])
     if failed:
         raise typer.Exit(max(r["exit_code"] for r in failed))

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import functools
+import math
 import os
 import sys
 import time
@@ -12,6 +13,7 @@ from typing import Callable
 
 import click
 import typer
+import typer.core
 
 from minparam_cli.errors import ComputationError, InputError, MinparamError
 
@@ -49,10 +51,95 @@ def floating_base_option():
     )
 
 
+MAX_ERROR_CHARS = 600  # an error line quotes values from the file: never a screenful
+
+
 def error_line(message: str) -> None:
-    """Print one error line on stderr (never a traceback)."""
+    """Print one error line on stderr (never a traceback), at most MAX_ERROR_CHARS long."""
     text = " ".join(str(message).split())
+    if len(text) > MAX_ERROR_CHARS:
+        text = text[: MAX_ERROR_CHARS - 3] + "..."
     print(f"minparam: error: {text}", file=sys.stderr)
+
+
+def warning_line(message: str) -> None:
+    """Print one warning line on stderr."""
+    text = " ".join(str(message).split())
+    if len(text) > MAX_ERROR_CHARS:
+        text = text[: MAX_ERROR_CHARS - 3] + "..."
+    print(f"minparam: warning: {text}", file=sys.stderr)
+
+
+class _FiniteFloat:
+    """Mixed into a click float type (FLOAT, FloatRange): 'nan', 'inf' and '1e999' are refused."""
+
+    def convert(self, value, param, ctx):
+        import math
+
+        x = super().convert(value, param, ctx)
+        if x is not None and not math.isfinite(x):
+            self.fail(f"{value!r} is not a finite number.", param, ctx)
+        return x
+
+
+def _finite_float_type(t):
+    """A copy of click float type ``t`` that refuses non-finite values (same name, range and help)."""
+    import copy
+
+    if isinstance(t, _FiniteFloat) or not isinstance(t, click.types.FloatParamType):
+        return t
+    cls = type(f"Finite{type(t).__name__}", (_FiniteFloat, type(t)), {})
+    new = cls.__new__(cls)
+    new.__dict__.update(copy.copy(t.__dict__))
+    return new
+
+
+def _validate_params(command: click.Command) -> None:
+    """Every float option of every command refuses non-finite values, and every --seed a negative one
+    (numpy's generators take seeds >= 0): click's own messages, on click's own path."""
+    for param in command.params:
+        if isinstance(param.type, click.types.FloatParamType):
+            param.type = _finite_float_type(param.type)
+        elif param.name == "seed" and param.type is click.INT:
+            param.type = click.IntRange(min=0)
+    for sub in getattr(command, "commands", {}).values():
+        _validate_params(sub)
+
+
+class OneLineGroup(typer.core.TyperGroup):
+    """The root group: option values validated (``_validate_params``), and a usage error (bad option,
+    missing argument, invalid value) printed as one line on stderr, exit code 2."""
+
+    def __init__(self, *args, **kwargs):
+        super().__init__(*args, **kwargs)
+        _validate_params(self)
+
+    def main(self, args=None, prog_name=None, complete_var=None, standalone_mode=True, **extra):
+        if not standalone_mode:
+            return super().main(args, prog_name, complete_var, standalone_mode=False, **extra)
+        no_args = getattr(click.exceptions, "NoArgsIsHelpError", ())
+        try:
+            rv = super().main(args, prog_name, complete_var, standalone_mode=False, **extra)
+        except no_args as e:  # 'minparam' alone prints the help
+            e.show()
+            sys.exit(e.exit_code)
+        except click.ClickException as e:
+            error_line(_usage_line(e))
+            sys.exit(e.exit_code)
+        except click.Abort:
+            error_line("aborted")
+            sys.exit(1)
+        sys.exit(rv if isinstance(rv, int) else 0)
+
+
+def _usage_line(e: click.ClickException) -> str:
+    """click's message, with the command and where to find its help, in one line."""
+    ctx = getattr(e, "ctx", None)
+    message = e.format_message()
+    if ctx is None:
+        return message
+    help_name = ctx.help_option_names[0] if ctx.help_option_names else "--help"
+    return f"{ctx.command_path}: {message} (see '{ctx.command_path} {help_name}')"
 
 
 def guarded(fn: Callable) -> Callable:
@@ -92,9 +179,14 @@ def atomic_write(path: Path, write: Callable[[str], None], suffix: str = ".tmp")
     import tempfile  # only when writing a file: not on the start-up path of every command
 
     path = Path(path)
+    check_output_path(path)
+    if path.exists() and not path.is_file():  # /dev/null, /dev/stdout, a FIFO: written in place, never replaced
+        try:
+            write(str(path))
+        except OSError as e:
+            raise ComputationError(f"{path}: cannot write ({e.strerror})") from None
+        return
     directory = path.parent if str(path.parent) else Path(".")
-    if not directory.is_dir():
-        raise InputError(f"{path}: output folder {directory} does not exist")
     fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=suffix, dir=directory)
     os.close(fd)
     try:
@@ -108,6 +200,17 @@ def atomic_write(path: Path, write: Callable[[str], None], suffix: str = ".tmp")
     finally:
         if os.path.exists(tmp):
             os.unlink(tmp)
+
+
+def check_output_path(path: Path) -> None:
+    """An output file name must name a file in an existing folder; refused before any work is done
+    (a command that writes two files checks both first, so that a failure leaves neither)."""
+    path = Path(path)
+    if path.is_dir():
+        raise InputError(f"{path}: is a folder; expected an output file name")
+    directory = path.parent if str(path.parent) else Path(".")
+    if not directory.is_dir():
+        raise InputError(f"{path}: output folder {directory} does not exist")
 
 
 def write_output(text: str, output: Path | None) -> None:
@@ -176,4 +279,6 @@ def parse_floats(text: str, n: int | None, what: str) -> tuple[float, ...]:
         raise typer.BadParameter(f"expected comma-separated numbers, got {text!r}", param_hint=what) from None
     if n is not None and len(vals) != n:
         raise typer.BadParameter(f"expected {n} comma-separated numbers, got {len(vals)}", param_hint=what)
+    if not all(math.isfinite(v) for v in vals):
+        raise typer.BadParameter(f"expected finite numbers, got {text!r}", param_hint=what)
     return vals

@@ -9,7 +9,7 @@ from typing import List, Optional
 import typer
 
 from minparam_cli.cli.batch import expand_paths, run_batch
-from minparam_cli.cli.common import Format, MimicMode, Progress, error_line, floating_base_option, guarded, mimic_option, parse_floats, write_output
+from minparam_cli.cli.common import Format, MimicMode, Progress, error_line, floating_base_option, guarded, mimic_option, parse_floats, warning_line, write_output
 from minparam_cli.params import FRICTION_KINDS
 
 HELP = "Base (minimal) inertial parameters of a robot: which are identifiable and how the others regroup."
@@ -84,6 +84,9 @@ def _derive(paths, method, fmt, friction, rotor_inertia, gravity, samples, seed,
         finally:
             bar.close()
         write_output(render(report, fmt), output)
+        if not quiet:
+            for w in report.get("warnings", []):
+                warning_line(w)
         return
 
     bar = Progress(len(files), "derive", quiet)
@@ -94,6 +97,9 @@ def _derive(paths, method, fmt, friction, rotor_inertia, gravity, samples, seed,
     write_output(render_batch(results, fmt), output)
     failed = [r for r in results if not r["ok"] and r["status"] == "error"]
     if not quiet:
+        for r in results:
+            for w in (r["result"].get("warnings", []) if r["ok"] else []):
+                warning_line(w)
         for r in failed:
             error_line(r["error"])
     if failed:

@@ -150,6 +150,12 @@ def _identify(robot, data, validate, test, split, columns, cutoff, force_filter,
     _, chain = load_chain(robot, DeriveOptions(friction=kinds, rotor_inertia=rotor_inertia, gravity=g,
                                                mimic=MimicMode(mimic).value))
     require_fixed_base(chain, "identify")
+    if physical and prior == Prior.nominal:  # refused before any data are read
+        from minparam_cli.describe.bodies import nominal_problems, nominal_problems_text
+        from minparam_cli.errors import InputError
+
+        if nominal_problems(chain):
+            raise InputError("--prior nominal: " + nominal_problems_text(str(robot), nominal_problems(chain)))
     chain = chain.with_coulomb_smoothing(coulomb_smoothing)
     opts = IdentifyOptions(
         data=DataOptions(columns=_columns(columns), cutoff_hz=cutoff, force_filter=force_filter,

@@ -143,9 +143,10 @@ def _output_format(output: Path | None) -> str:
 
 
 def _check_folder(path: Path) -> None:
-    folder = path.parent if str(path.parent) else Path(".")
-    if not folder.is_dir():
-        raise InputError(f"{path}: output folder {folder} does not exist")
+    """Both outputs (data and --truth) are checked before anything is written: a failure leaves neither."""
+    from minparam_cli.cli.common import check_output_path
+
+    check_output_path(path)
 
 
 def write_npz(arrays: dict[str, np.ndarray], output: Path) -> None:

@@ -81,7 +81,28 @@ def body_problems(desc: RobotDescription) -> list[tuple[str, str]]:
 
 def problems_text(desc: RobotDescription, problems: list[tuple[str, str]], shown: int = 2) -> str:
     """One line naming the file and the impossible links (the first ``shown`` with their reason)."""
+    return nominal_problems_text(desc.source, problems, shown)
+
+
+def nominal_problems(chain) -> list[tuple[str, str]]:
+    """(link, problem) for every link of ``chain`` whose nominal standard parameters
+    (``chain.phi_nominal``, lumped and in the link frame) are not a real body; [] without them."""
+    from minparam_cli.params import N_LINK_PARAMS
+
+    if chain.phi_nominal is None:
+        return []
+    phi = np.asarray(chain.phi_nominal, dtype=float)
+    out = []
+    for k in range(chain.n):
+        problem = link_problem(phi[N_LINK_PARAMS * k : N_LINK_PARAMS * (k + 1)])
+        if problem is not None:
+            out.append((chain.link_names[k] or f"link{k + 1}", problem))
+    return out
+
+
+def nominal_problems_text(source: str, problems: list[tuple[str, str]], shown: int = 2) -> str:
+    """One line naming the file and its impossible links (the first ``shown`` with their reason)."""
     parts = [f"{link}: {problem}" for link, problem in problems[:shown]]
     more = f"; and {len(problems) - shown} more" if len(problems) > shown else ""
     links = "link" if len(problems) == 1 else "links"
-    return f"{desc.source}: nominal inertial values of {len(problems)} {links} are not a real body ({'; '.join(parts)}{more})"
+    return f"{source}: nominal inertial values of {len(problems)} {links} are not a real body ({'; '.join(parts)}{more})"

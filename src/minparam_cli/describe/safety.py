@@ -57,7 +57,7 @@ def require_regular_file(path: Path, error=DescriptionError) -> os.stat_result:
     try:
         st = os.stat(path)
     except FileNotFoundError:
-        raise error(f"{src}: no such file") from None
+        raise error(f"{src}: cannot read file (no such file)") from None
     except OSError as e:
         raise error(f"{src}: cannot read file ({e.strerror})") from None
     if not stat.S_ISREG(st.st_mode):

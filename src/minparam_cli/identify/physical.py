@@ -180,6 +180,11 @@ def fit_physical(chain, K: np.ndarray, design, R: np.ndarray, n_eq: int, opts: P
     if opts.prior == "nominal":
         if chain.phi_nominal is None:
             raise InputError("--prior nominal: the robot description has no inertial values to use as the prior")
+        from minparam_cli.describe.bodies import nominal_problems, nominal_problems_text
+
+        problems = nominal_problems(chain)
+        if problems:  # a prior outside the feasible set pulls the fit toward no body at all
+            raise InputError("--prior nominal: " + nominal_problems_text(chain.source, problems))
         nom = np.asarray(chain.phi_nominal, dtype=float)[:n_inertial]
         s = _prior_scales(nom, n)
         prior = cp.sum_squares(cp.multiply(1.0 / s, phi[:n_inertial] - nom)) / n_inertial

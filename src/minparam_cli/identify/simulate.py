@@ -335,6 +335,11 @@ def simulate(chain: Chain, options: SimulationOptions, rng: np.random.Generator)
         inertia = random_inertia(chain.n, chain.length_scale, inertia_rng)
         phi, source = inertia.phi, "random"
     else:
+        from minparam_cli.describe.bodies import nominal_problems, nominal_problems_text
+
+        problems = nominal_problems(chain)
+        if problems:  # torques of impossible bodies are no data to identify from
+            raise InputError(nominal_problems_text(chain.source, problems) + "; fix them or use --random-inertia")
         phi, source = np.array(chain.phi_nominal, dtype=float), "description"
 
     tau_rigid = rigid_torque(chain, q, dq, ddq, phi)
