@@ -206,7 +206,7 @@ def test_panda_diagnosis_traces_the_residual_to_friction(tmp_path):
         ("--friction", "sticky", "sticky"),
         ("--min-gain", "1.5", "[0, 1)"),
         ("--coulomb-smoothing", "-0.1", ">= 0"),
-        ("--coulomb-smoothing", "nan", ">= 0"),
+        ("--coulomb-smoothing", "nan", "not a finite number"),
     ],
 )
 def test_bad_identify_options(tmp_path, option, value, needle):
