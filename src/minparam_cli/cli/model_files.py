@@ -9,10 +9,10 @@ from minparam_cli.errors import InputError
 
 
 def read_robot_bytes(robot: Path) -> bytes:
-    try:
-        return Path(robot).read_bytes()
-    except OSError as e:
-        raise InputError(f"{robot}: cannot read the robot file ({e.strerror})") from None
+    """The robot file's bytes (for its hash): a regular file within the description size cap."""
+    from minparam_cli.describe.safety import read_bounded
+
+    return read_bounded(Path(robot))
 
 
 def write_identify_outputs(robot: Path, chain, load, opts, report: dict, art, save_model, export_urdf, export_yaml) -> None:
