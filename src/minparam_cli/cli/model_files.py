@@ -5,7 +5,6 @@ from __future__ import annotations
 from pathlib import Path
 
 from minparam_cli.cli.common import write_output
-from minparam_cli.errors import InputError
 
 
 def read_robot_bytes(robot: Path) -> bytes:
