@@ -436,6 +436,7 @@ def _run_heavy(case: Case, out: Path) -> tuple[int, str, float, float]:
 def test_the_corpus_is_large_and_covers_every_class(corpus):
     _, cases = corpus
     assert len(cases) >= 300, len(cases)
+    print(f"\ncorpus: {len(cases)} cases, {sum(c.heavy for c in cases)} as subprocesses")
     names = " ".join(c.name for c in cases)
     for needle in ("alias bomb", "pipe", "/dev/zero", "urandom", "1e308", "400-digit", "5000", "pi/0", "NaN gravity",
                    "triangle", "collinear", "option: identify", "random bytes", "entity bomb", "nesting"):
