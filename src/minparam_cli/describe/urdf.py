@@ -36,7 +36,7 @@ from pathlib import Path
 import numpy as np
 
 from minparam_cli.describe.records import GeomValue, Inertial, JointRecord, RobotDescription
-from minparam_cli.describe.safety import MAX_JOINTS, MAX_NUMBER_CHARS, bounded, parse_xml_safely, read_bounded, short_repr
+from minparam_cli.describe.safety import MAX_ABS_VALUE, MAX_JOINTS, MAX_NUMBER_CHARS, bounded, parse_xml_safely, read_bounded, short_repr
 from minparam_cli.errors import DescriptionError, UnsupportedError
 
 ACTUATED = {"revolute": "revolute", "continuous": "revolute", "prismatic": "prismatic"}
@@ -149,7 +149,7 @@ def _snap_joint_angles(joints: list[dict], tol: float) -> tuple[dict, ...]:
     return tuple(changes)
 
 
-def _floats(text: str | None, n: int, src: str, where: str, default: str | None = None) -> list[str]:
+def _floats(text: str | None, n: int, src: str, where: str, default: str | None = None, bound: bool = True) -> list[str]:
     if text is None:
         if default is None:
             raise DescriptionError("missing required attribute", src, where)
@@ -166,15 +166,16 @@ def _floats(text: str | None, n: int, src: str, where: str, default: str | None 
             raise DescriptionError(f"expected a number, got {p!r}", src, where) from None
         if not math.isfinite(x):
             raise DescriptionError(f"expected a finite number, got {p!r}", src, where)
-        bounded(x, src, where)
+        if bound:
+            bounded(x, src, where)
     return parts
 
 
-def _number_attr(el, attr: str, src: str, where: str) -> float:
+def _number_attr(el, attr: str, src: str, where: str, bound: bool = True) -> float:
     v = el.get(attr)
     if v is None:
         raise DescriptionError(f"missing required attribute '{attr}'", src, where)
-    return float(_floats(v, 1, src, f"{where}@{attr}")[0])
+    return float(_floats(v, 1, src, f"{where}@{attr}", bound=bound)[0])
 
 
 def _read_elements(root, src: str):
@@ -231,8 +232,10 @@ def _read_elements(root, src: str):
         limits = None
         lim = el.find("limit")
         if jtype in ("revolute", "prismatic") and lim is not None and lim.get("lower") is not None and lim.get("upper") is not None:
-            lo, hi = _number_attr(lim, "lower", src, f"{where}/limit"), _number_attr(lim, "upper", src, f"{where}/limit")
-            if lo < hi:
+            # finite but huge limits (-1e16 .. 1e16) are a common way of writing "no limit"
+            lo = _number_attr(lim, "lower", src, f"{where}/limit", bound=False)
+            hi = _number_attr(lim, "upper", src, f"{where}/limit", bound=False)
+            if lo < hi and max(abs(lo), abs(hi)) <= MAX_ABS_VALUE:
                 limits = (lo, hi)
         joints.append(
             dict(
