@@ -286,3 +286,12 @@ def test_mimic_fixed_data_have_the_free_joints_only_and_identify_takes_mimic_fix
 
     rep = json.loads(r.output)
     assert rep["effects"] == [] and rep["test"]["final"]["relative_error"] < 1e-6  # noise-free data, same model
+
+
+def test_a_mimic_tag_on_a_fixed_joint_moves_nothing(tmp_path):
+    """Talos' reduced URDFs put <mimic> on fixed joints: both modes load them as plain fixed joints."""
+    path = gripper_arm(tmp_path, right=joint("finger_right", "fixed", "hand", "right", "0 0 0.0584", "0 -1 0",
+                                             mimic=("finger_left", 1, 0)))
+    for mode in ("coupled", "fixed"):
+        rep = derive_file(path, DeriveOptions(mimic=mode))
+        assert rep["dof"] == 4 and rep["n_standard"] == 40

@@ -183,3 +183,20 @@ def test_exports_need_physical_and_yaml_needs_a_table(tmp_path, run):
     refused("identify", ROOT / "robots" / "ur5.urdf", run["fit"], "--physical", "--export-yaml", tmp_path / "x.yaml",
             needle="--export-yaml needs a YAML (DH/MDH) robot")
     assert not list(tmp_path.iterdir())
+
+
+@pytest.mark.parametrize("kind", ["fifo", "device", "folder"])
+def test_evaluate_refuses_a_model_that_is_not_a_regular_file(tmp_path, kind):
+    """A FIFO given as the model used to wait for a writer forever, /dev/zero never ended."""
+    import os
+    import subprocess
+    import sys
+
+    model = {"fifo": tmp_path / "model.json", "device": "/dev/zero", "folder": tmp_path}[kind]
+    if kind == "fifo":
+        os.mkfifo(model)
+    data = tmp_path / "d.csv"
+    data.write_text("t,q1,q2,dq1,dq2,tau1,tau2\n0,0,0,0,0,0,0\n")
+    r = subprocess.run([sys.executable, "-m", "minparam_cli", "evaluate", str(model), str(data)],
+                       capture_output=True, text=True, timeout=20)
+    assert r.returncode == 2 and "expected a regular file" in r.stderr and r.stderr.count("\n") == 1

@@ -58,10 +58,12 @@ def _evaluate(model, data, which, predictions, fmt, output, robot):
 
     if predictions is not None and len(data) > 1:
         raise InputError(f"--predictions writes one file: give one DATA file (got {len(data)})")
-    try:
-        text = model.read_text(encoding="utf-8")
-    except (OSError, UnicodeDecodeError) as e:
-        raise ModelError(f"{model}: cannot read the model file ({getattr(e, 'strerror', None) or e})") from None
+    from minparam_cli.describe.safety import read_bounded
+
+    try:  # a regular file of bounded size (a FIFO or /dev/zero given as the model would never end)
+        text = read_bounded(model).decode("utf-8")
+    except UnicodeDecodeError as e:
+        raise ModelError(f"{model}: cannot read the model file (not UTF-8 text: {e.reason})") from None
     m = parse_model(text, str(model))
     robot_path = robot if robot is not None else Path(m.robot)
     if not robot_path.is_file():

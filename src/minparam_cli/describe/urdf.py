@@ -68,7 +68,7 @@ def load_urdf(path: Path, snap_angles: float | None = None, mimic: str = "couple
     masters = _mimic_masters(joints, src)
     if mimic == "fixed":
         for j in joints:
-            if j["mimic"] is not None:
+            if j["mimic"] is not None and j["type"] != "fixed":  # a <mimic> on a fixed joint moves nothing
                 j["frozen"] = _motion_matrix(j["type"], j["axis"], float(j["mimic"][2]))
                 j["type"] = "fixed"
     desc = _build(name, src, links, joints, floating_base)
