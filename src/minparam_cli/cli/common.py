@@ -173,28 +173,80 @@ def guarded(fn: Callable) -> Callable:
     return wrapper
 
 
+STDOUT = "-"  # `-o -`: the output goes to stdout
+
+
+def is_stdout(path) -> bool:
+    """True for the output name ``-`` (stdout)."""
+    return path is not None and str(path) == STDOUT
+
+
+def output_target(path: Path) -> tuple[Path, bool]:
+    """Where an output name really writes, and whether that is a regular file to replace atomically.
+
+    A symlink (or a chain of them) is followed to its target, so that the link stays a link and
+    its target receives the new contents.  A character device, FIFO, socket or other special file
+    is written through in place (``-o /dev/null``, a named pipe): it cannot be replaced by a rename.
+    A folder, a link loop, or a missing output folder is refused before any work is done."""
+    path = Path(path)
+    target = Path(os.path.realpath(path)) if path.is_symlink() else path
+    if path.is_symlink() and target.is_symlink():  # realpath gave up: a loop
+        raise InputError(f"{path}: symbolic link loop; expected an output file name")
+    if target.is_dir():
+        raise InputError(f"{path}: is a folder; expected an output file name")
+    if target.exists() and not target.is_file():
+        return target, False
+    directory = target.parent if str(target.parent) else Path(".")
+    if not directory.is_dir():
+        where = f"output folder {directory}" if target == path else f"the folder {directory} of its link target"
+        raise InputError(f"{path}: {where} does not exist")
+    return target, True
+
+
+def check_output_path(path: Path) -> None:
+    """An output file name must name a file in an existing folder (or ``-``, or a special file);
+    refused before any work is done (a command that writes two files checks both first, so that a
+    failure leaves neither)."""
+    if not is_stdout(path):
+        output_target(Path(path))
+
+
 def atomic_write(path: Path, write: Callable[[str], None], suffix: str = ".tmp") -> None:
-    """Create ``path`` all at once: ``write`` fills a temporary file in the same folder,
-    which is then renamed over ``path``.  A failure leaves no file behind."""
+    """Write one output file, never leaving a partial one.
+
+    ``write`` fills the file named by its argument.  For a regular file (new or existing, or the
+    target of a symlink) that is a temporary file in the same folder, renamed over the target; the
+    file keeps its permission bits if it existed, otherwise it gets 0666 less the umask.  A special
+    file (a device, a FIFO) is written through directly.  ``-`` writes to stdout (through a
+    temporary file, so that ``write`` may be any file writer)."""
     import tempfile  # only when writing a file: not on the start-up path of every command
 
+    if is_stdout(path):
+        _write_stdout(write, suffix)
+        return
     path = Path(path)
-    check_output_path(path)
-    if path.exists() and not path.is_file():  # /dev/null, /dev/stdout, a FIFO: written in place, never replaced
+    target, regular = output_target(path)
+    if not regular:
         try:
-            write(str(path))
+            write(str(target))
         except OSError as e:
             raise ComputationError(f"{path}: cannot write ({e.strerror})") from None
         return
-    directory = path.parent if str(path.parent) else Path(".")
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=suffix, dir=directory)
+    directory = target.parent if str(target.parent) else Path(".")
+    try:
+        mode = target.stat().st_mode & 0o7777 if target.exists() else None
+        fd, tmp = tempfile.mkstemp(prefix=f".{target.name}.", suffix=suffix, dir=directory)
+    except OSError as e:
+        raise ComputationError(f"{path}: cannot write ({e.strerror})") from None
     os.close(fd)
     try:
         write(tmp)
-        umask = os.umask(0)
-        os.umask(umask)
-        os.chmod(tmp, 0o666 & ~umask)  # mkstemp makes 0600; give the file the usual permissions
-        os.replace(tmp, path)
+        if mode is None:
+            umask = os.umask(0)
+            os.umask(umask)
+            mode = 0o666 & ~umask  # mkstemp makes 0600; give a new file the usual permissions
+        os.chmod(tmp, mode)
+        os.replace(tmp, target)
     except OSError as e:
         raise ComputationError(f"{path}: cannot write ({e.strerror})") from None
     finally:
@@ -202,21 +254,27 @@ def atomic_write(path: Path, write: Callable[[str], None], suffix: str = ".tmp")
             os.unlink(tmp)
 
 
-def check_output_path(path: Path) -> None:
-    """An output file name must name a file in an existing folder; refused before any work is done
-    (a command that writes two files checks both first, so that a failure leaves neither)."""
-    path = Path(path)
-    if path.is_dir():
-        raise InputError(f"{path}: is a folder; expected an output file name")
-    directory = path.parent if str(path.parent) else Path(".")
-    if not directory.is_dir():
-        raise InputError(f"{path}: output folder {directory} does not exist")
+def _write_stdout(write: Callable[[str], None], suffix: str) -> None:
+    """Run ``write`` on a temporary file, then copy its bytes to stdout."""
+    import shutil
+    import tempfile
+
+    fd, tmp = tempfile.mkstemp(prefix=".minparam-stdout.", suffix=suffix)
+    os.close(fd)
+    try:
+        write(tmp)
+        sys.stdout.flush()
+        with open(tmp, "rb") as fh:
+            shutil.copyfileobj(fh, sys.stdout.buffer)
+        sys.stdout.buffer.flush()
+    finally:
+        os.unlink(tmp)
 
 
 def write_output(text: str, output: Path | None) -> None:
-    """Write to stdout, or atomically to ``output``."""
+    """Write to stdout (no output, or ``-``), or to ``output`` through ``atomic_write``."""
     text = text if text.endswith("\n") else text + "\n"
-    if output is None:
+    if output is None or is_stdout(output):
         sys.stdout.write(text)
         sys.stdout.flush()
         return

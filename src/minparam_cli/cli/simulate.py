@@ -8,9 +8,7 @@ from __future__ import annotations
 
 import io
 import json
-import os
 import sys
-import tempfile
 from enum import Enum
 from pathlib import Path
 from typing import Optional
@@ -18,7 +16,7 @@ from typing import Optional
 import numpy as np
 import typer
 
-from minparam_cli.cli.common import MimicMode, guarded, mimic_option, write_output
+from minparam_cli.cli.common import MimicMode, atomic_write, check_output_path, guarded, is_stdout, mimic_option, write_output
 from minparam_cli.errors import InputError
 
 HELP = (
@@ -92,9 +90,11 @@ def _simulate(robot, trajectory, effects, strength, noise, noise_q, seed, durati
     if seed < 0:
         raise InputError(f"--seed must be >= 0, got {seed}")
     data_format = _output_format(output)
+    if is_stdout(truth) and (output is None or is_stdout(output)):
+        raise InputError("--truth -: the data already go to stdout; give --truth or -o a file name")
     for path in (output, truth):
         if path is not None:
-            _check_folder(Path(path))
+            check_output_path(Path(path))
     from minparam_cli.pipeline import require_fixed_base
 
     chain = build_chain(load_description(robot, mimic=MimicMode(mimic).value))
@@ -134,7 +134,7 @@ def register(app: typer.Typer) -> None:
 
 
 def _output_format(output: Path | None) -> str:
-    if output is None:
+    if output is None or is_stdout(output):
         return "csv"
     suffix = Path(output).suffix.lower()
     if suffix not in (".csv", ".npz"):
@@ -142,32 +142,14 @@ def _output_format(output: Path | None) -> str:
     return suffix[1:]
 
 
-def _check_folder(path: Path) -> None:
-    """Both outputs (data and --truth) are checked before anything is written: a failure leaves neither."""
-    from minparam_cli.cli.common import check_output_path
-
-    check_output_path(path)
-
-
 def write_npz(arrays: dict[str, np.ndarray], output: Path) -> None:
-    """np.savez to a temporary file in the output's folder, then rename (a failed run leaves no file)."""
-    output = Path(output)
-    _check_folder(output)
-    folder = output.parent if str(output.parent) else Path(".")
-    fd, tmp = tempfile.mkstemp(prefix=f".{output.name}.", suffix=".tmp", dir=folder)
-    umask = os.umask(0)
-    os.umask(umask)
-    os.fchmod(fd, 0o666 & ~umask)
-    try:
-        with os.fdopen(fd, "wb") as fh:
+    """np.savez through ``atomic_write`` (a failed run leaves no file; a symlink's target is written)."""
+
+    def write(tmp: str) -> None:
+        with open(tmp, "wb") as fh:
             np.savez(fh, **arrays)
-        os.replace(tmp, output)
-    except BaseException:
-        try:
-            os.unlink(tmp)
-        except OSError:
-            pass
-        raise
+
+    atomic_write(Path(output), write)
 
 
 # --- pure renderers ----------------------------------------------------------------------------------
@@ -242,7 +224,7 @@ def summary_text(sim, robot_name: str, seed: int, output: Path | None, truth: Pa
         lines.append("effects    none")
     noise = f"torque σ {o.noise:g}" + (f", q σ {o.noise_q:g}" if o.noise_q > 0 else "")
     lines.append(f"noise      {noise}")
-    wrote = [str(p) for p in (output, truth) if p is not None]
+    wrote = ["stdout" if is_stdout(p) else str(p) for p in (output, truth) if p is not None]
     if wrote:
         lines.append("wrote      " + ", ".join(wrote))
     return "\n".join(lines) + "\n"
