@@ -209,7 +209,7 @@ def test_every_command_refuses_a_bad_output_before_any_work(app, tmp_path, where
         ["simulate", PLANAR, "--duration", "1", "-o", str(bad) if where != "missing" else str(bad.with_suffix(".csv"))],
         ["simulate", PLANAR, "--duration", "1", "-o", str(tmp_path / "ok.csv"), "--truth", str(bad)],
         ["singular", PLANAR, "--q", "10,20", "-o", str(bad)],
-        ["platform", "ik", "robots/platforms/dodekapod_dang2013.yaml", "--pose", "0,0,200,5,-3,10", "-o", str(bad)],
+        ["platform", "ik", "robots/dodekapod_dang2013.yaml", "--pose", "0,0,200,5,-3,10", "-o", str(bad)],
     ]
     for argv in lines:
         r = runner.invoke(app, argv)

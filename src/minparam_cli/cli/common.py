@@ -211,6 +211,20 @@ def check_output_path(path: Path) -> None:
         output_target(Path(path))
 
 
+def output_folder(path: Path, flag: str) -> Path:
+    """A folder for output files (``identify --plot figs/``), created with its parents when missing.
+
+    An existing file of that name, or a folder that cannot be created, is refused in one line."""
+    path = Path(path)
+    if path.exists() and not path.is_dir():
+        raise InputError(f"{flag} {path}: exists and is not a folder")
+    try:
+        path.mkdir(parents=True, exist_ok=True)
+    except OSError as e:
+        raise InputError(f"{flag} {path}: cannot create the folder ({e.strerror})") from None
+    return path
+
+
 def atomic_write(path: Path, write: Callable[[str], None], suffix: str = ".tmp") -> None:
     """Write one output file, never leaving a partial one.
 

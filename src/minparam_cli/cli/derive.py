@@ -94,7 +94,7 @@ def _derive(paths, method, fmt, friction, rotor_inertia, gravity, samples, seed,
         results = run_batch(derive_file, files, (opts,), jobs, progress=bar)
     finally:
         bar.close()
-    write_output(render_batch(results, fmt), output)
+    write_output(render_batch(results, fmt, reports=not any_folder), output)
     failed = [r for r in results if not r["ok"] and r["status"] == "error"]
     if not quiet:
         for r in results:
@@ -131,7 +131,11 @@ def _summary_rows(results: list[dict]) -> list[tuple]:
     return rows
 
 
-def render_batch(results: list[dict], fmt: Format) -> str:
+def render_batch(results: list[dict], fmt: Format, reports: bool = True) -> str:
+    """Several robots: JSON items, or each robot's report followed by the summary table.
+
+    In table format the reports are left out when ``reports`` is False (a folder was given: the
+    summary is what one reads of a folder of robots); robots named one by one get theirs."""
     import json
 
     from tabulate import tabulate
@@ -148,7 +152,10 @@ def render_batch(results: list[dict], fmt: Format) -> str:
         return json.dumps(items, indent=2, ensure_ascii=False)
     headers = ["robot", "file", "dof", "standard", "base", "time s", "status"]
     if fmt == Format.table:
-        return tabulate(_summary_rows(results), headers=headers, tablefmt="simple")
+        summary = tabulate(_summary_rows(results), headers=headers, tablefmt="simple")
+        if not reports:
+            return summary
+        return "\n\n".join([render(r["result"], fmt) for r in results if r["ok"]] + [summary])
     parts = [render(r["result"], fmt) for r in results if r["ok"]]
     if fmt == Format.markdown:
         parts.append(tabulate(_summary_rows(results), headers=headers, tablefmt="github"))

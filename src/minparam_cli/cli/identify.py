@@ -134,8 +134,10 @@ def _identify(robot, data, validate, test, split, columns, cutoff, force_filter,
         raise typer.BadParameter("must be in [0, 1)", param_hint="--min-gain")
     if not (math.isfinite(coulomb_smoothing) and coulomb_smoothing >= 0):
         raise typer.BadParameter("must be a finite velocity >= 0 (0: sign)", param_hint="--coulomb-smoothing")
-    if plot is not None and not plot.is_dir():
-        raise typer.BadParameter(f"{plot} is not a folder", param_hint="--plot")
+    if plot is not None:
+        from minparam_cli.cli.common import output_folder
+
+        output_folder(plot, "--plot")  # created when missing
     if not (math.isfinite(prior_weight) and prior_weight > 0):
         raise typer.BadParameter("must be a positive number", param_hint="--prior-weight")
     if prior != Prior.none and not physical:

@@ -11,7 +11,7 @@ from typing import Optional
 
 import typer
 
-from minparam_cli.cli.common import Progress, guarded, parse_floats, save_png, write_output
+from minparam_cli.cli.common import Progress, check_output_path, guarded, parse_floats, save_png, write_output
 from minparam_cli.errors import DescriptionError, InputError
 
 HELP = "Kinematics of parallel platforms: hexapods and the dodekapod (Dang 2013). Inverse, forward (every assembly mode), workspace."
@@ -261,6 +261,9 @@ def _workspace(file, samples, orientation, seed, plot, fmt, output, quiet):
                                    "(give 'limits' or 'leg_limits')", str(file), f"legs[{k + 1}]")
     if plot is not None and Path(plot).suffix.lower() != ".png":
         raise typer.BadParameter("the plot is written as PNG; use a .png file name", param_hint="--plot")
+    for path in (plot, output):  # both checked before the sampling: a failure leaves neither
+        if path is not None:
+            check_output_path(Path(path))
     model = platform_model(desc)
     box = list(default_box(model, dict(desc.workspace)))
     if orientation is not None:
@@ -275,9 +278,12 @@ def _workspace(file, samples, orientation, seed, plot, fmt, output, quiet):
     finally:
         bar.close()
     d = rep.workspace_dict(model, result, time.perf_counter() - t0)
-    text = _render(d, fmt, rep.workspace_table)
     if plot is not None:
         save_png(workspace_figure(model, result, desc.length_unit), Path(plot))
+        d["plot"] = {"file": str(plot)}
+    text = _render(d, fmt, rep.workspace_table)
+    if plot is not None and fmt != OutFormat.json:
+        text = text.rstrip("\n") + f"\n\nplot of the reachable positions written to {plot}"
     write_output(text, output)
 
 

@@ -139,7 +139,7 @@ def singular(
     fmt: OutputFormat = typer.Option(OutputFormat.table, "--format", "-f", help="Output format."),
     output: Path = typer.Option(None, "--output", "-o", dir_okay=False, help="Write the output to this file (atomically) instead of stdout."),
     seed: int = typer.Option(0, "--seed", help="Seed of the random draws of the nearest-twist check (reported)."),
-    quiet: bool = typer.Option(False, "--quiet", help="No progress bar."),
+    quiet: bool = typer.Option(False, "--quiet", "-q", help="No progress bar."),
 ):
     from minparam_cli.chain import build_chain
     from minparam_cli.describe import load_description

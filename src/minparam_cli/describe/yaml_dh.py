@@ -183,7 +183,8 @@ def _friction(v: Any, src: str, where: str) -> tuple[str, ...]:
 
 
 def parse_angle(v: Any, unit: str, src: str, where: str) -> tuple[float, Fraction | None]:
-    """Angle -> (radians, exact degrees or None).  Accepts numbers and 'pi/2'-style strings."""
+    """Angle -> (radians, exact degrees or None).  Accepts numbers, and 'pi/2'-style strings under
+    ``angle: rad`` (under ``angle: deg`` they are refused: the file would mix two angle units)."""
     if isinstance(v, str):
         m = _PI_RE.match(v) if len(v) <= 64 else None
         if not m:
@@ -196,6 +197,9 @@ def parse_angle(v: Any, unit: str, src: str, where: str) -> tuple[float, Fractio
         deg = num / den * 180
         if abs(deg) > MAX_ABS_VALUE:
             raise DescriptionError(f"{v!r} is out of range: expected at most {MAX_ABS_VALUE:g} degrees", src, where)
+        if unit == "deg":  # a multiple of pi is a value in radians: one file, one angle unit
+            raise DescriptionError(f"{v!r} is in radians, but units.angle is 'deg'; write {float(deg):g} "
+                                   "or set units: {angle: rad}", src, where)
         return float(deg) * math.pi / 180, deg
     x = _number(v, src, where)
     if unit == "deg":

@@ -49,11 +49,35 @@ def render_table(r: dict) -> str:
     out = [head, "", body]
     if r["unidentifiable"]:
         out += ["", f"no effect ({len(r['unidentifiable'])}): " + " ".join(r["unidentifiable"])]
+    names = _joint_rows(r)
+    if names:
+        out += ["", columns(names, JOINT_HEADERS, right=(0, 4))]
     out += _geometry_notes(r)
     out += _symbolic_footer(r)
     out.append("")
     out.append(f"units: SI (kg, m, kg·m, kg·m²); elapsed {r['elapsed_s']:.3f} s")
     return "\n".join(out)
+
+
+JOINT_HEADERS = ("j", "joint", "link", "type", "parent")
+
+
+def _joint_rows(r: dict) -> list[tuple]:
+    """For a URDF robot: which joint and link the index j of a parameter name (XX3, MXR3) stands for.
+
+    A YAML arm numbers its rows itself; a URDF's order comes from walking its tree, so it is named.
+    With a floating base, j = 0 is the free root body."""
+    if r.get("convention") != "urdf":
+        return []
+    rows = []
+    for link in r.get("links", []):
+        if link.get("index") is None:
+            continue
+        if link["index"] == 0:  # the free root body, carried by the six base coordinates
+            rows.append((0, "(floating base)", link["link"], "6-DOF", ""))
+        else:
+            rows.append((link["index"], link["joint"], link["link"], link["type"], "" if link["parent"] is None else link["parent"]))
+    return rows
 
 
 def _geometry_notes(r: dict) -> list[str]:
@@ -90,6 +114,10 @@ def render_markdown(r: dict) -> str:
         lines.append(f"| {i + 1} | `{b['name']}` | `{b.get('symbolic_text') or b['expression']}` |")
     if r["unidentifiable"]:
         lines += ["", "No effect: " + ", ".join(f"`{n}`" for n in r["unidentifiable"])]
+    names = _joint_rows(r)
+    if names:
+        lines += ["", "| " + " | ".join(JOINT_HEADERS) + " |", "|---|---|---|---|---|"]
+        lines += ["| " + " | ".join(f"`{c}`" if i in (1, 2) and c and not str(c).startswith("(") else str(c) for i, c in enumerate(row)) + " |" for row in names]
     notes = [ln for ln in _geometry_notes(r) if ln]
     if notes:
         lines += ["", "```", *notes, "```"]
