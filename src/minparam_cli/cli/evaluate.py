@@ -10,6 +10,7 @@ from typing import List, Optional
 import typer
 
 from minparam_cli.cli.common import guarded, write_output
+from minparam_cli.cli.identify import TimeUnit, time_unit_option, topic_option
 
 HELP = ("Predict joint torques with a model saved by 'identify --save-model' and report the errors on data files: "
         "RMS per joint, total RMS and ‖r‖/‖τ‖, per file and pooled.")
@@ -21,8 +22,9 @@ Examples:
 
 \b
 The data are read with the model's settings (columns, cut-off, filter, decimation, rate,
-standstill trimming).  The robot file is the one the model names, or --robot; its SHA-256
-must be the model's.  Exit codes: 0 success, 1 failed computation, 2 bad input.
+standstill trimming); --time-unit and --topic say how to read these files.  The robot
+file is the one the model names, or --robot; its SHA-256 must be the model's.
+Exit codes: 0 success, 1 failed computation, 2 bad input.
 """
 
 
@@ -38,22 +40,27 @@ class Fmt(str, Enum):
 
 def evaluate(
     model: Path = typer.Argument(..., help="Model file written by 'identify --save-model'.", show_default=False),
-    data: List[Path] = typer.Argument(..., help="Data files (CSV with a header row, or .npz).", show_default=False),
+    data: List[Path] = typer.Argument(..., help="Data files (CSV with a header row, .npz, or ROS bags).", show_default=False),
     which: Optional[Which] = typer.Option(None, "--model", help="Parameters to use: the physical fit (default when the model has one) or the unconstrained fit."),
     predictions: Optional[Path] = typer.Option(None, "--predictions", help="Write t, tau_meas1..n, tau_pred1..n of the (one) DATA file as CSV (atomically)."),
     fmt: Fmt = typer.Option(Fmt.table, "--format", "-f", help="Output format."),
     output: Optional[Path] = typer.Option(None, "--output", "-o", help="Write the report to this file (atomically)."),
     robot: Optional[Path] = typer.Option(None, "--robot", help="Robot file to use instead of the one the model names (same SHA-256)."),
+    time_unit: TimeUnit = time_unit_option(),
+    topic: Optional[str] = topic_option(),
 ):
-    _evaluate(model, data, which, predictions, fmt, output, robot)
+    _evaluate(model, data, which, predictions, fmt, output, robot, time_unit, topic)
 
 
 @guarded
-def _evaluate(model, data, which, predictions, fmt, output, robot):
+def _evaluate(model, data, which, predictions, fmt, output, robot, time_unit, topic):
+    from dataclasses import replace
+
     from minparam_cli.cli.model_files import read_robot_bytes
     from minparam_cli.errors import InputError
     from minparam_cli.identify.evaluation import evaluate as run
     from minparam_cli.identify.model import ModelError, check_robot, model_design, parse_model
+    from minparam_cli.measured.rosbag import coordinate_names, is_bag
     from minparam_cli.pipeline import load_chain, require_fixed_base
 
     if predictions is not None and len(data) > 1:
@@ -70,7 +77,7 @@ def _evaluate(model, data, which, predictions, fmt, output, robot):
         raise ModelError(f"{model}: robot file {robot_path} not found" + ("" if robot else " (give it with --robot)"))
     check_robot(m, str(model), str(robot_path), read_robot_bytes(robot_path))
     for p in data:
-        if not p.is_file():
+        if not p.is_file() and not (p.is_dir() and is_bag(p)):
             raise InputError(f"{p}: data file not found")
     _, chain = load_chain(robot_path, m.load.derive_options(m.seed))
     require_fixed_base(chain, "evaluate")
@@ -78,6 +85,8 @@ def _evaluate(model, data, which, predictions, fmt, output, robot):
     design = model_design(m, chain, str(model))
     kind = (which.value if which is not None else ("physical" if m.physical is not None else "fit"))
     theta = m.fit_theta(kind)
+    # how the files are read, beside the model's data settings: their time unit, a bag's topic and joint names
+    m = replace(m, data=replace(m.data, time_unit=TimeUnit(time_unit).value, topic=topic, joint_names=coordinate_names(chain)))
 
     if predictions is None:
         result = run(design, theta, data, m.data, kind)

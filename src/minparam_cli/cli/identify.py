@@ -13,7 +13,7 @@ import typer
 from minparam_cli.cli.common import MimicMode, Progress, guarded, mimic_option, parse_floats, save_png, write_output
 
 HELP = (
-    "Identify the base parameters from measured joint data (CSV with a header row, or .npz), find what the "
+    "Identify the base parameters from measured joint data (CSV with a header row, .npz, or a ROS bag), find what the "
     "residual says the model lacks (friction, rotor inertia, springs, cogging, offsets, ...), add it, and "
     "report the error before and after: effects are chosen on selection data, and the final figures come from "
     "test data that chose nothing."
@@ -25,12 +25,16 @@ Examples:
   minparam identify robots/panda.yaml ../shared/data/panda-gaz2019/panda_exciting_traj_1.csv --plot figs/
   minparam identify robots/panda.yaml run1.csv --validate run2.csv --test run3.csv --format json -o report.json
   minparam identify robots/ur5.yaml log.csv --columns q=pos,dq=vel,tau=effort --cutoff 8
+  minparam identify robots/ur5.yaml log.csv --columns 't=stamp,q=pos_{},tau={}_effort' --time-unit ms
+  minparam identify robots/ur5.urdf run.mcap --topic /joint_states    (needs the [ros] extra)
 
 \b
 Data: columns t, q1..qn, dq1..dqn, optional ddq1..ddqn, tau1..taun (rad, m, N·m, N).
 Missing dq or ddq come from a zero-phase Butterworth low-pass (--cutoff, default 5 Hz)
 and differentiation, then decimation.  NaN rows, non-increasing times and repeated
-(sample-and-hold) rows are dropped and counted.
+(sample-and-hold) rows are dropped and counted.  ROS bags (.mcap, .db3, a rosbag2
+folder, .bag): sensor_msgs/JointState, joints matched by name, header stamps, effort
+as torque.
 
 Exit codes: 0 success, 1 failed computation, 2 bad input.
 """
@@ -47,15 +51,27 @@ class Fmt(str, Enum):
 
 
 def _columns(text: str) -> dict[str, str]:
-    out = {}
-    for item in filter(None, (x.strip() for x in text.split(","))):
-        if "=" not in item:
-            raise typer.BadParameter(f"expected KEY=NAME items, got {item!r}", param_hint="--columns")
-        k, v = (x.strip() for x in item.split("=", 1))
-        if k not in ("t", "q", "dq", "ddq", "tau") or not v:
-            raise typer.BadParameter(f"keys are t, q, dq, ddq, tau; got {item!r}", param_hint="--columns")
-        out[k] = v
-    return out
+    from minparam_cli.measured.columns import parse_columns
+
+    try:
+        return parse_columns(text)
+    except ValueError as e:
+        raise typer.BadParameter(str(e), param_hint="--columns") from None
+
+
+class TimeUnit(str, Enum):
+    s = "s"
+    ms = "ms"
+    us = "us"
+    ns = "ns"
+
+
+def topic_option():
+    return typer.Option(None, "--topic", help="ROS bag: the sensor_msgs/JointState topic (default: the bag's only one).")
+
+
+def time_unit_option():
+    return typer.Option(TimeUnit.s, "--time-unit", help="Unit of the time column of a CSV or .npz file (a bag's header stamps are always read as ns).")
 
 
 def identify(
@@ -64,7 +80,9 @@ def identify(
     validate: Optional[Path] = typer.Option(None, "--validate", help="Selection data (scores the candidate effects) in a second file, instead of a block of DATA."),
     test: List[Path] = typer.Option([], "--test", help="Test data file, touched only by the final report (repeatable); instead of the last block of DATA."),
     split: str = typer.Option("0.6,0.2,0.2", "--split", help="Shares of DATA's time span for fit, selection and test, in that order (shares given as files are dropped)."),
-    columns: str = typer.Option("", "--columns", help="Column names: t=time,q=pos,dq=vel,ddq=acc,tau=effort (q, dq, ddq, tau are prefixes)."),
+    columns: str = typer.Option("", "--columns", help="Columns: t=time,q=pos,tau=effort (q, dq, ddq, tau: a prefix before the joint number 1..n or 0..n-1, a pattern with {} for the number as tau={}_effort, or a list in joint order as q=a|b|c)."),
+    time_unit: TimeUnit = time_unit_option(),
+    topic: Optional[str] = topic_option(),
     cutoff: float = typer.Option(5.0, "--cutoff", help="Low-pass cut-off (Hz) when velocities or accelerations are derived."),
     force_filter: bool = typer.Option(False, "--filter", help="Filter and differentiate even when dq and ddq are given."),
     rate: Optional[float] = typer.Option(None, "--rate", help="Sampling rate (Hz) to resample to; default: the median step."),
@@ -103,13 +121,14 @@ def _split(text: str) -> tuple[float, float, float]:
 
 
 @guarded
-def _identify(robot, data, validate, test, split, columns, cutoff, force_filter, rate, decimate, trim_still, still_speed,
+def _identify(robot, data, validate, test, split, columns, time_unit, topic, cutoff, force_filter, rate, decimate, trim_still, still_speed,
               friction, rotor_inertia, coulomb_smoothing, gravity, effects, no_diagnose, min_gain, physical, prior,
               prior_weight, ols, fmt, output, plot, seed, save_model, export_urdf, export_yaml, mimic, quiet):
     from minparam_cli.identify.data import DataOptions
     from minparam_cli.identify.diagnose import DiagnosisOptions
     from minparam_cli.identify.effects import EFFECT_IDS
     from minparam_cli.identify.stage import IdentifyOptions, identify as run
+    from minparam_cli.measured.rosbag import coordinate_names
     from minparam_cli.params import FRICTION_KINDS
     from minparam_cli.pipeline import DeriveOptions, load_chain, require_fixed_base
 
@@ -162,7 +181,8 @@ def _identify(robot, data, validate, test, split, columns, cutoff, force_filter,
     opts = IdentifyOptions(
         data=DataOptions(columns=_columns(columns), cutoff_hz=cutoff, force_filter=force_filter,
                          decimate=decimate, step_s=(1.0 / rate if rate else None),
-                         trim_still_s=trim_still, still_speed=still_speed),
+                         trim_still_s=trim_still, still_speed=still_speed, time_unit=TimeUnit(time_unit).value,
+                         topic=topic, joint_names=coordinate_names(chain)),
         split=shares,
         validate=str(validate) if validate else None,
         tests=tuple(str(t) for t in test),

@@ -42,7 +42,7 @@ STAMP_ULPS = 2  # two time stamps' steps that differ by at most this many units 
 
 @dataclass(frozen=True)
 class DataOptions:
-    columns: dict[str, str] = field(default_factory=dict)  # key -> column name (t) or prefix (q, dq, ...)
+    columns: dict[str, str] = field(default_factory=dict)  # key -> column name (t) or spec (q, dq, ...: measured/columns.py)
     cutoff_hz: float = DEFAULT_CUTOFF_HZ
     force_filter: bool = False
     chunk_rows: int = CHUNK_ROWS
@@ -50,6 +50,9 @@ class DataOptions:
     step_s: float | None = None  # sampling step; None: from the steps of the first chunk (see sampling_step)
     still_speed: float = 0.01  # rad/s or m/s: joint j is still at a sample when |dq_j| < still_speed
     trim_still_s: float | None = None  # drop every run of all-joints-still samples longer than this (s); None: keep all
+    time_unit: str = "s"  # unit of a CSV or .npz time column: s, ms, us or ns (measured.columns.TIME_UNITS)
+    topic: str | None = None  # a ROS bag's JointState topic; None: the bag's only one
+    joint_names: tuple[str, ...] = ()  # names of the independent coordinates, in order (ROS bags match by name)
 
 
 @dataclass
@@ -166,7 +169,20 @@ def time_span(path: str | Path, opts: DataOptions) -> tuple[float, float]:
     """
     path = Path(path)
     name = opts.columns.get("t", "t")
+    from minparam_cli.measured.columns import TIME_UNITS
+    from minparam_cli.measured.rosbag import bag_time_span, is_bag
+
+    if is_bag(path):
+        return bag_time_span(path, len(opts.joint_names), opts)
+    first, last = _file_time_span(path, name, opts)
+    divisor = TIME_UNITS[opts.time_unit]
+    return first / divisor, last / divisor
+
+
+def _file_time_span(path: Path, name: str, opts: DataOptions) -> tuple[float, float]:
+    """time_span of an .npz or CSV file, in the file's time unit."""
     from minparam_cli.identify.reading import _short, open_npz, require_data_file
+    from minparam_cli.measured.columns import time_index
 
     require_data_file(path)
     if path.suffix.lower() == ".npz":
@@ -198,10 +214,7 @@ def time_span(path: str | Path, opts: DataOptions) -> tuple[float, float]:
         raise DataError(f"{path}: cannot read file ({e.strerror})") from e
     if start > 0:
         tail = tail[1:]  # the window starts inside a line: its first fragment is not a row
-    names = [h.strip() for h in header]
-    if name not in names:
-        raise DataError(f"{path}: missing time column '{name}' (use --columns t=NAME)")
-    k = names.index(name)
+    k = time_index(header, len(opts.joint_names), opts.columns, str(path))
     first = next((t for t in (_time_of(line, k) for line in head) if t is not None), None)
     last = max((t for t in (_time_of(line, k) for line in tail) if t is not None), default=None)
     if first is None or last is None:

@@ -10,7 +10,6 @@ messages are the same either way.
 from __future__ import annotations
 
 import contextlib
-import re
 import signal
 import sys
 import threading
@@ -22,58 +21,9 @@ import numpy as np
 
 from minparam_cli.errors import ComputationError, DataError
 from minparam_cli.identify.data import KEYS, DataOptions
+from minparam_cli.measured.columns import TIME_UNITS, column_indices
 
 BACKGROUND_BYTES = 64 * 2**20
-
-
-def _column_indices(header: list[str], n: int, opts: DataOptions, src: str) -> dict[str, list[int] | None]:
-    """Column index of t and of every joint's q, dq, ddq, tau (None for an absent dq or ddq).
-
-    The columns of a key are its prefix and the joint number, 1 to n (q1, q2, ...); a file whose
-    joint columns go beyond n, or stop short of it, is refused, in joint terms.
-    """
-    names = [h.strip() for h in header]
-    idx: dict[str, list[int] | None] = {}
-    for key in KEYS:
-        name = opts.columns.get(key, key)
-        if key == "t":
-            if name not in names:
-                raise DataError(f"{src}: missing time column '{name}' (use --columns t=NAME)")
-            idx[key] = [names.index(name)]
-            continue
-        numbered = re.compile(re.escape(name) + r"(0|[1-9][0-9]*)")
-        joints = sorted({int(m.group(1)) for m in map(numbered.fullmatch, names) if m})
-        wanted = [f"{name}{j}" for j in range(1, n + 1)]
-        if not joints:
-            if key in ("q", "tau"):
-                raise DataError(f"{src}: missing columns {wanted[0]}..{wanted[-1]} (use --columns {key}=PREFIX)")
-            idx[key] = None
-            continue
-        if joints != list(range(1, n + 1)):
-            raise DataError(f"{src}: {_joint_mismatch(name, joints, n)}")
-        idx[key] = [names.index(c) for c in wanted]
-    return idx
-
-
-def _joint_mismatch(prefix: str, joints: list[int], n: int) -> str:
-    """The data's joint columns ``joints`` (numbers after ``prefix``) against the robot's n joints, in words."""
-    robot = f"the robot has {n}"
-    if joints == list(range(1, len(joints) + 1)):  # q1..qm
-        shown = f"{prefix}1" if len(joints) == 1 else f"{prefix}1..{prefix}{len(joints)}"
-        m = len(joints)
-        return f"the data have {m} joint{'s' if m != 1 else ''} ({shown}), {robot}"
-    if joints == list(range(0, len(joints))):  # q0..q(m-1)
-        m = len(joints)
-        return (f"the data have {m} joint{'s' if m != 1 else ''} ({prefix}0..{prefix}{m - 1}), {robot} "
-                f"(columns are numbered from 1: {prefix}1..{prefix}{n})")
-    shown = ", ".join(f"{prefix}{j}" for j in joints[:8]) + (", ..." if len(joints) > 8 else "")
-    missing = [f"{prefix}{j}" for j in range(1, n + 1) if j not in joints]
-    extra = [f"{prefix}{j}" for j in joints if not 1 <= j <= n]
-    what = "; ".join(part for part in (
-        f"{', '.join(missing[:4])}{', ...' if len(missing) > 4 else ''} missing" if missing else "",
-        f"{', '.join(extra[:4])}{', ...' if len(extra) > 4 else ''} beyond joint {n}" if extra else "",
-    ) if part)
-    return f"the data have columns {shown}, {robot} joint{'s' if n != 1 else ''} ({what})"
 
 
 def _layout(present: dict[str, bool], n: int) -> dict[str, slice | int | None]:
@@ -94,7 +44,25 @@ def split(table: np.ndarray, layout: dict) -> dict:
 
 
 def raw_chunks(path: Path, n: int, opts: DataOptions) -> Iterator[tuple[np.ndarray, dict]]:
-    """Chunk by chunk: a table of the used columns (t, q, [dq], [ddq], tau) and its layout."""
+    """Chunk by chunk: a table of the used columns (t, q, [dq], [ddq], tau) and its layout, time in
+    seconds.  The format follows the name: a ROS bag (see ``measured.rosbag.is_bag``), .npz, or CSV."""
+    from minparam_cli.measured.rosbag import is_bag
+
+    path = Path(path)
+    if is_bag(path):
+        from minparam_cli.measured.rosbag import bag_chunks
+
+        yield from bag_chunks(path, n, opts)
+        return
+    divisor = TIME_UNITS[opts.time_unit]
+    for table, layout in _file_chunks(path, n, opts):
+        if divisor != 1.0:
+            table[:, 0] /= divisor  # a division: a stamp in ms, us or ns becomes the nearest double in s
+        yield table, layout
+
+
+def _file_chunks(path: Path, n: int, opts: DataOptions) -> Iterator[tuple[np.ndarray, dict]]:
+    """raw_chunks of an .npz or CSV file, time in the file's unit."""
     src = str(path)
     require_data_file(path)
     if path.suffix.lower() == ".npz":
@@ -149,7 +117,7 @@ def raw_chunks(path: Path, n: int, opts: DataOptions) -> Iterator[tuple[np.ndarr
         if not header_line.strip():
             raise DataError(f"{src}: empty file, expected a header row")
         header = header_line.strip().split(",")
-        idx = _column_indices(header, n, opts, src)
+        idx = column_indices(header, n, opts.columns, src)
         layout = _layout({k: ix is not None for k, ix in idx.items()}, n)
         used = [c for k in KEYS if idx[k] is not None for c in idx[k]]
         background = path.stat().st_size > BACKGROUND_BYTES and sys.platform.startswith("linux")

@@ -1,0 +1,16 @@
+"""Optional dependencies: imported when first needed, with one line naming the extra to install."""
+
+from __future__ import annotations
+
+import importlib
+
+from minparam_cli.errors import InputError
+
+
+def import_optional(module: str, extra: str, purpose: str):
+    """``module`` imported, or an InputError (exit code 2) that says which extra provides it."""
+    try:
+        return importlib.import_module(module)
+    except ImportError:
+        top = module.split(".")[0]
+        raise InputError(f"{purpose} needs the {top} library: pip install 'minparam[{extra}]'") from None
