@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import os
 import stat
+import struct
 from pathlib import Path
 from typing import Iterator
 
@@ -122,6 +123,26 @@ class _Bag:
         except Exception as e:  # noqa: BLE001 - a truncated or damaged record
             raise DataError(f"{self.src}: cannot read message {k + 1} on {self.topic} ({_short(e)})") from None
 
+    def stamps(self) -> Iterator[int]:
+        """The header stamps (ns) of the topic's messages, read from the serialized bytes without
+        decoding the rest: a JointState starts with its std_msgs/Header, whose stamp is (CDR, after the
+        4-byte encapsulation header) int32 sec, uint32 nanosec, or (ROS 1, after uint32 seq) the same
+        two 32-bit words, little-endian."""
+        offset = 4
+        k = 0
+        try:
+            for conn, _, raw in self.reader.messages(connections=self.connections):
+                k += 1
+                if len(raw) < offset + 8:
+                    raise DataError(f"{self.src}: message {k} on {self.topic} is {len(raw)} bytes, too short for a header")
+                big = self.reader.is2 and raw[1] == 0  # CDR encapsulation 0x0000: big-endian
+                sec, nsec = struct.unpack_from(">iI" if big else "<iI", raw, offset)
+                yield sec * 1_000_000_000 + nsec
+        except (MemoryError, DataError, GeneratorExit):
+            raise
+        except Exception as e:  # noqa: BLE001 - a truncated or damaged record
+            raise DataError(f"{self.src}: cannot read message {k + 1} on {self.topic} ({_short(e)})") from None
+
     def close(self) -> None:
         try:
             self.reader.close()
@@ -198,16 +219,17 @@ def _match(names: tuple[str, ...], joints: tuple[str, ...], src: str, topic: str
 
 
 def bag_time_span(path: Path, n: int, opts: DataOptions) -> tuple[float, float]:
-    """First and last usable header stamp of the topic (s); the bag's stamps are read once, streamed."""
+    """First and last header stamp (s) of the topic: the stamps alone are read (not decoded
+    messages), streamed.  The first is the first message's; the last is the largest."""
+    bag = _Bag(Path(path), opts)
     first = last = None
-    for table, _ in bag_chunks(path, n, opts):
-        t = table[:, 0]
-        t = t[np.isfinite(t)]
-        if not len(t):
-            continue
-        if first is None:
-            first = float(t[0])
-        last = max(float(t.max()), last) if last is not None else float(t.max())
+    try:
+        for ns in bag.stamps():
+            if first is None:
+                first = ns
+            last = ns if last is None else max(last, ns)
+    finally:
+        bag.close()
     if first is None or last is None or last <= first:
-        raise DataError(f"{path}: fewer than two time stamps on the JointState topic")
-    return first, last
+        raise DataError(f"{path}: fewer than two time stamps on {bag.topic}")
+    return first / 1e9, last / 1e9
