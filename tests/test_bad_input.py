@@ -195,3 +195,16 @@ def test_failed_run_writes_no_output_file(tmp_path):
     assert r.exit_code == 2
     assert not out.exists()
     assert not [p for p in tmp_path.iterdir() if p.name.startswith(".out.json")]
+
+
+def test_a_yaml_key_that_is_a_list_or_a_mapping_is_one_line(tmp_path):
+    """'? [1, 2]' makes a list key: hashing it raised TypeError (unhashable) inside the loader."""
+    from typer.testing import CliRunner
+
+    from minparam_cli.cli.app import app
+
+    for key in ("? [1, 2]\n: 3\n", "? {a: 1}\n: 3\n"):
+        p = tmp_path / "k.yaml"
+        p.write_text("name: x\n" + key)
+        r = CliRunner().invoke(app, ["derive", str(p)])
+        assert r.exit_code == 2 and "a key must be a plain value" in r.output and len(r.output.strip().splitlines()) == 1

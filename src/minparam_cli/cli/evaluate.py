@@ -66,9 +66,12 @@ def _evaluate(model, data, which, predictions, fmt, output, robot, time_unit, to
     if predictions is not None and len(data) > 1:
         raise InputError(f"--predictions writes one file: give one DATA file (got {len(data)})")
     from minparam_cli.describe.safety import read_bounded
+    from minparam_cli.errors import DescriptionError
 
     try:  # a regular file of bounded size (a FIFO or /dev/zero given as the model would never end)
         text = read_bounded(model).decode("utf-8")
+    except DescriptionError as e:
+        raise ModelError(f"cannot read the model file: {e}") from None
     except UnicodeDecodeError as e:
         raise ModelError(f"{model}: cannot read the model file (not UTF-8 text: {e.reason})") from None
     m = parse_model(text, str(model))

@@ -175,6 +175,11 @@ def _unique_key_loader():
             seen = set()
             for key_node, _ in node.value:
                 key = self.construct_object(key_node, deep=deep)
+                try:
+                    hash(key)
+                except TypeError:  # a mapping or a list used as a key ("? [1, 2]"): no field is named so
+                    raise yaml.constructor.ConstructorError(
+                        None, None, f"a key must be a plain value, not a {type(key).__name__}", key_node.start_mark) from None
                 if key in seen:
                     raise yaml.constructor.ConstructorError(None, None, f"duplicate key {key!r}", key_node.start_mark)
                 seen.add(key)
