@@ -73,6 +73,10 @@ class Chain:
     layout: ParamLayout
     phi_nominal: np.ndarray | None = None  # standard inertial params (10 n) if every link has them
     limits: tuple[tuple[float, float] | None, ...] = ()
+    # per joint: largest |q̇|, |q̈|, |τ| allowed (SI; None where the file gives none)
+    velocity_limits: tuple[float | None, ...] = ()
+    acceleration_limits: tuple[float | None, ...] = ()
+    effort_limits: tuple[float | None, ...] = ()
     tool: np.ndarray | None = None
     length_scale: float = 1.0
     # Coulomb friction columns: sign(qd) when 0, else the smooth tanh(qd / coulomb_smoothing) (rad/s or m/s)
@@ -349,6 +353,9 @@ def build_chain(
         layout=ParamLayout(desc.dof, tuple(tuple(e) for e in extras), numbers),
         phi_nominal=phi,
         limits=tuple(j.limits for j in desc.joints),
+        velocity_limits=tuple(j.max_velocity for j in desc.joints),
+        acceleration_limits=tuple(j.max_acceleration for j in desc.joints),
+        effort_limits=tuple(j.max_effort for j in desc.joints),
         tool=None if desc.tool is None else np.asarray(desc.tool, dtype=float),
         length_scale=float(max(lengths)) if lengths else 1.0,
         exact_source=None if values else desc,

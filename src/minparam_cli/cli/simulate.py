@@ -16,7 +16,7 @@ from typing import Optional
 import numpy as np
 import typer
 
-from minparam_cli.cli.common import MimicMode, atomic_write, check_output_path, guarded, is_stdout, mimic_option, write_output
+from minparam_cli.cli.common import MimicMode, atomic_write, check_output_path, guarded, is_stdout, mimic_option, warning_line, write_output
 from minparam_cli.errors import InputError
 
 HELP = (
@@ -124,6 +124,9 @@ def _simulate(robot, trajectory, effects, strength, noise, noise_q, seed, durati
         write_output(json_text(record), Path(truth))
     if not quiet:
         sys.stderr.write(summary_text(sim, chain.name, seed, output, truth))
+    for j in sim.limits.over_effort if sim.limits is not None else ():
+        warning_line(f"joint {j + 1}: max |tau| {sim.limits.max_abs_tau[j]:.4g} exceeds its effort limit "
+                     f"{sim.limits.effort[j]:g} (reported, not enforced: a slower motion lowers only its inertial part)")
 
 
 def register(app: typer.Typer) -> None:
@@ -224,6 +227,13 @@ def summary_text(sim, robot_name: str, seed: int, output: Path | None, truth: Pa
         lines.append("effects    none")
     noise = f"torque σ {o.noise:g}" + (f", q σ {o.noise_q:g}" if o.noise_q > 0 else "")
     lines.append(f"noise      {noise}")
+    lim = sim.limits
+    if lim is not None and lim.any_given():
+        for label, given, seen in (("|dq|", lim.velocity, lim.max_abs_dq), ("|ddq|", lim.acceleration, lim.max_abs_ddq),
+                                   ("|tau|", lim.effort, lim.max_abs_tau)):
+            if any(v is not None for v in given):
+                ratios = " ".join("-" if v is None else f"{x / v:.2f}" for v, x in zip(given, seen))
+                lines.append(f"{'limits' if label == '|dq|' else '':<10} max {label}/limit {ratios}")
     wrote = ["stdout" if is_stdout(p) else str(p) for p in (output, truth) if p is not None]
     if wrote:
         lines.append("wrote      " + ", ".join(wrote))

@@ -62,6 +62,10 @@ class JointRecord:
     extras: tuple[str, ...] = ()
     inertial: Inertial | None = None
     limits: tuple[float, float] | None = None
+    # largest |q̇| (rad/s or m/s), |q̈| (rad/s² or m/s²) and |τ| (N·m or N) allowed; None: not given
+    max_velocity: float | None = None
+    max_acceleration: float | None = None
+    max_effort: float | None = None
     # URDF <mimic>: (index of the independent joint that drives this one, multiplier, offset),
     # q_this = multiplier * q_master + offset; None for an independent joint
     mimic: tuple[int, float, float] | None = None

@@ -237,10 +237,20 @@ def _read_elements(root, src: str):
             hi = _number_attr(lim, "upper", src, f"{where}/limit", bound=False)
             if lo < hi and max(abs(lo), abs(hi)) <= MAX_ABS_VALUE:
                 limits = (lo, hi)
+        # <limit velocity= effort=>: positive values are limits; 0 or below (placeholders seen in real
+        # files, which derive does not need), absent or huge: no limit
+        rates = {"velocity": None, "effort": None}
+        if jtype in ("revolute", "prismatic", "continuous") and lim is not None:
+            for key in rates:
+                if lim.get(key) is not None:
+                    x = _number_attr(lim, key, src, f"{where}/limit", bound=False)
+                    if 0 < x <= MAX_ABS_VALUE:
+                        rates[key] = x
         joints.append(
             dict(
                 name=name, type=jtype, parent=parent.get("link"), child=child.get("link"),
                 xyz=xyz, rpy=list(rpy), rpy_deg=[None] * 3, axis=axis, limits=limits, mimic=mimic, frozen=None,
+                max_velocity=rates["velocity"], max_effort=rates["effort"],
             )
         )
     for j in joints:
@@ -329,6 +339,8 @@ def _joint_record(j: dict, body_parent: np.ndarray, parent: int) -> dict:
         pre_fixed=None if np.array_equal(body_parent, np.eye(4)) else tuple(tuple(float(v) for v in r) for r in body_parent),
         axis=tuple(float(v) for v in axis / np.linalg.norm(axis)),
         limits=j["limits"],
+        max_velocity=j.get("max_velocity"),
+        max_effort=j.get("max_effort"),
     )
 
 

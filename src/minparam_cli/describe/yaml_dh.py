@@ -34,7 +34,8 @@ ANGLE_UNITS = ("deg", "rad")
 CONVENTIONS = ("dh", "mdh")
 JOINT_TYPES = ("revolute", "prismatic")
 TOP_KEYS = {"kind", "name", "convention", "units", "gravity", "friction", "rotor_inertia", "tool", "joints", "description"}
-JOINT_KEYS = {"name", "type", "alpha", "a", "d", "theta", "friction", "rotor_inertia", "limits", "inertial"}
+JOINT_KEYS = {"name", "type", "alpha", "a", "d", "theta", "friction", "rotor_inertia", "limits", "velocity", "acceleration",
+              "effort", "inertial"}
 _PI_RE = re.compile(r"^\s*([+-]?(?:\d+(?:\.\d*)?|\.\d+)?)\s*\*?\s*pi\s*(?:/\s*(\d+(?:\.\d*)?))?\s*$")
 
 
@@ -118,6 +119,12 @@ def description_from_mapping(doc: Any, src: str) -> RobotDescription:
             if not lo < hi:
                 raise DescriptionError(f"lower limit {lo} is not below upper limit {hi}", src, f"{where}.limits")
             limits = (lo * unit, hi * unit)
+        # speed limits in the file's units per s and per s² (deg/s under angle: deg, mm/s under length: mm);
+        # effort always in N·m (revolute) or N (prismatic)
+        rate_unit = (math.pi / 180 if au == "deg" else 1.0) if jtype == "revolute" else float(scale)
+        max_velocity = _positive(jd.get("velocity"), rate_unit, src, f"{where}.velocity")
+        max_acceleration = _positive(jd.get("acceleration"), rate_unit, src, f"{where}.acceleration")
+        max_effort = _positive(jd.get("effort"), 1.0, src, f"{where}.effort")
         inertial = _inertial(jd.get("inertial"), scale, src, f"{where}.inertial")
         joints.append(
             JointRecord(
@@ -129,6 +136,9 @@ def description_from_mapping(doc: Any, src: str) -> RobotDescription:
                 extras=tuple(sorted(extras)),
                 inertial=inertial,
                 limits=limits,
+                max_velocity=max_velocity,
+                max_acceleration=max_acceleration,
+                max_effort=max_effort,
             )
         )
     return RobotDescription(
@@ -141,6 +151,16 @@ def description_from_mapping(doc: Any, src: str) -> RobotDescription:
         units={"length": lu, "angle": au},
         tool=tool,
     )
+
+
+def _positive(v: Any, unit: float, src: str, where: str) -> float | None:
+    """An optional positive limit (velocity, acceleration, effort), times ``unit``; None when absent."""
+    if v is None:
+        return None
+    x = _number(v, src, where)
+    if not x > 0:
+        raise DescriptionError(f"expected a positive limit, got {short_repr(v)}", src, where)
+    return x * unit
 
 
 def _number(v: Any, src: str, where: str) -> float:

@@ -117,6 +117,35 @@ class Simulation:
     effects: tuple[InjectedEffect, ...]
     options: SimulationOptions
     parameter_names: tuple[str, ...] = field(default=())
+    limits: "MotionLimits | None" = None
+
+
+@dataclass(frozen=True)
+class MotionLimits:
+    """Per independent joint: the description's velocity, acceleration and effort limits (SI, None: none),
+    and the largest |q̇|, |q̈|, |τ| of the data.  Velocity and acceleration are enforced by the
+    trajectory; effort is only checked (``over_effort``: 0-based joints whose torque exceeds it)."""
+
+    velocity: tuple[float | None, ...]
+    acceleration: tuple[float | None, ...]
+    effort: tuple[float | None, ...]
+    max_abs_dq: tuple[float, ...]
+    max_abs_ddq: tuple[float, ...]
+    max_abs_tau: tuple[float, ...]
+
+    @property
+    def over_effort(self) -> tuple[int, ...]:
+        return tuple(j for j, (lim, x) in enumerate(zip(self.effort, self.max_abs_tau)) if lim is not None and x > lim)
+
+    def any_given(self) -> bool:
+        return any(v is not None for v in self.velocity + self.acceleration + self.effort)
+
+    def to_dict(self) -> dict:
+        return {
+            "velocity": list(self.velocity), "acceleration": list(self.acceleration), "effort": list(self.effort),
+            "max_abs_dq": list(self.max_abs_dq), "max_abs_ddq": list(self.max_abs_ddq), "max_abs_tau": list(self.max_abs_tau),
+            "over_effort": [j + 1 for j in self.over_effort],
+        }
 
 
 # --- column names of the data files: defined once, read by identify ---------------------------------
@@ -326,7 +355,10 @@ def simulate(chain: Chain, options: SimulationOptions, rng: np.random.Generator)
 
     # the independent joints move (mimic joints follow their master: q_mimic = multiplier·q + offset)
     ranges = joint_ranges(chain.coordinate_types, [chain.limits[j] for j in chain.coordinates] if chain.limits else None)
-    traj = fourier_excitation(ranges, options.harmonics, options.base_frequency, traj_rng, options.margin)
+    velocity, acceleration, effort = (_per_coordinate(chain, v) for v in
+                                      (chain.velocity_limits, chain.acceleration_limits, chain.effort_limits))
+    traj = fourier_excitation(ranges, options.harmonics, options.base_frequency, traj_rng, options.margin,
+                              max_velocity=velocity, max_acceleration=acceleration)
     t = np.arange(samples) / options.rate
     q, dq, ddq = traj.evaluate(t)
 
@@ -374,7 +406,18 @@ def simulate(chain: Chain, options: SimulationOptions, rng: np.random.Generator)
         effects=tuple(injected),
         options=options,
         parameter_names=standard_names(chain.n),
+        limits=MotionLimits(
+            velocity, acceleration, effort,
+            *(tuple(float(x) for x in np.abs(v).max(axis=0)) for v in (dq, ddq, tau)),
+        ),
     )
+
+
+def _per_coordinate(chain: Chain, values) -> tuple[float | None, ...]:
+    """A per-joint limit list, for the independent joints (None where none is given)."""
+    if not values:
+        return (None,) * len(chain.coordinates)
+    return tuple(values[j] for j in chain.coordinates)
 
 
 # --- the truth record --------------------------------------------------------------------------------
@@ -424,5 +467,6 @@ def truth_record(sim: Simulation, robot: str, seed: int, robot_name: str = "", i
             "ranges": [list(r) for r in sim.ranges],
             "margin": o.margin,
         },
+        "limits": sim.limits.to_dict() if sim.limits is not None else None,
         "units": {"t": "s", "q": "rad or m", "dq": "rad/s or m/s", "ddq": "rad/s^2 or m/s^2", "tau": "N·m or N"},
     }

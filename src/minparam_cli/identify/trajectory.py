@@ -16,6 +16,13 @@ so that the whole motion stays inside the joint range shrunk by a margin.
 The scale uses a bound, not a sample: the extremes over a grid of one period
 plus (largest possible speed) × (half the grid step), so no instant between
 grid points can leave the range.
+
+Where the description gives velocity or acceleration limits, each joint's
+coefficients are then scaled down (never up) so that bounds on max |q̇_j| and
+max |q̈_j| of the same kind (grid extremes widened by the next derivative's
+bound × half a step) stay within (1 − margin) of the limits.  Scaling a_jl
+and b_jl by s ≤ 1 scales q_j − q0_j, q̇_j and q̈_j by s: the positions stay
+inside the range, since the excursion of a zero-mean series contains 0.
 """
 
 from __future__ import annotations
@@ -67,6 +74,12 @@ class FourierTrajectory:
         """Per joint, an upper bound on |q̇_j(t)| over all t: Σ_l √(a_jl² + b_jl²)."""
         return np.sqrt(self.a**2 + self.b**2).sum(axis=1)
 
+    def derivative_bound(self, order: int) -> np.ndarray:
+        """Per joint, an upper bound on |d^order q_j / dt^order| over all t (order >= 1):
+        Σ_l (ω_f l)^(order−1) √(a_jl² + b_jl²)."""
+        w_l = self.omega * np.arange(1, self.harmonics + 1)
+        return (np.sqrt(self.a**2 + self.b**2) * w_l[None, :] ** (order - 1)).sum(axis=1)
+
 
 def joint_ranges(types, limits) -> tuple[tuple[float, float], ...]:
     """Limits per joint (rad or m), with the defaults where the file gives none."""
@@ -90,13 +103,46 @@ def excursion_bounds(traj: FourierTrajectory) -> tuple[np.ndarray, np.ndarray]:
     every instant lies within half a step of a grid point, and q moves no
     faster than the speed bound.
     """
-    points = POINTS_PER_HARMONIC_PERIOD * max(traj.harmonics, 4)
-    period = 1.0 / traj.base_frequency
-    t = np.arange(points) * (period / points)
+    t, step = _period_grid(traj)
     q, _, _ = traj.evaluate(t)
     x = q - traj.q0[None, :]
-    slack = traj.speed_bound() * (period / points) / 2.0
+    slack = traj.speed_bound() * step / 2.0
     return x.min(axis=0) - slack, x.max(axis=0) + slack
+
+
+def _period_grid(traj: FourierTrajectory) -> tuple[np.ndarray, float]:
+    """One period of ``traj`` on POINTS_PER_HARMONIC_PERIOD points per period of its highest harmonic
+    (at least 4 harmonics' worth), and the grid step."""
+    points = POINTS_PER_HARMONIC_PERIOD * max(traj.harmonics, 4)
+    period = 1.0 / traj.base_frequency
+    return np.arange(points) * (period / points), period / points
+
+
+def rate_bounds(traj: FourierTrajectory) -> tuple[np.ndarray, np.ndarray]:
+    """Upper bounds (n,) on max |q̇_j(t)| and max |q̈_j(t)| over all t.
+
+    Extremes on a grid of one period, widened by the bound on the next derivative × (grid step / 2).
+    """
+    t, step = _period_grid(traj)
+    _, dq, ddq = traj.evaluate(t)
+    speed = np.abs(dq).max(axis=0) + traj.derivative_bound(2) * step / 2.0
+    accel = np.abs(ddq).max(axis=0) + traj.derivative_bound(3) * step / 2.0
+    return speed, accel
+
+
+def within_rates(traj: FourierTrajectory, max_velocity=None, max_acceleration=None, fraction: float = 1.0) -> FourierTrajectory:
+    """``traj`` with each joint's coefficients scaled by s_j ≤ 1 so that the bounds of :func:`rate_bounds`
+    stay within ``fraction`` × the limits (None entries, or None lists: no limit on that joint)."""
+    n = traj.q0.size
+    speed, accel = rate_bounds(traj)
+    scale = np.ones(n)
+    for limits, bound in ((max_velocity, speed), (max_acceleration, accel)):
+        for j, lim in enumerate(limits or (None,) * n):
+            if lim is not None and bound[j] > 0:
+                scale[j] = min(scale[j], fraction * float(lim) / bound[j])
+    if np.all(scale == 1.0):
+        return traj
+    return FourierTrajectory(traj.base_frequency, traj.q0, traj.a * scale[:, None], traj.b * scale[:, None])
 
 
 def fourier_excitation(
@@ -105,12 +151,16 @@ def fourier_excitation(
     base_frequency: float,
     rng: np.random.Generator,
     margin: float = LIMIT_MARGIN,
+    max_velocity=None,
+    max_acceleration=None,
 ) -> FourierTrajectory:
     """Random Fourier excitation (Swevers et al. 1997) that stays inside ``ranges``.
 
     Coefficients a_jl, b_jl are drawn standard normal, then every joint is
     scaled and centred so that the bound of :func:`excursion_bounds` fills the
-    central ``1 − 2·margin`` of the joint's range [lo, hi].
+    central ``1 − 2·margin`` of the joint's range [lo, hi].  Joints with a velocity or acceleration
+    limit (SI, per joint, None for none) are then slowed by :func:`within_rates` to ``1 − margin``
+    of their limits.
     """
     ranges = np.asarray(ranges, dtype=float).reshape(-1, 2)
     n = ranges.shape[0]
@@ -128,4 +178,5 @@ def fourier_excitation(
     half = (hi - lo) / 2.0 * (1.0 - 2.0 * margin)
     scale = 2.0 * half / (hi_x - lo_x)
     q0 = (lo + hi) / 2.0 - scale * (hi_x + lo_x) / 2.0
-    return FourierTrajectory(float(base_frequency), q0, a * scale[:, None], b * scale[:, None])
+    traj = FourierTrajectory(float(base_frequency), q0, a * scale[:, None], b * scale[:, None])
+    return within_rates(traj, max_velocity, max_acceleration, 1.0 - margin)
