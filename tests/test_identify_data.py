@@ -217,11 +217,14 @@ def test_bad_identify_options(tmp_path, option, value, needle):
     assert needle in r.output and "Traceback" not in r.output
 
 
-def test_plot_folder_must_exist(tmp_path):
+def test_plot_folder_is_created_and_a_file_refused(tmp_path):
     t, q, dq, ddq = smooth_signals(300)
     p = write_csv(tmp_path / "d.csv", t, q, dq, q.copy(), ddq)
-    r = CliRunner().invoke(app, ["identify", "robots/planar2r.yaml", str(p), "--plot", str(tmp_path / "nope")])
-    assert r.exit_code == 2 and "not a folder" in r.output
+    r = CliRunner().invoke(app, ["identify", "robots/planar2r.yaml", str(p), "--plot", str(p)])
+    assert r.exit_code == 2 and "exists and is not a folder" in r.output
+    assert not (tmp_path / "nope").exists()
+    r = CliRunner().invoke(app, ["identify", "robots/planar2r.yaml", str(p), "--plot", str(tmp_path / "nope"), "-q"])
+    assert (tmp_path / "nope").is_dir()
 
 
 def test_smooth_asymmetric_coulomb_columns_sum_to_the_smooth_coulomb_column():
