@@ -63,6 +63,15 @@ def _mutate(doc, path, value, delete):
     return doc
 
 
+def _robot_or_input_error(path) -> None:
+    """The loader returns a robot the chain builder takes, or raises the project's input error."""
+    try:
+        desc = load_description(path)
+    except InputError:
+        return
+    _assert_valid_robot(desc)
+
+
 def _assert_valid_robot(desc: RobotDescription) -> None:
     """A returned description is usable: finite values within the bounds, and a chain builds from it."""
     assert isinstance(desc, RobotDescription) and 1 <= desc.dof <= 128
@@ -83,11 +92,7 @@ def test_mutated_robot_yaml(tmp_path, robot, data, value, delete):
     bad = _mutate(doc, path, value, delete)
     p = tmp_path / "r.yaml"
     p.write_text(yaml.safe_dump(bad, sort_keys=False))
-    try:
-        desc = load_description(p)
-    except InputError:
-        return
-    _assert_valid_robot(desc)
+    _robot_or_input_error(p)
 
 
 @pytest.mark.parametrize("robot", ROBOT_FILES[:4] + URDF_FILES, ids=lambda p: p.name)
@@ -111,11 +116,7 @@ def test_byte_level_mutations(tmp_path, robot, data):
             del raw[pos:]
     p = tmp_path / robot.name
     p.write_bytes(bytes(raw))
-    try:
-        desc = load_description(p)
-    except InputError:
-        return
-    _assert_valid_robot(desc)
+    _robot_or_input_error(p)
 
 
 @pytest.mark.parametrize("urdf", URDF_FILES, ids=lambda p: p.name)
@@ -131,11 +132,7 @@ def test_mutated_urdf_attributes(tmp_path, urdf, data, value):
     a, b = data.draw(st.sampled_from(spots))
     p = tmp_path / urdf.name
     p.write_text(text[:a] + value + text[b:])
-    try:
-        desc = load_description(p)
-    except InputError:
-        return
-    _assert_valid_robot(desc)
+    _robot_or_input_error(p)
 
 
 @pytest.mark.parametrize("platform", PLATFORM_FILES, ids=lambda p: p.name)
