@@ -38,8 +38,9 @@ Examples:
 
 Units: --q in degrees for revolute joints (radians with --rad), metres for
 prismatic joints.  Twists: (wx, wy, wz) in rad/s and (vx, vy, vz) in m/s, the
-velocity of the tool point O_c (the file's 'tool' entry, else the last link
-frame's origin), base-frame components.
+velocity of the tool point O_c (YAML: the file's 'tool' entry, else the last link
+frame's origin; URDF: the origin of --tool LINK, else of the fixed link farthest
+from the last moving link's origin, else that link's origin), base-frame components.
 
 Exit codes: 0 success, 1 failed computation, 2 bad input.
 """
@@ -119,6 +120,22 @@ def _check_joint_numbers(chain, joints, what):
             raise InputError(f"{what}: joint {j} does not exist; {chain.name} has joints 1..{chain.n}")
 
 
+def _tool_report(desc) -> tuple[dict, str]:
+    """Which tool point O_c the analysis uses: (JSON record, table line)."""
+    frame = desc.joints[-1].link_name if desc.convention == "urdf" else "the last link"
+    point = (0.0, 0.0, 0.0) if desc.tool is None else tuple(float(v) for v in desc.tool)
+    if desc.tool_link is not None:
+        source = f"link {desc.tool_link}"
+    elif desc.tool is not None:
+        source = "the file's 'tool' entry"
+    else:
+        source = f"origin of {frame}" if desc.convention == "urdf" else "origin of the last link frame"
+    doc = {"link": desc.tool_link, "point": list(point), "frame": frame, "source": source}
+    xyz = ", ".join(f"{v:.6g}" for v in point)
+    where = f"{frame} frame" if desc.convention == "urdf" else "last link frame"
+    return doc, f"tool       {source}: ({xyz}) m in the {where}"
+
+
 # --- the command --------------------------------------------------------------------------------------
 
 
@@ -140,6 +157,7 @@ def singular(
     output: Path = typer.Option(None, "--output", "-o", dir_okay=False, help="Write the output to this file (atomically) instead of stdout."),
     seed: int = typer.Option(0, "--seed", help="Seed of the random draws of the nearest-twist check (reported)."),
     quiet: bool = typer.Option(False, "--quiet", "-q", help="No progress bar."),
+    tool: str = typer.Option(None, "--tool", help="URDF: the link whose origin is the tool point O_c (any link rigidly attached to a moving link); default: the fixed link farthest out on the last moving link."),
 ):
     from minparam_cli.chain import build_chain
     from minparam_cli.describe import load_description
@@ -148,13 +166,19 @@ def singular(
         raise InputError("--twist and --hold need a configuration --q")
     if q is None and not (scan or plot or symbolic):
         raise InputError("give --q for the local test, or --scan, --plot or --symbolic")
-    chain = build_chain(load_description(robot))
+    desc = load_description(robot)
+    if tool is not None:
+        from minparam_cli.describe.urdf import select_tool
+
+        desc = select_tool(desc, tool)
+    chain = build_chain(desc)
     from minparam_cli.kinematics import screws
 
     screws.require_serial(chain)
     angle = "rad" if rad else "deg"
     q_si = _q_to_si(chain, q, rad) if q is not None else None
-    doc: dict = {"robot": chain.name, "source": str(robot)}
+    tool_doc, tool_line = _tool_report(desc)
+    doc: dict = {"robot": chain.name, "source": str(robot), "tool": tool_doc}
     sections: list[str] = []
 
     if q_si is not None:
@@ -212,7 +236,7 @@ def singular(
     if fmt == OutputFormat.json:
         text = json.dumps(_clean(doc), indent=2, allow_nan=False)
     else:
-        header = f"robot      {chain.name}  ({robot})"
+        header = f"robot      {chain.name}  ({robot})\n{tool_line}"
         text = "\n\n".join([header] + sections)
     write_output(text, output)
 

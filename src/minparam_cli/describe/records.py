@@ -87,6 +87,11 @@ class RobotDescription:
     gravity_source: str = "default"  # "file" | "default" | "cli"
     units: dict[str, str] = field(default_factory=lambda: {"length": "m", "angle": "rad"})
     tool: tuple[float, float, float] | None = None
+    # URDF: the link whose origin is ``tool`` (None: YAML, or no fixed link on the last moving link)
+    tool_link: str | None = None
+    # URDF: every link rigidly attached to a moving link, as (link, index of that joint/body,
+    # its origin in that body's frame, m), in document walk order; what ``--tool LINK`` may name
+    tool_links: tuple[tuple[str, int, tuple[float, float, float]], ...] = ()
     # values the loader changed on request (``--snap-angles``): dicts with where, from, to, degrees
     adjustments: tuple[dict, ...] = ()
 

@@ -20,6 +20,13 @@
   about the moved x, y, z axes (q = 0: the floating joint's origin).  The first five virtual
   links have no mass (``JointRecord.massless``); the sixth carries the free link.  Their
   rows of the regressor are the six base-wrench equations.
+* the tool point (``RobotDescription.tool``, used by ``singular``): when the last moving
+  joint's link (the end of a serial chain; for a tree, the link of the last joint in the
+  depth-first numbering, i.e. the end of the last branch written in the file) carries fixed
+  descendant links, the tool is the origin of the one farthest from that link's origin (a tie:
+  the one written last), in that link's frame; ``tool_link`` names it.  ``tool_links`` lists
+  every link rigidly attached to a moving link (the moving links themselves included, origin
+  0) with its body and origin, which ``--tool LINK`` chooses from (``select_tool``).
 * planar joints, and floating joints inside the tree, are refused as not supported yet.
 * Trees are supported: joints are numbered depth-first from the root, in
   document order, so a parent always comes before its children.
@@ -406,6 +413,7 @@ def _build(name: str, src: str, links: dict, joints: list[dict], floating_base: 
 
     records: list[dict] = []
     body_phi: list[np.ndarray | None] = []
+    attached: list[tuple[str, int, tuple[float, float, float]]] = []  # links on moving bodies
     # depth-first walk in document order; state: (link, body index or -1 for the base,
     # transform from the body frame to the link frame, actuated joint entering the link)
     stack: list[tuple] = [(roots[0], -1, np.eye(4), None)]
@@ -424,6 +432,8 @@ def _build(name: str, src: str, links: dict, joints: list[dict], floating_base: 
             records.append(_joint_record(j, body_parent=X, parent=int(Xj)))
             body_phi.append(None)
             X = np.eye(4)
+        if body >= 0:
+            attached.append((link, body, tuple(float(v) + 0.0 for v in X[:3, 3])))
         inertial = links[link]["inertial"]
         if inertial is not None and body >= 0:
             phi = _standard_in_body(inertial, X)
@@ -445,7 +455,11 @@ def _build(name: str, src: str, links: dict, joints: list[dict], floating_base: 
     out = []
     for rec, phi in zip(records, body_phi):
         out.append(JointRecord(**rec, inertial=None if phi is None else _to_inertial(phi)))
+    tool_link, tool = _default_tool(attached, records)
     return RobotDescription(
+        tool=tool,
+        tool_link=tool_link,
+        tool_links=tuple(attached),
         name=name,
         source=src,
         convention="urdf",
@@ -454,3 +468,55 @@ def _build(name: str, src: str, links: dict, joints: list[dict], floating_base: 
         gravity_source="default",
         units={"length": "m", "angle": "rad"},
     )
+
+
+def _default_tool(attached: list, records: list[dict]):
+    """(link, point) of the default tool: of the fixed descendants of the last moving joint's link,
+    the one farthest from that link's origin (a tie: the one written last); (None, None) if none."""
+    if not records:
+        return None, None
+    last = len(records) - 1
+    best = None
+    for link, body, xyz in attached:
+        if body != last or link == records[last]["link_name"]:
+            continue
+        d = float(np.linalg.norm(xyz))
+        if best is None or d >= best[0] - 1e-12 * max(1.0, best[0]):
+            best = (d, link, xyz)
+    return (None, None) if best is None else (best[1], best[2])
+
+
+def select_tool(desc: RobotDescription, link: str) -> RobotDescription:
+    """The description with the tool point at the origin of ``link`` (``--tool LINK``), for a serial
+    chain or a branch: if the link sits on a moving body other than the last, the description keeps
+    only the joints from the root to that body (renumbered).  InputError (exit 2) naming the links
+    allowed when ``link`` is not rigidly attached to a moving link."""
+    from minparam_cli.errors import InputError
+
+    allowed = {name: (body, xyz) for name, body, xyz in desc.tool_links}
+    if link not in allowed:
+        if desc.convention != "urdf":
+            raise InputError(f"--tool {link}: {desc.source} is a {desc.convention.upper()} description without links; its tool point is its 'tool' entry")
+        names = ", ".join(name for name, _, _ in desc.tool_links)
+        raise InputError(f"--tool: no link {link!r} rigidly attached to a moving link in {desc.source}; allowed: {names}")
+    body, xyz = allowed[link]
+    path = []
+    k = body
+    while k >= 0:
+        path.append(k)
+        k = desc.joints[k].parent
+    path.reverse()
+    joints = desc.joints
+    if path != list(range(len(joints))):
+        new = {old: i for i, old in enumerate(path)}
+        kept = []
+        for old in path:
+            jr = joints[old]
+            mimic = jr.mimic
+            if mimic is not None:
+                if mimic[0] not in new:
+                    raise InputError(f"--tool {link}: joint {jr.name!r} on its path mimics {joints[mimic[0]].name!r}, which is not on the path")
+                mimic = (new[mimic[0]], mimic[1], mimic[2])
+            kept.append(replace(jr, parent=new.get(jr.parent, -1), mimic=mimic))
+        joints = tuple(kept)
+    return replace(desc, joints=joints, tool=xyz, tool_link=link)
