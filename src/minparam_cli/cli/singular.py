@@ -122,18 +122,18 @@ def _check_joint_numbers(chain, joints, what):
 
 def _tool_report(desc) -> tuple[dict, str]:
     """Which tool point O_c the analysis uses: (JSON record, table line)."""
-    frame = desc.joints[-1].link_name if desc.convention == "urdf" else "the last link"
+    frame = desc.joints[-1].link_name if desc.convention == "urdf" else "last link"
     point = (0.0, 0.0, 0.0) if desc.tool is None else tuple(float(v) for v in desc.tool)
-    if desc.tool_link is not None:
-        source = f"link {desc.tool_link}"
-    elif desc.tool is not None:
-        source = "the file's 'tool' entry"
-    else:
-        source = f"origin of {frame}" if desc.convention == "urdf" else "origin of the last link frame"
-    doc = {"link": desc.tool_link, "point": list(point), "frame": frame, "source": source}
-    xyz = ", ".join(f"{v:.6g}" for v in point)
     where = f"{frame} frame" if desc.convention == "urdf" else "last link frame"
-    return doc, f"tool       {source}: ({xyz}) m in the {where}"
+    xyz = "(" + ", ".join(f"{v:.6g}" for v in point) + ") m"
+    if desc.tool_link is not None:
+        source, line = f"link {desc.tool_link}", f"link {desc.tool_link}: {xyz} in the {where}"
+    elif desc.tool is not None:
+        source, line = "the file's 'tool' entry", f"the file's 'tool' entry: {xyz} in the {where}"
+    else:
+        source, line = "none given", f"none given: {xyz}, the {where}'s origin"
+    doc = {"link": desc.tool_link, "point": list(point), "frame": frame, "source": source}
+    return doc, f"tool       {line}"
 
 
 # --- the command --------------------------------------------------------------------------------------
