@@ -86,14 +86,6 @@ class PhysicalFit:
     elapsed_s: float
 
 
-def _cvxpy():
-    try:
-        import cvxpy as cp
-    except ImportError:  # pragma: no cover - exercised only without the extra
-        raise InputError("identify --physical needs cvxpy: pip install 'minparam[physical]'") from None
-    return cp
-
-
 def length_scale(chain) -> float:
     """The robot's size L (m), as the chain gives it (its largest joint offset), at least 0.1 m."""
     return max(float(chain.length_scale), 0.1)
@@ -131,7 +123,9 @@ def fit_physical(chain, K: np.ndarray, design, R: np.ndarray, n_eq: int, opts: P
 
     from minparam_cli.identify.effects import EFFECTS
 
-    cp = _cvxpy()
+    from minparam_cli.optional import import_optional
+
+    cp = import_optional("cvxpy", "physical", "identify --physical")
     t0 = time.perf_counter()
     n_inertial = chain.layout.n_inertial
     n = n_inertial // N_LINK_PARAMS  # links (every link carries 10 parameters)

@@ -71,7 +71,7 @@ class _Bag:
     """An open bag and the connections of its JointState topic."""
 
     def __init__(self, path: Path, opts: DataOptions):
-        from minparam_cli.measured.optional import import_optional
+        from minparam_cli.optional import import_optional
 
         import_optional("rosbags", "ros", f"{path}: reading a ROS bag")
         from rosbags.highlevel import AnyReader

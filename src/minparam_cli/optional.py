@@ -1,4 +1,5 @@
-"""Optional dependencies: imported when first needed, with one line naming the extra to install."""
+"""Optional dependencies ([ros], [physical], ...): imported when first needed, with one line naming the
+extra to install.  Every command that needs one goes through ``import_optional``."""
 
 from __future__ import annotations
 
