@@ -277,7 +277,8 @@ def test_final_refit_keeps_a_term_only_where_it_is_physical(tmp_path):
     from minparam_cli.identify.data import time_span
     from minparam_cli.identify.design import Design, Term
     from minparam_cli.identify.fit import solve
-    from minparam_cli.identify.quality import full_theta, keep_physical
+    from minparam_cli.identify.fit import full_theta
+    from minparam_cli.identify.quality import keep_physical
     from minparam_cli.identify.diagnose import term_coefficients
     from minparam_cli.identify.roles import plan
     from minparam_cli.pipeline import DeriveOptions, load_chain
@@ -317,3 +318,12 @@ def test_a_test_block_that_mostly_stands_still_is_flagged(tmp_path):
     assert 0.7 < entry["still_share"] < 0.8 and rep["roles"]["fit"][0]["still_share"] < 0.05
     assert any(f.startswith("the test data") and "stand still in 75 %" in f for f in rep["flags"])
     assert not any(f.startswith("the selection data") for f in rep["flags"])
+
+
+def test_selection_data_that_are_the_data_file_are_flagged_in_sample(tmp_path):
+    """--validate DATA --split 1,0,0 fits on every sample: allowed, and said first."""
+    data = simulate(tmp_path / "d.csv")
+    rep = identify("puma560_mdh.yaml", data, "--validate", data, "--split", "1,0,0", "--no-diagnose")
+    assert rep["samples_fit"] == rep["samples_selection"] == 4000 and rep["test"]["files"] == []
+    assert rep["flags"][0].startswith("the selection data (--validate) are the data file itself")
+    assert rep["flags"][1].startswith("no test data")

@@ -14,7 +14,8 @@ import numpy as np
 
 from minparam_cli.identify.design import Design, Term
 from minparam_cli.identify.diagnose import Rejected, term_coefficients
-from minparam_cli.identify.effects import EFFECTS
+from minparam_cli.identify.effects import EFFECTS, in_bounds
+from minparam_cli.identify.fit import full_theta
 
 
 # one line per single-column effect: {v} its fitted values (1 + G for a gain, % for load_coulomb), {T} the
@@ -92,10 +93,8 @@ def explain(term: Term, c: np.ndarray, design: Design, motion=None) -> str:
 
 def describe_terms(design: Design, fit, motion=None) -> list[dict]:
     """The final model's added effects: ids, joints, coefficients and a line written from them."""
-    theta = np.zeros(design.p)
-    theta[list(fit.columns)] = fit.theta
     out = []
-    for t, c in zip(design.terms, term_coefficients(design, theta)):
+    for t, c in zip(design.terms, term_coefficients(design, full_theta(fit, design.p))):
         names = t.names()
         out.append({"effect": t.effect, "joints": [j + 1 for j in t.joints], "hyper": t.hyper,
                     "coefficients": {nm: float(v) for nm, v in zip(names, c.reshape(-1))},
@@ -106,11 +105,11 @@ def describe_terms(design: Design, fit, motion=None) -> list[dict]:
 STILL_NOTE = 0.10  # share of still samples on a joint worth naming beside a wrong-sign friction term
 
 
-def describe_rejected(r: Rejected, data_reports: list[dict], design: Design) -> dict:
+def describe_rejected(r: Rejected, data_reports: list[dict]) -> dict:
     """A wrong-sign candidate: what it would have removed, its values, and what it most likely is."""
     e = EFFECTS[r.term.effect]
     lo, hi = e.bounds
-    bad = [(j, row) for j, row in zip(r.term.joints, r.coefficients) if not (np.all(row >= lo) and np.all(row <= hi))]
+    bad = [(j, row) for j, row in zip(r.term.joints, r.coefficients) if not in_bounds(r.term.effect, row)]
     shown = ", ".join(f"{e.column_names[0]}{j + 1} = {row[0]:.3g}" for j, row in bad)
     rng = f"≥ {lo:g}" if math.isinf(hi) else f"in [{lo:g}, {hi:g}]"
     share = (data_reports[0].get("still_share") or []) if data_reports else []
@@ -118,8 +117,8 @@ def describe_rejected(r: Rejected, data_reports: list[dict], design: Design) -> 
     text = (f"{r.term.label()} would remove {100 * r.gain:.1f} % of the selection residual energy, but {shown} "
             f"(physical range {rng}): most likely {e.misfit}")
     if still:
-        lo, hi = min(s for _, s in still), max(s for _, s in still)
-        pct = f"{100 * lo:.0f} %" if round(100 * lo) == round(100 * hi) else f"{100 * lo:.0f}-{100 * hi:.0f} %"
+        least, most = min(s for _, s in still), max(s for _, s in still)
+        pct = f"{100 * least:.0f} %" if round(100 * least) == round(100 * most) else f"{100 * least:.0f}-{100 * most:.0f} %"
         text += f" ({_on([j for j, _ in still])} still {pct} of the time)"
     return {"effect": r.term.effect, "joints": [j + 1 for j in r.term.joints], "hyper": r.term.hyper,
             "selection_gain": r.gain, "delta_bic_selection": r.delta_bic,

@@ -21,7 +21,7 @@ import numpy as np
 from minparam_cli.errors import ComputationError
 from minparam_cli.identify.accumulate import Accumulator
 
-__all__ = ["Accumulator", "Errors", "Fit", "errors", "independent_columns", "solve"]
+__all__ = ["Accumulator", "Errors", "Fit", "errors", "full_theta", "independent_columns", "solve"]
 
 
 @dataclass(frozen=True)
@@ -101,6 +101,13 @@ def solve(acc: Accumulator, names: tuple[str, ...], weighted: bool = True) -> Fi
     with np.errstate(divide="ignore", invalid="ignore"):
         std_percent = np.where(theta != 0, 100.0 * std / np.abs(theta), np.inf)
     return Fit(tuple(names), theta, std_percent, sigma, float(sv[0] / sv[-1]), method, total, tuple(keep), dependent)
+
+
+def full_theta(fit: Fit, p: int) -> np.ndarray:
+    """The fit's parameters in the order of all ``p`` design columns (0 for columns regrouped on this data)."""
+    theta = np.zeros(p)
+    theta[list(fit.columns)] = fit.theta
+    return theta
 
 
 def errors(acc: Accumulator, theta: np.ndarray, columns: tuple[int, ...] | None = None) -> Errors:

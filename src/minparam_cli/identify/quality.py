@@ -13,13 +13,15 @@
   did not, or removed, and the model refitted.
 * **Flags**: a joint whose error rises by more than ``RISE_FLAG`` from the
   rigid-body model to the final one (selection or test data), a declared
-  friction coefficient of the wrong sign, a joint that stands still for a
-  large share of the samples.
+  friction coefficient of the wrong sign, a joint or a selection/test block
+  that stands still for a large share of the samples, no test data, selection
+  data that are the data file itself.
 """
 
 from __future__ import annotations
 
 from dataclasses import replace
+from pathlib import Path
 
 import numpy as np
 
@@ -27,8 +29,8 @@ from minparam_cli.errors import ComputationError
 from minparam_cli.identify.design import Design, Term
 from minparam_cli.identify.diagnose import term_coefficients
 from minparam_cli.identify.effects import EFFECTS, in_bounds
-from minparam_cli.identify.fit import solve
-from minparam_cli.identify.roles import span_text
+from minparam_cli.identify.fit import full_theta, solve
+from minparam_cli.identify.roles import overlaps, span_text
 
 # Column-scaled condition number of the fit data's rigid-body design past which the fit is refused.
 # Measured: Panda recording 9.8, TX40 recording 5.7, simulated PUMA 560 10.3 (fit blocks of the default
@@ -96,13 +98,6 @@ def _positions(old: Design, new: Design) -> list[int]:
     return cols
 
 
-def full_theta(fit, p: int) -> np.ndarray:
-    """The fit's parameters in the design's column order (0 for columns regrouped on this data)."""
-    theta = np.zeros(p)
-    theta[list(fit.columns)] = fit.theta
-    return theta
-
-
 def keep_physical(design: Design, fit, acc: dict, weighted: bool):
     """Refit without the (term, joint) pairs whose coefficients left their physical range on all the fit data.
 
@@ -144,6 +139,12 @@ def keep_physical(design: Design, fit, acc: dict, weighted: bool):
 def flags(report: dict, fit) -> list[str]:
     """Warnings a user must see next to the figures (strings, one line each)."""
     out = []
+    if report.get("validate") and overlaps(Path(report["data"]), Path(report["validate"])):
+        out.append("the selection data (--validate) are the data file itself: before and after are in-sample "
+                   "figures there, and the effects were chosen on data that also fitted them")
+    if not report["test"]["files"]:
+        out.append("no test data (--split test share 0, no --test file): every figure comes from data that fitted "
+                   "or chose the model")
     comparisons = [("selection", report["before"], report["after"])]
     for f in report["test"]["files"]:
         comparisons.append((f"test ({span_text(f)})", f["rigid"], f["final"]))

@@ -25,11 +25,11 @@ from minparam_cli.identify.data import Block, DataOptions, DataReport, iter_bloc
 from minparam_cli.identify.design import Design
 from minparam_cli.identify.diagnose import DiagnosisOptions, diagnose
 from minparam_cli.identify.effects import source_columns
-from minparam_cli.identify.fit import Accumulator, errors, solve
+from minparam_cli.identify.fit import Accumulator, errors, full_theta, solve
 from minparam_cli.identify.explain import describe_rejected, describe_terms, nominal_notes
 from minparam_cli.identify.physical import PhysicalOptions
-from minparam_cli.identify.quality import COND_LIMIT, check_excitation, flags, full_theta, keep_physical
-from minparam_cli.identify.roles import DEFAULT_SPLIT, FIT, SELECTION, TEST, Source, describe, overlaps, parts, plan
+from minparam_cli.identify.quality import COND_LIMIT, check_excitation, flags, keep_physical
+from minparam_cli.identify.roles import DEFAULT_SPLIT, FIT, SELECTION, TEST, Source, describe, parts, plan
 from minparam_cli.identify.slots import block_rows, final_maps, slot_sources
 
 DIAGNOSIS_CAP = 12_000  # samples kept for the diagnosis (fit part; half as many of the selection part)
@@ -198,9 +198,7 @@ def _identify(chain: Chain, data_path: Path, opts: IdentifyOptions, progress) ->
     before = errors(acc[SELECTION], fit0.theta, fit0.columns)
     test_keys = [k for k in keys if k not in (FIT, SELECTION)]
     tests_rigid = {k: errors(acc[k], fit0.theta, fit0.columns) for k in test_keys}
-    theta_model = np.zeros(design.p)
-    theta_model[list(fit0.columns)] = fit0.theta
-    design = replace(design, theta_model=theta_model)
+    design = replace(design, theta_model=full_theta(fit0, design.p))
 
     steps_out = [{"effect": None, "joints": [], "statistic": None, **_errs(before)}]
     stop_reason = "diagnosis off (--no-diagnose)"
@@ -280,7 +278,7 @@ def _identify(chain: Chain, data_path: Path, opts: IdentifyOptions, progress) ->
         "after": {"data": SELECTION, **_errs(after)},
         "test": _test_report(roles, tests_rigid, tests_final, acc),
         "effects": describe_terms(final_design, final_fit, motion),
-        "rejected": [describe_rejected(r, data_reports, final_design) for r in rejected],
+        "rejected": [describe_rejected(r, data_reports) for r in rejected],
         "parameters": {nm: {"value": float(v), "std_percent": _finite(s)} for nm, v, s in zip(final_fit.names, final_fit.theta, final_fit.std_percent)},
         "regrouped_on_this_data": list(final_fit.dependent),
         "nominal_notes": nominal_notes(chain, base, final_fit, opts.seed),
@@ -290,12 +288,6 @@ def _identify(chain: Chain, data_path: Path, opts: IdentifyOptions, progress) ->
     if physical is not None:
         report["physical"] = physical
     report["flags"] = flags(report, final_fit)
-    if not test_keys:
-        report["flags"].insert(0, "no test data (--split test share 0, no --test file): every figure comes from "
-                                  "data that fitted or chose the model")
-    if overlaps(data_path, validate):
-        report["flags"].insert(0, "the selection data (--validate) are the data file itself: before and after are "
-                                  "in-sample figures there, and the effects were chosen on data that also fitted them")
     report["elapsed_s"] = round(time.perf_counter() - t_start, 4)
     return report, artifacts
 
