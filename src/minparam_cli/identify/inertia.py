@@ -64,6 +64,19 @@ def standard_from_com(mass: float, com, inertia_com) -> np.ndarray:
     return np.array([values[k] for k in LINK_PARAMS], dtype=float)
 
 
+def body_from_standard(phi_link) -> tuple[float, np.ndarray, np.ndarray]:
+    """The 10 standard parameters of one link -> (mass, centre of mass, inertia about it), the inverse of
+    ``standard_from_com`` (same frame).  A mass that is not positive has no centre of mass: NaN, and the
+    inertia about the frame origin."""
+    p = dict(zip(LINK_PARAMS, np.asarray(phi_link, dtype=float).reshape(N_LINK_PARAMS)))
+    m = float(p["M"])
+    Io = np.array([[p["XX"], p["XY"], p["XZ"]], [p["XY"], p["YY"], p["YZ"]], [p["XZ"], p["YZ"], p["ZZ"]]])
+    if not m > 0:
+        return m, np.full(3, np.nan), Io
+    c = np.array([p["MX"], p["MY"], p["MZ"]]) / m
+    return m, c, Io - m * (c @ c * np.eye(3) - np.outer(c, c))
+
+
 def pseudo_inertia_from_standard(phi_link) -> np.ndarray:
     """The 4x4 pseudo-inertia matrix J of one link (Wensing et al. 2018) from its 10 parameters."""
     p = dict(zip(LINK_PARAMS, np.asarray(phi_link, dtype=float).reshape(N_LINK_PARAMS)))

@@ -238,18 +238,14 @@ def _informed(A: np.ndarray, scale: np.ndarray, K: np.ndarray, n: int, n_eq: int
 def link_bodies(phi: np.ndarray, n: int) -> list[dict]:
     """Mass, centre of mass, inertia about it (link-frame axes), principal moments, and the smallest
     eigenvalue of the pseudo-inertia, per link."""
-    from minparam_cli.identify.inertia import pseudo_inertia_from_standard
+    from minparam_cli.identify.inertia import body_from_standard, pseudo_inertia_from_standard
 
     out = []
     for i in range(n):
-        v = dict(zip(LINK_PARAMS, phi[N_LINK_PARAMS * i : N_LINK_PARAMS * (i + 1)]))
-        m = float(v["M"])
-        h = np.array([v["MX"], v["MY"], v["MZ"]])
-        c = h / m if m > 0 else np.full(3, np.nan)
-        Io = np.array([[v["XX"], v["XY"], v["XZ"]], [v["XY"], v["YY"], v["YZ"]], [v["XZ"], v["YZ"], v["ZZ"]]])
-        Ic = Io - m * (c @ c * np.eye(3) - np.outer(c, c)) if m > 0 else Io
+        phi_link = phi[N_LINK_PARAMS * i : N_LINK_PARAMS * (i + 1)]
+        m, c, Ic = body_from_standard(phi_link)
         principal = np.linalg.eigvalsh(0.5 * (Ic + Ic.T))
-        J = pseudo_inertia_from_standard(phi[N_LINK_PARAMS * i : N_LINK_PARAMS * (i + 1)])
+        J = pseudo_inertia_from_standard(phi_link)
         out.append({"link": i + 1, "mass": m, "com": [float(x) for x in c], "inertia_com": Ic.tolist(),
                     "principal_moments": [float(x) for x in principal],
                     "triangle_margin": float(min(principal[0] + principal[1] - principal[2],

@@ -49,12 +49,11 @@ def standard_in_frame(phi10: np.ndarray, T: np.ndarray) -> np.ndarray:
 
 def body(phi10: np.ndarray) -> tuple[float, np.ndarray, np.ndarray]:
     """(mass, centre of mass, inertia tensor about it) of one link's standard parameters, same frame."""
-    XX, XY, XZ, YY, YZ, ZZ, MX, MY, MZ, M = (float(x) for x in phi10)
-    if not M > 0:
-        raise ValueError(f"a link of mass {M} has no centre of mass")
-    c = np.array([MX, MY, MZ]) / M
-    I_o = np.array([[XX, XY, XZ], [XY, YY, YZ], [XZ, YZ, ZZ]])
-    return M, c, I_o - M * (c @ c * np.eye(3) - np.outer(c, c))
+    from minparam_cli.identify.inertia import body_from_standard
+
+    if not phi10[9] > 0:  # params.LINK_PARAMS: M last
+        raise ValueError(f"a link of mass {phi10[9]} has no centre of mass")
+    return body_from_standard(phi10)
 
 
 def link_phi(chain, phi: np.ndarray) -> list[np.ndarray]:
