@@ -197,11 +197,12 @@ def diagnose(design: Design, train: Block, hold: Block, opts: DiagnosisOptions, 
         rh0 = yhw - Xhw @ theta
         rssh0 = float(rh0 @ rh0)
         rssh0_plain = float(data.joint_rss(sel, theta, hold=True).sum())
+        errs = data.selection_errors(sel, theta)
         if step == 0:
-            out.steps.append(Step(None, {"rss_fit_weighted": rss0, "rss_selection_weighted": rssh0}, data.selection_errors(sel, theta), out.design, theta))
+            out.steps.append(Step(None, {"rss_fit_weighted": rss0, "rss_selection_weighted": rssh0}, errs, out.design, theta))
         if step == opts.max_steps:
             break
-        rel = data.selection_errors(sel, theta)["relative_error"]
+        rel = errs["relative_error"]
         if rel < ROUNDING:
             out.stop_reason = (f"the model explains the selection data to their rounding (relative error {rel:.1g}): "
                                "nothing left to trace")
