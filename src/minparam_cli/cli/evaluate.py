@@ -10,7 +10,7 @@ from typing import List, Optional
 import typer
 
 from minparam_cli.cli.common import guarded, write_output
-from minparam_cli.cli.identify import TimeUnit, time_unit_option, topic_option
+from minparam_cli.cli.identify import Fmt, TimeUnit, time_unit_option, topic_option
 
 HELP = ("Predict joint torques with a model saved by 'identify --save-model' and report the errors on data files: "
         "RMS per joint, total RMS and ‖r‖/‖τ‖, per file and pooled.")
@@ -31,11 +31,6 @@ Exit codes: 0 success, 1 failed computation, 2 bad input.
 class Which(str, Enum):
     physical = "physical"
     fit = "fit"
-
-
-class Fmt(str, Enum):
-    table = "table"
-    json = "json"
 
 
 def evaluate(
