@@ -6,7 +6,6 @@ renders CSV or npz and the truth record, writes them atomically, maps errors.
 
 from __future__ import annotations
 
-import io
 import json
 import sys
 from enum import Enum
@@ -16,7 +15,7 @@ from typing import Optional
 import numpy as np
 import typer
 
-from minparam_cli.cli.common import MimicMode, atomic_write, check_output_path, guarded, is_stdout, mimic_option, warning_line, write_output
+from minparam_cli.cli.common import MimicMode, Progress, atomic_write, check_output_path, guarded, is_stdout, mimic_option, warning_line, write_output
 from minparam_cli.errors import InputError
 
 HELP = (
@@ -84,7 +83,7 @@ def _simulate(robot, trajectory, effects, strength, noise, noise_q, seed, durati
               random_inertia, no_ddq, output, truth, quiet, coulomb_smoothing=0.0, mimic=MimicMode.coupled):
     from minparam_cli.chain import build_chain
     from minparam_cli.describe import load_description
-    from minparam_cli.identify.simulate import SimulationOptions, parse_effects, simulate as run, truth_record, validate_options
+    from minparam_cli.identify.simulate import SimulationOptions, Stream, parse_effects, plan as make_plan, truth_record, validate_options
 
     TrajectoryKind(trajectory)
     if seed < 0:
@@ -108,25 +107,31 @@ def _simulate(robot, trajectory, effects, strength, noise, noise_q, seed, durati
         strength=strength, noise=noise, noise_q=noise_q, random_inertia=random_inertia,
         coulomb_smoothing=coulomb_smoothing,
     )
-    validate_options(opts)
     if chain.phi_nominal is None and not random_inertia and not quiet:
         print(f"minparam: note: {robot} does not give inertial data for every link; using random physically consistent "
               "parameters (as with --random-inertia)", file=sys.stderr)
 
-    sim = run(chain, opts, np.random.default_rng(seed))
-    include_ddq = not no_ddq
-    if data_format == "npz":
-        write_npz(data_arrays(sim, include_ddq), Path(output))
-    else:
-        write_output(csv_text(sim, include_ddq), output)
+    samples = validate_options(opts)
+    bar = Progress(2 * samples, "simulate", quiet)
+    try:
+        plan = make_plan(chain, opts, np.random.default_rng(seed), progress=bar)
+        stream = Stream(plan, progress=bar)
+        include_ddq = not no_ddq
+        if data_format == "npz":
+            write_npz(stream, include_ddq, Path(output))
+        else:
+            write_csv(stream, include_ddq, Path("-") if output is None else Path(output))
+    finally:
+        bar.close()
+    limits = stream.limits
     if truth is not None:
-        record = truth_record(sim, str(robot), seed, chain.name, include_ddq)
+        record = truth_record(plan, str(robot), seed, chain.name, include_ddq, limits=limits)
         write_output(json_text(record), Path(truth))
     if not quiet:
-        sys.stderr.write(summary_text(sim, chain.name, seed, output, truth))
-    for j in sim.limits.over_effort if sim.limits is not None else ():
-        warning_line(f"joint {j + 1}: max |tau| {sim.limits.max_abs_tau[j]:.4g} exceeds its effort limit "
-                     f"{sim.limits.effort[j]:g} (reported, not enforced: a slower motion lowers only its inertial part)")
+        sys.stderr.write(summary_text(plan, limits, chain.name, seed, output, truth))
+    for j in limits.over_effort:
+        warning_line(f"joint {j + 1}: max |tau| {limits.max_abs_tau[j]:.4g} exceeds its effort limit "
+                     f"{limits.effort[j]:g} (reported, not enforced: a slower motion lowers only its inertial part)")
 
 
 def register(app: typer.Typer) -> None:
@@ -145,40 +150,44 @@ def _output_format(output: Path | None) -> str:
     return suffix[1:]
 
 
-def write_npz(arrays: dict[str, np.ndarray], output: Path) -> None:
-    """np.savez through ``atomic_write`` (a failed run leaves no file; a symlink's target is written)."""
+def write_npz(stream, include_ddq: bool, output: Path) -> None:
+    """The stream as an .npz archive (t, q, dq, [ddq,] tau), through ``atomic_write``: a failed run
+    leaves no file; memory stays at one chunk (``measured.writing.NpzWriter``)."""
+    from minparam_cli.measured.writing import NpzWriter
+
+    n, samples = stream.plan.chain.dof, stream.plan.samples
+    names = ("q", "dq", "ddq", "tau") if include_ddq else ("q", "dq", "tau")
 
     def write(tmp: str) -> None:
-        with open(tmp, "wb") as fh:
-            np.savez(fh, **arrays)
+        writer = NpzWriter({"t": (samples,), **{name: (samples, n) for name in names}})
+        try:
+            for chunk in stream:
+                writer.write("t", chunk.t)
+                for name in names:
+                    writer.write(name, getattr(chunk, name))
+        except BaseException:
+            writer.discard()
+            raise
+        writer.save(tmp)
 
     atomic_write(Path(output), write)
 
 
-# --- pure renderers ----------------------------------------------------------------------------------
-
-
-def data_arrays(sim, include_ddq: bool = True) -> dict[str, np.ndarray]:
-    """The npz content: t (N,), q, dq, [ddq,] tau (N, n)."""
-    out = {"t": sim.t, "q": sim.q, "dq": sim.dq}
-    if include_ddq:
-        out["ddq"] = sim.ddq
-    out["tau"] = sim.tau
-    return out
-
-
-def csv_text(sim, include_ddq: bool = True) -> str:
-    """One header row, then one row per sample; numbers in the shortest form that reads back exactly."""
+def write_csv(stream, include_ddq: bool, output: Path) -> None:
+    """The stream as CSV (header t, q1..qn, dq1..dqn, [ddq1..ddqn,] tau1..taun), chunk by chunk,
+    through ``atomic_write`` (``-``: stdout)."""
     from minparam_cli.identify.simulate import data_columns
+    from minparam_cli.measured.writing import CsvWriter
 
-    n = sim.q.shape[1]
-    blocks = [sim.t[:, None], sim.q, sim.dq] + ([sim.ddq] if include_ddq else []) + [sim.tau]
-    table = np.hstack(blocks)
-    buf = io.StringIO()
-    buf.write(",".join(data_columns(n, include_ddq)) + "\n")
-    for row in table.tolist():
-        buf.write(",".join(map(repr, row)) + "\n")
-    return buf.getvalue()
+    n = stream.plan.chain.dof
+
+    def write(tmp: str) -> None:
+        with open(tmp, "wb") as fh:
+            writer = CsvWriter(fh, data_columns(n, include_ddq))
+            for c in stream:
+                writer.write(np.hstack([c.t[:, None], c.q, c.dq] + ([c.ddq] if include_ddq else []) + [c.tau]))
+
+    atomic_write(Path(output), write)
 
 
 def json_text(obj, indent: int = 2, level: int = 0) -> str:
@@ -205,13 +214,13 @@ def _joints_text(joints: tuple[int, ...], n: int) -> str:
     return "+".join(str(j) for j in js)
 
 
-def summary_text(sim, robot_name: str, seed: int, output: Path | None, truth: Path | None) -> str:
-    """A few lines for stderr: what was simulated and where it went."""
+def summary_text(sim, limits, robot_name: str, seed: int, output: Path | None, truth: Path | None) -> str:
+    """A few lines for stderr: what was simulated (a ``Plan`` or a ``Simulation``) and where it went."""
     o = sim.options
-    n = sim.q.shape[1]
+    n = sim.tau_rigid.shape[1]
     rms_rigid = np.sqrt(np.mean(sim.tau_rigid**2, axis=0))
     lines = [
-        f"simulated  {robot_name}: {sim.t.size} samples, {o.duration:g} s at {o.rate:g} Hz, seed {seed}",
+        f"simulated  {robot_name}: {sim.samples} samples, {o.duration:g} s at {o.rate:g} Hz, seed {seed}",
         f"motion     Fourier series, {sim.trajectory.harmonics} harmonics of {sim.trajectory.base_frequency:g} Hz, "
         f"inside {100 * (1 - 2 * o.margin):g}% of each joint range",
         f"inertia    {'from the description' if sim.inertia_source == 'description' else 'random, physically consistent'}",
@@ -227,7 +236,7 @@ def summary_text(sim, robot_name: str, seed: int, output: Path | None, truth: Pa
         lines.append("effects    none")
     noise = f"torque σ {o.noise:g}" + (f", q σ {o.noise_q:g}" if o.noise_q > 0 else "")
     lines.append(f"noise      {noise}")
-    lim = sim.limits
+    lim = limits
     if lim is not None and lim.any_given():
         for label, given, seen in (("|dq|", lim.velocity, lim.max_abs_dq), ("|ddq|", lim.acceleration, lim.max_abs_ddq),
                                    ("|tau|", lim.effort, lim.max_abs_tau)):

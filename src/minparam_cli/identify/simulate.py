@@ -17,6 +17,16 @@ seeds, one per child generator: trajectory, random inertia, effect
 coefficients, torque noise, q noise.  Each part draws only from its own child,
 so adding noise or effects never changes the trajectory of the same seed.
 
+Streaming.  ``plan`` makes a first pass over the samples in chunks: it keeps
+the rigid-body torque (N × n doubles) and, per injected effect and joint, the
+Gram matrix CᵀC of its columns, from which every RMS above follows exactly
+(RMS(C·c)² = cᵀ(CᵀC)c / N).  ``stream`` then yields the data chunk by chunk:
+the motion is re-evaluated from the Fourier series, the effects from their
+coefficients, and the noise is drawn chunk by chunk from the same generators
+(numpy draws the same numbers whether asked for N rows at once or in pieces).
+Memory is the stored rigid torque plus one chunk, whatever N.  ``simulate``
+collects the stream into arrays for in-memory use.
+
 Effect amplitudes.  An effect on joint j gets the amplitude A (N·m or N):
 the spec's ``amp=``, else ``strength`` × RMS of the rigid-body torque of
 joint j.  Each of its m columns gets the weight u_i/RMS(column i), u_i
@@ -28,10 +38,12 @@ coefficient is g (``g=``, default ``strength``), i.e. it adds g·τ_rigid.
 ``load_coulomb`` and ``gain`` read τ_rigid, never other effects or noise.
 """
 
+
 from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from typing import Callable, Iterator
 
 import numpy as np
 
@@ -40,12 +52,20 @@ from minparam_cli.dynamics.regressor import regressor
 from minparam_cli.errors import InputError
 from minparam_cli.identify.effects import EFFECTS, Signals
 from minparam_cli.identify.inertia import RandomInertia, random_inertia
-from minparam_cli.identify.trajectory import LIMIT_MARGIN, FourierTrajectory, fourier_excitation, joint_ranges
+from minparam_cli.identify.simulate_spec import (  # noqa: F401  (the names callers import from here)
+    HYPER_DEFAULT,
+    HYPER_KEY,
+    EffectSpec,
+    InjectedEffect,
+    MotionLimits,
+    SimulationOptions,
+    data_columns,
+    parse_effects,
+    validate_options,
+)
+from minparam_cli.identify.trajectory import FourierTrajectory, fourier_excitation, joint_ranges
 from minparam_cli.params import standard_names
 
-# Hyper-parameter of the grid effects: spec key and default (each default lies on its effect's grid).
-HYPER_KEY: dict[str, str] = {"stribeck": "vs", "cogging": "k"}
-HYPER_DEFAULT: dict[str, float] = {"stribeck": 0.05, "cogging": 12.0}
 # Effects whose coefficients are drawn positive: those whose physical range is [0, inf) in the effect
 # library (friction opposes the motion; inertia is positive), so simulate and the diagnosis agree.
 POSITIVE_EFFECTS = frozenset(e.id for e in EFFECTS.values() if e.bounds is not None and e.bounds[0] == 0 and math.isinf(e.bounds[1]))
@@ -54,47 +74,7 @@ WEIGHT_RANGE = (0.5, 1.5)
 # Samples per regressor evaluation (bounds memory: chunk × n × 10n doubles).
 REGRESSOR_CHUNK = 2048
 
-
-@dataclass(frozen=True)
-class EffectSpec:
-    """One parsed item of the ``--effects`` list."""
-
-    effect: str
-    joints: tuple[int, ...]  # 0-based
-    amplitude: float | None = None  # N·m or N: RMS of the injected torque; None = strength × RMS(τ_rigid)
-    gain: float | None = None  # only for 'gain'; None = strength
-    hyper: float | None = None  # the grid value (stribeck vs, cogging k); None for effects without one
-    text: str = ""  # the item as written, for messages
-
-
-@dataclass(frozen=True)
-class SimulationOptions:
-    """Everything ``simulate`` needs besides the chain and the generator (SI units)."""
-
-    duration: float = 20.0  # s
-    rate: float = 200.0  # Hz
-    harmonics: int = 5
-    base_frequency: float = 0.1  # Hz
-    effects: tuple[EffectSpec, ...] = ()
-    strength: float = 0.1  # default effect amplitude, as a fraction of the joint's rigid-body RMS torque
-    noise: float = 0.0  # std of the torque noise, N·m or N
-    noise_q: float = 0.0  # std of the position noise, rad or m
-    random_inertia: bool = False  # ignore the description's inertial values
-    margin: float = LIMIT_MARGIN  # fraction of each joint range kept free at both ends
-    coulomb_smoothing: float = 0.0  # > 0: injected friction uses tanh(q̇ / this) for sign(q̇)
-
-
-@dataclass(frozen=True)
-class InjectedEffect:
-    """An effect as it went into the torques: coefficients per joint, in the effect's column order."""
-
-    effect: str
-    joints: tuple[int, ...]  # 0-based
-    column_names: tuple[str, ...]
-    coefficients: tuple[tuple[float, ...], ...]  # one tuple per joint
-    hyper: float | None
-    hyper_name: str
-    rms: tuple[float, ...]  # RMS of the injected torque per joint
+Progress = Callable[[int, int], None]
 
 
 @dataclass(frozen=True, eq=False)
@@ -119,163 +99,51 @@ class Simulation:
     parameter_names: tuple[str, ...] = field(default=())
     limits: "MotionLimits | None" = None
 
+    @property
+    def samples(self) -> int:
+        return int(self.t.size)
 
-@dataclass(frozen=True)
-class MotionLimits:
-    """Per independent joint: the description's velocity, acceleration and effort limits (SI, None: none),
-    and the largest |q̇|, |q̈|, |τ| of the data.  Velocity and acceleration are enforced by the
-    trajectory; effort is only checked (``over_effort``: 0-based joints whose torque exceeds it)."""
 
-    velocity: tuple[float | None, ...]
-    acceleration: tuple[float | None, ...]
-    effort: tuple[float | None, ...]
+
+@dataclass(frozen=True, eq=False)
+class Plan:
+    """Everything the data are made from, after the first pass (see the module docstring)."""
+
+    chain: Chain
+    options: SimulationOptions
+    samples: int
+    trajectory: FourierTrajectory
+    ranges: tuple[tuple[float, float], ...]
+    phi: np.ndarray
+    inertia_source: str
+    inertia: RandomInertia | None
+    effects: tuple[InjectedEffect, ...]
+    tau_rigid: np.ndarray  # (N, n), kept from the first pass
+    limits_given: tuple[tuple[float | None, ...], tuple[float | None, ...], tuple[float | None, ...]]
     max_abs_dq: tuple[float, ...]
     max_abs_ddq: tuple[float, ...]
-    max_abs_tau: tuple[float, ...]
+    noise_rng: np.random.Generator
+    noise_q_rng: np.random.Generator
+    chunk: int = REGRESSOR_CHUNK
 
     @property
-    def over_effort(self) -> tuple[int, ...]:
-        return tuple(j for j, (lim, x) in enumerate(zip(self.effort, self.max_abs_tau)) if lim is not None and x > lim)
-
-    def any_given(self) -> bool:
-        return any(v is not None for v in self.velocity + self.acceleration + self.effort)
-
-    def to_dict(self) -> dict:
-        return {
-            "velocity": list(self.velocity), "acceleration": list(self.acceleration), "effort": list(self.effort),
-            "max_abs_dq": list(self.max_abs_dq), "max_abs_ddq": list(self.max_abs_ddq), "max_abs_tau": list(self.max_abs_tau),
-            "over_effort": [j + 1 for j in self.over_effort],
-        }
+    def parameter_names(self) -> tuple[str, ...]:
+        return standard_names(self.chain.n)
 
 
-# --- column names of the data files: defined once, read by identify ---------------------------------
+@dataclass(frozen=True, eq=False)
+class Chunk:
+    """Samples [start, start + len(t)) of the data and the parts they are made of."""
 
-
-def data_columns(n: int, include_ddq: bool = True) -> tuple[str, ...]:
-    """Header of the CSV: t, q1..qn, dq1..dqn, [ddq1..ddqn,] tau1..taun."""
-    groups = ("q", "dq", "ddq", "tau") if include_ddq else ("q", "dq", "tau")
-    return ("t",) + tuple(f"{g}{j}" for g in groups for j in range(1, n + 1))
-
-
-# --- the --effects syntax ----------------------------------------------------------------------------
-
-
-def _joint_set(text: str, n: int, item: str) -> tuple[int, ...]:
-    """'2' -> (1,); '1-3' -> (0, 1, 2); '1+4-5' -> (0, 3, 4); numbering from 1."""
-    out: list[int] = []
-    for part in text.split("+"):
-        bounds = part.split("-")
-        try:
-            if len(bounds) == 1:
-                lo = hi = int(bounds[0])
-            elif len(bounds) == 2:
-                lo, hi = int(bounds[0]), int(bounds[1])
-            else:
-                raise ValueError
-        except ValueError:
-            raise InputError(f"effect {item!r}: expected joints like 2, 1-3 or 1+3, got {text!r}") from None
-        if lo > hi:
-            raise InputError(f"effect {item!r}: empty joint range {lo}-{hi}")
-        for j in (lo, hi):
-            if not 1 <= j <= n:
-                raise InputError(f"effect {item!r}: joint {j} is out of range 1..{n}")
-        out.extend(k - 1 for k in range(lo, hi + 1) if k - 1 not in out)
-    return tuple(sorted(out))
-
-
-def _on_grid(effect: str, value: float, item: str) -> float:
-    grid = np.asarray(EFFECTS[effect].grid, dtype=float)
-    hit = np.flatnonzero(np.abs(grid - value) <= 1e-9 * np.abs(grid))
-    if hit.size == 0:
-        shown = f"{grid[0]:g}..{grid[-1]:g} in steps of 1" if effect == "cogging" else ", ".join(f"{g:g}" for g in grid)
-        raise InputError(f"effect {item!r}: {HYPER_KEY[effect]}={value:g} is not on the grid searched by identify ({shown})")
-    return float(grid[hit[0]])
-
-
-def parse_effects(text: str, n: int) -> tuple[EffectSpec, ...]:
-    """Parse ``ID[@JOINTS][:key=value...]`` items separated by commas.
-
-    JOINTS: ``2``, ``1-3``, ``1+4-5`` (numbered from 1; default all joints).
-    Keys: ``amp`` (RMS of the injected torque, N·m or N, > 0) for every effect
-    but ``gain``, which takes ``g`` (the gain error, any finite number);
-    ``vs`` for stribeck and ``k`` for cogging (on the effect's grid).
-    """
-    specs: list[EffectSpec] = []
-    seen: set[tuple[str, int, float | None]] = set()
-    for raw in (text or "").split(","):
-        item = raw.strip()
-        if not item:
-            continue
-        head, *pairs = item.split(":")
-        name, _, joints_text = head.partition("@")
-        name = name.strip()
-        if name not in EFFECTS:
-            raise InputError(f"unknown effect {name!r} in {item!r}; expected one of {', '.join(EFFECTS)}")
-        joints = _joint_set(joints_text.strip(), n, item) if "@" in head else tuple(range(n))
-        allowed = ("g",) if name == "gain" else ("amp",) + ((HYPER_KEY[name],) if name in HYPER_KEY else ())
-        values: dict[str, float] = {}
-        for pair in pairs:
-            key, eq, val = (s.strip() for s in pair.partition("="))
-            if key not in allowed:
-                raise InputError(f"effect {item!r}: unknown key {key!r} for {name}; expected {', '.join(allowed)}")
-            if not eq:
-                raise InputError(f"effect {item!r}: expected {key}=VALUE")
-            if key in values:
-                raise InputError(f"effect {item!r}: key {key!r} given twice")
-            try:
-                v = float(val)
-            except ValueError:
-                raise InputError(f"effect {item!r}: {key} must be a number, got {val!r}") from None
-            if not math.isfinite(v):
-                raise InputError(f"effect {item!r}: {key} must be finite, got {val!r}")
-            values[key] = v
-        amp = values.get("amp")
-        if amp is not None and not amp > 0:
-            raise InputError(f"effect {item!r}: amp must be positive, got {amp:g}")
-        hyper = None
-        if name in HYPER_KEY:
-            hyper = _on_grid(name, values.get(HYPER_KEY[name], HYPER_DEFAULT[name]), item)
-        for j in joints:
-            key3 = (name, j, hyper)
-            if key3 in seen:
-                raise InputError(f"effect {item!r}: {name} is already injected on joint {j + 1}")
-            seen.add(key3)
-        specs.append(EffectSpec(name, joints, amp, values.get("g"), hyper, item))
-    return tuple(specs)
-
-
-# --- the stage -------------------------------------------------------------------------------------
-
-
-def validate_options(options: SimulationOptions) -> int:
-    """Check the options (messages name the CLI flags); return the number of samples."""
-    o = options
-
-    def finite_positive(value, flag, unit):
-        if not (math.isfinite(value) and value > 0):
-            raise InputError(f"{flag} must be a positive number of {unit}, got {value:g}")
-
-    finite_positive(o.duration, "--duration", "seconds")
-    finite_positive(o.rate, "--rate", "Hz")
-    finite_positive(o.base_frequency, "--base-frequency", "Hz")
-    if o.harmonics < 1:
-        raise InputError(f"--harmonics must be at least 1, got {o.harmonics}")
-    top = o.harmonics * o.base_frequency
-    if top >= o.rate / 2:
-        raise InputError(
-            f"the highest harmonic ({o.harmonics} x {o.base_frequency:g} Hz = {top:g} Hz) must be below half "
-            f"the --rate ({o.rate / 2:g} Hz)"
-        )
-    for value, flag, unit in ((o.noise, "--noise", "N·m"), (o.noise_q, "--noise-q", "rad"), (o.strength, "--strength", ""),
-                              (o.coulomb_smoothing, "--coulomb-smoothing", "rad/s")):
-        if not (math.isfinite(value) and value >= 0):
-            raise InputError(f"{flag} must be a number >= 0{' ' + unit if unit else ''}, got {value:g}")
-    if not 0 <= o.margin < 0.5:
-        raise InputError(f"margin must be in [0, 0.5), got {o.margin:g}")
-    samples = int(round(o.duration * o.rate))
-    if samples < 2:
-        raise InputError(f"--duration x --rate gives {samples} sample(s); need at least 2")
-    return samples
+    start: int
+    t: np.ndarray
+    q: np.ndarray  # as measured
+    dq: np.ndarray
+    ddq: np.ndarray
+    tau: np.ndarray  # as measured
+    q_true: np.ndarray
+    tau_rigid: np.ndarray
+    tau_effects: np.ndarray
 
 
 def child_generators(rng: np.random.Generator, count: int) -> list[np.random.Generator]:
@@ -298,14 +166,24 @@ def _rms(x: np.ndarray, axis=0) -> np.ndarray:
     return np.sqrt(np.mean(np.square(x), axis=axis))
 
 
-def _inject(spec: EffectSpec, signals: Signals, rms_rigid: np.ndarray, strength: float, rng: np.random.Generator):
-    """Coefficients and torque (N, n) of one effect spec; see the module docstring for the rule."""
+def _bounds(samples: int, chunk: int) -> Iterator[tuple[int, int]]:
+    for s in range(0, samples, chunk):
+        yield s, min(s + chunk, samples)
+
+
+def _motion(plan_rate: float, traj: FourierTrajectory, s: int, e: int):
+    t = np.arange(s, e) / plan_rate
+    return (t,) + tuple(traj.evaluate(t))
+
+
+def _coefficients(spec: EffectSpec, grams: list[np.ndarray], samples: int, rms_rigid: np.ndarray, strength: float,
+                  rng: np.random.Generator) -> InjectedEffect:
+    """Coefficients of one effect spec from the Gram matrices of its columns (one per joint);
+    see the module docstring for the rule."""
     effect = EFFECTS[spec.effect]
-    torque = np.zeros_like(signals.q)
     coefficients, rms = [], []
-    for j in spec.joints:
-        cols = effect.columns(signals, j, spec.hyper)
-        m = cols.shape[1]
+    for j, gram in zip(spec.joints, grams):
+        m = gram.shape[0]
         weights = rng.uniform(*WEIGHT_RANGE, size=m)
         signs = rng.choice((-1.0, 1.0), size=m)
         if spec.effect == "gain":
@@ -319,21 +197,19 @@ def _inject(spec: EffectSpec, signals: Signals, rms_rigid: np.ndarray, strength:
                         f"effect {spec.text!r}: joint {j + 1} carries no rigid-body torque to scale the effect by; give amp="
                     )
                 amplitude = strength * rms_rigid[j]
-            col_rms = _rms(cols)
+            col_rms = np.sqrt(np.maximum(np.diag(gram), 0.0) / samples)
             if spec.effect in POSITIVE_EFFECTS:
                 signs = np.ones(m)
             usable = col_rms > 0
             c = np.zeros(m)
             c[usable] = signs[usable] * weights[usable] / col_rms[usable]
-            size = float(_rms(cols @ c))
+            size = math.sqrt(max(float(c @ gram @ c), 0.0) / samples)
             if size == 0.0:
                 raise InputError(f"effect {spec.text!r}: gives no torque on joint {j + 1} along this trajectory")
             c *= amplitude / size
-        contribution = cols @ c
-        torque[:, j] += contribution
         coefficients.append(tuple(float(x) for x in c))
-        rms.append(float(_rms(contribution)))
-    injected = InjectedEffect(
+        rms.append(math.sqrt(max(float(c @ gram @ c), 0.0) / samples))
+    return InjectedEffect(
         effect=spec.effect,
         joints=spec.joints,
         column_names=effect.column_names,
@@ -342,11 +218,12 @@ def _inject(spec: EffectSpec, signals: Signals, rms_rigid: np.ndarray, strength:
         hyper_name=effect.grid_name,
         rms=tuple(rms),
     )
-    return injected, torque
 
 
-def simulate(chain: Chain, options: SimulationOptions, rng: np.random.Generator) -> Simulation:
-    """Synthetic measured data for ``chain`` (see the module docstring for every equation)."""
+def plan(chain: Chain, options: SimulationOptions, rng: np.random.Generator, progress: Progress | None = None,
+         chunk: int = REGRESSOR_CHUNK) -> Plan:
+    """The first pass: trajectory, inertial parameters, rigid torque, effect coefficients.
+    ``progress(done, total)`` counts samples of both passes (this one is the first half)."""
     samples = validate_options(options)
     for spec in options.effects:
         if any(not 0 <= j < chain.dof for j in spec.joints):
@@ -359,8 +236,6 @@ def simulate(chain: Chain, options: SimulationOptions, rng: np.random.Generator)
                                       (chain.velocity_limits, chain.acceleration_limits, chain.effort_limits))
     traj = fourier_excitation(ranges, options.harmonics, options.base_frequency, traj_rng, options.margin,
                               max_velocity=velocity, max_acceleration=acceleration)
-    t = np.arange(samples) / options.rate
-    q, dq, ddq = traj.evaluate(t)
 
     inertia = None
     if options.random_inertia or chain.phi_nominal is None:
@@ -374,42 +249,87 @@ def simulate(chain: Chain, options: SimulationOptions, rng: np.random.Generator)
             raise InputError(nominal_problems_text(chain.source, problems) + "; fix them or use --random-inertia")
         phi, source = np.array(chain.phi_nominal, dtype=float), "description"
 
-    tau_rigid = rigid_torque(chain, q, dq, ddq, phi)
-    signals = Signals(t=t, q=q, dq=dq, ddq=ddq, tau_model=tau_rigid, coulomb_smoothing=options.coulomb_smoothing)
-    rms_rigid = _rms(tau_rigid)
-    tau_effects = np.zeros_like(tau_rigid)
-    injected = []
-    for spec in options.effects:
-        record, torque = _inject(spec, signals, rms_rigid, options.strength, effect_rng)
-        injected.append(record)
-        tau_effects += torque
+    dof = chain.dof
+    tau_rigid = np.empty((samples, dof))
+    grams = [[np.zeros((len(EFFECTS[s.effect].column_names),) * 2) for _ in s.joints] for s in options.effects]
+    max_dq, max_ddq = np.zeros(dof), np.zeros(dof)
+    for s, e in _bounds(samples, chunk):
+        t, q, dq, ddq = _motion(options.rate, traj, s, e)
+        tau_rigid[s:e] = regressor(chain, q, dq, ddq, include_extras=False) @ phi
+        np.maximum(max_dq, np.abs(dq).max(axis=0), out=max_dq)
+        np.maximum(max_ddq, np.abs(ddq).max(axis=0), out=max_ddq)
+        if options.effects:
+            signals = Signals(t=t, q=q, dq=dq, ddq=ddq, tau_model=tau_rigid[s:e], t0=0.0,
+                              coulomb_smoothing=options.coulomb_smoothing)
+            for spec, spec_grams in zip(options.effects, grams):
+                for j, gram in zip(spec.joints, spec_grams):
+                    cols = EFFECTS[spec.effect].columns(signals, j, spec.hyper)
+                    gram += cols.T @ cols
+        if progress:
+            progress(e, 2 * samples)
 
-    tau = tau_rigid + tau_effects
-    if options.noise > 0:
-        tau = tau + noise_rng.normal(0.0, options.noise, size=tau.shape)
-    q_measured = q + noise_q_rng.normal(0.0, options.noise_q, size=q.shape) if options.noise_q > 0 else q
+    rms_rigid = np.sqrt(np.einsum("ij,ij->j", tau_rigid, tau_rigid) / samples)
+    injected = tuple(_coefficients(spec, spec_grams, samples, rms_rigid, options.strength, effect_rng)
+                     for spec, spec_grams in zip(options.effects, grams))
+    return Plan(
+        chain=chain, options=options, samples=samples, trajectory=traj, ranges=tuple(ranges), phi=phi,
+        inertia_source=source, inertia=inertia, effects=injected, tau_rigid=tau_rigid,
+        limits_given=(velocity, acceleration, effort),
+        max_abs_dq=tuple(float(x) for x in max_dq), max_abs_ddq=tuple(float(x) for x in max_ddq),
+        noise_rng=noise_rng, noise_q_rng=noise_q_rng, chunk=chunk,
+    )
+
+
+class Stream:
+    """The second pass: iterate once for the data chunk by chunk; ``limits`` is complete afterwards."""
+
+    def __init__(self, plan: Plan, progress: Progress | None = None):
+        self.plan = plan
+        self.progress = progress
+        self._max_tau = np.zeros(plan.chain.dof)
+        self._used = False
+        self.limits: MotionLimits | None = None
+
+    def __iter__(self) -> Iterator[Chunk]:
+        if self._used:
+            raise RuntimeError("a simulation stream can be read only once (its noise generators advance)")
+        self._used = True
+        p, o = self.plan, self.plan.options
+        for s, e in _bounds(p.samples, p.chunk):
+            t, q, dq, ddq = _motion(o.rate, p.trajectory, s, e)
+            rigid = p.tau_rigid[s:e]
+            effects = np.zeros_like(rigid)
+            if p.effects:
+                signals = Signals(t=t, q=q, dq=dq, ddq=ddq, tau_model=rigid, t0=0.0, coulomb_smoothing=o.coulomb_smoothing)
+                for record in p.effects:
+                    effect = EFFECTS[record.effect]
+                    for j, c in zip(record.joints, record.coefficients):
+                        effects[:, j] += effect.columns(signals, j, record.hyper) @ np.asarray(c)
+            tau = rigid + effects
+            if o.noise > 0:
+                tau = tau + p.noise_rng.normal(0.0, o.noise, size=tau.shape)
+            q_measured = q + p.noise_q_rng.normal(0.0, o.noise_q, size=q.shape) if o.noise_q > 0 else q
+            np.maximum(self._max_tau, np.abs(tau).max(axis=0), out=self._max_tau)
+            if self.progress:
+                self.progress(p.samples + e, 2 * p.samples)
+            yield Chunk(s, t, q_measured, dq, ddq, tau, q, rigid, effects)
+        self.limits = MotionLimits(*p.limits_given, p.max_abs_dq, p.max_abs_ddq, tuple(float(x) for x in self._max_tau))
+
+
+def simulate(chain: Chain, options: SimulationOptions, rng: np.random.Generator, progress: Progress | None = None) -> Simulation:
+    """Synthetic measured data for ``chain``, in memory (see the module docstring for every equation)."""
+    p = plan(chain, options, rng, progress)
+    stream = Stream(p, progress)
+    parts = list(stream)
+
+    def stack(name):
+        return np.concatenate([getattr(c, name) for c in parts])
 
     return Simulation(
-        t=t,
-        q=q_measured,
-        dq=dq,
-        ddq=ddq,
-        tau=tau,
-        q_true=q,
-        tau_rigid=tau_rigid,
-        tau_effects=tau_effects,
-        phi=phi,
-        inertia_source=source,
-        inertia=inertia,
-        trajectory=traj,
-        ranges=tuple(ranges),
-        effects=tuple(injected),
-        options=options,
-        parameter_names=standard_names(chain.n),
-        limits=MotionLimits(
-            velocity, acceleration, effort,
-            *(tuple(float(x) for x in np.abs(v).max(axis=0)) for v in (dq, ddq, tau)),
-        ),
+        t=stack("t"), q=stack("q"), dq=stack("dq"), ddq=stack("ddq"), tau=stack("tau"), q_true=stack("q_true"),
+        tau_rigid=p.tau_rigid, tau_effects=stack("tau_effects"), phi=p.phi, inertia_source=p.inertia_source,
+        inertia=p.inertia, trajectory=p.trajectory, ranges=p.ranges, effects=p.effects, options=options,
+        parameter_names=standard_names(chain.n), limits=stream.limits,
     )
 
 
@@ -423,8 +343,11 @@ def _per_coordinate(chain: Chain, values) -> tuple[float | None, ...]:
 # --- the truth record --------------------------------------------------------------------------------
 
 
-def truth_record(sim: Simulation, robot: str, seed: int, robot_name: str = "", include_ddq: bool = True) -> dict:
-    """JSON-ready record of everything the data was made from (joints numbered from 1)."""
+def truth_record(sim: Simulation | Plan, robot: str, seed: int, robot_name: str = "", include_ddq: bool = True,
+                 limits: MotionLimits | None = None) -> dict:
+    """JSON-ready record of everything the data was made from (joints numbered from 1); from a
+    ``Simulation``, or from a streamed ``Plan`` with the ``limits`` its stream found."""
+    limits = limits if limits is not None else getattr(sim, "limits", None)
     o = sim.options
     effects = []
     for e in sim.effects:
@@ -452,7 +375,7 @@ def truth_record(sim: Simulation, robot: str, seed: int, robot_name: str = "", i
         "inertia_source": sim.inertia_source,
         "phi": [float(x) for x in sim.phi],
         "standard_parameters": list(sim.parameter_names),
-        "samples": int(sim.t.size),
+        "samples": sim.samples,
         "rate": o.rate,
         "duration": o.duration,
         "ddq_included": include_ddq,
@@ -467,6 +390,6 @@ def truth_record(sim: Simulation, robot: str, seed: int, robot_name: str = "", i
             "ranges": [list(r) for r in sim.ranges],
             "margin": o.margin,
         },
-        "limits": sim.limits.to_dict() if sim.limits is not None else None,
+        "limits": limits.to_dict() if limits is not None else None,
         "units": {"t": "s", "q": "rad or m", "dq": "rad/s or m/s", "ddq": "rad/s^2 or m/s^2", "tau": "N·m or N"},
     }
