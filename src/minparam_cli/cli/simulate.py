@@ -221,8 +221,9 @@ def summary_text(sim, limits, robot_name: str, seed: int, output: Path | None, t
     rms_rigid = np.sqrt(np.mean(sim.tau_rigid**2, axis=0))
     lines = [
         f"simulated  {robot_name}: {sim.samples} samples, {o.duration:g} s at {o.rate:g} Hz, seed {seed}",
-        f"motion     Fourier series, {sim.trajectory.harmonics} harmonics of {sim.trajectory.base_frequency:g} Hz, "
-        f"inside {100 * (1 - 2 * o.margin):g}% of each joint range",
+        (f"motion     Fourier series, {sim.trajectory.harmonics} harmonics of {sim.trajectory.base_frequency:g} Hz, "
+         f"inside {100 * (1 - 2 * o.margin):g}% of each joint range") if hasattr(sim.trajectory, "harmonics")
+        else f"motion     samples of {sim.trajectory.source}",
         f"inertia    {'from the description' if sim.inertia_source == 'description' else 'random, physically consistent'}",
         "rigid RMS  " + " ".join(f"{x:.3g}" for x in rms_rigid) + " (N·m or N per joint)",
     ]

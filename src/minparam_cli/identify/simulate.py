@@ -92,7 +92,7 @@ class Simulation:
     phi: np.ndarray  # (10 n,) standard parameters used
     inertia_source: str  # "description" | "random"
     inertia: RandomInertia | None
-    trajectory: FourierTrajectory
+    trajectory: "FourierTrajectory | object"  # the series, or given sampled motion
     ranges: tuple[tuple[float, float], ...]
     effects: tuple[InjectedEffect, ...]
     options: SimulationOptions
@@ -112,7 +112,7 @@ class Plan:
     chain: Chain
     options: SimulationOptions
     samples: int
-    trajectory: FourierTrajectory
+    trajectory: "FourierTrajectory | object"  # the series, or given sampled motion
     ranges: tuple[tuple[float, float], ...]
     phi: np.ndarray
     inertia_source: str
@@ -171,9 +171,12 @@ def _bounds(samples: int, chunk: int) -> Iterator[tuple[int, int]]:
         yield s, min(s + chunk, samples)
 
 
-def _motion(plan_rate: float, traj: FourierTrajectory, s: int, e: int):
-    t = np.arange(s, e) / plan_rate
-    return (t,) + tuple(traj.evaluate(t))
+def _motion(plan_rate: float, traj, s: int, e: int):
+    """Samples [s, e) of the motion: the series evaluated at t = k / rate, or the given samples."""
+    if isinstance(traj, FourierTrajectory):
+        t = np.arange(s, e) / plan_rate
+        return (t,) + tuple(traj.evaluate(t))
+    return traj.t[s:e], traj.q[s:e], traj.dq[s:e], traj.ddq[s:e]
 
 
 def _coefficients(spec: EffectSpec, grams: list[np.ndarray], samples: int, rms_rigid: np.ndarray, strength: float,
@@ -221,10 +224,19 @@ def _coefficients(spec: EffectSpec, grams: list[np.ndarray], samples: int, rms_r
 
 
 def plan(chain: Chain, options: SimulationOptions, rng: np.random.Generator, progress: Progress | None = None,
-         chunk: int = REGRESSOR_CHUNK) -> Plan:
+         chunk: int = REGRESSOR_CHUNK, given=None) -> Plan:
     """The first pass: trajectory, inertial parameters, rigid torque, effect coefficients.
-    ``progress(done, total)`` counts samples of both passes (this one is the first half)."""
+    ``progress(done, total)`` counts samples of both passes (this one is the first half).
+
+    ``given``: None (draw the random Fourier series), a FourierTrajectory (e.g. ``excite``'s, evaluated
+    at the options' duration and rate), or sampled motion (an object with arrays t (N,), q, dq, ddq
+    (N, n) and a ``source`` name), used as it is.  The generator's five children are drawn either
+    way, so the other random parts do not depend on it."""
     samples = validate_options(options)
+    if given is not None and not isinstance(given, FourierTrajectory):
+        if given.q.shape[1] != chain.dof:
+            raise InputError(f"{given.source}: {given.q.shape[1]} joints in the trajectory, {chain.dof} in the robot")
+        samples = int(given.t.size)
     for spec in options.effects:
         if any(not 0 <= j < chain.dof for j in spec.joints):
             raise InputError(f"effect {spec.text or spec.effect!r}: joints out of range 1..{chain.dof}")
@@ -234,8 +246,11 @@ def plan(chain: Chain, options: SimulationOptions, rng: np.random.Generator, pro
     ranges = joint_ranges(chain.coordinate_types, [chain.limits[j] for j in chain.coordinates] if chain.limits else None)
     velocity, acceleration, effort = (_per_coordinate(chain, v) for v in
                                       (chain.velocity_limits, chain.acceleration_limits, chain.effort_limits))
-    traj = fourier_excitation(ranges, options.harmonics, options.base_frequency, traj_rng, options.margin,
-                              max_velocity=velocity, max_acceleration=acceleration)
+    if given is None:
+        traj = fourier_excitation(ranges, options.harmonics, options.base_frequency, traj_rng, options.margin,
+                                  max_velocity=velocity, max_acceleration=acceleration)
+    else:
+        traj = given
 
     inertia = None
     if options.random_inertia or chain.phi_nominal is None:
@@ -316,9 +331,11 @@ class Stream:
         self.limits = MotionLimits(*p.limits_given, p.max_abs_dq, p.max_abs_ddq, tuple(float(x) for x in self._max_tau))
 
 
-def simulate(chain: Chain, options: SimulationOptions, rng: np.random.Generator, progress: Progress | None = None) -> Simulation:
-    """Synthetic measured data for ``chain``, in memory (see the module docstring for every equation)."""
-    p = plan(chain, options, rng, progress)
+def simulate(chain: Chain, options: SimulationOptions, rng: np.random.Generator, given=None,
+             progress: Progress | None = None) -> Simulation:
+    """Synthetic measured data for ``chain``, in memory (see the module docstring for every equation;
+    ``given`` as for ``plan``)."""
+    p = plan(chain, options, rng, progress, given=given)
     stream = Stream(p, progress)
     parts = list(stream)
 
@@ -363,6 +380,20 @@ def truth_record(sim: Simulation | Plan, robot: str, seed: int, robot_name: str 
             }
         )
     traj = sim.trajectory
+    if isinstance(traj, FourierTrajectory):
+        motion = {
+            "type": "fourier",
+            "reference": "Swevers et al., IEEE T-RA 13(5), 1997",
+            "harmonics": traj.harmonics,
+            "base_frequency": traj.base_frequency,
+            "q0": traj.q0.tolist(),
+            "a": traj.a.tolist(),
+            "b": traj.b.tolist(),
+            "ranges": [list(r) for r in sim.ranges],
+            "margin": o.margin,
+        }
+    else:
+        motion = {"type": "samples", "source": str(traj.source), "samples": int(traj.t.size)}
     return {
         "robot": robot,
         "robot_name": robot_name,
@@ -379,17 +410,7 @@ def truth_record(sim: Simulation | Plan, robot: str, seed: int, robot_name: str 
         "rate": o.rate,
         "duration": o.duration,
         "ddq_included": include_ddq,
-        "trajectory": {
-            "type": "fourier",
-            "reference": "Swevers et al., IEEE T-RA 13(5), 1997",
-            "harmonics": traj.harmonics,
-            "base_frequency": traj.base_frequency,
-            "q0": traj.q0.tolist(),
-            "a": traj.a.tolist(),
-            "b": traj.b.tolist(),
-            "ranges": [list(r) for r in sim.ranges],
-            "margin": o.margin,
-        },
+        "trajectory": motion,
         "limits": limits.to_dict() if limits is not None else None,
         "units": {"t": "s", "q": "rad or m", "dq": "rad/s or m/s", "ddq": "rad/s^2 or m/s^2", "tau": "N·m or N"},
     }
