@@ -250,3 +250,9 @@ def evaluate(prog: Program, outputs, inputs: dict, np):
         else:
             vals[i] = fns[node.op](get(node.args[0]))
     return [vals[o.i] if isinstance(o, Sym) else o for o in outputs]
+
+
+def schedule(prog: Program, outputs) -> tuple[list[tuple[int, Node]], dict[int, int]]:
+    """The live instructions other than inputs, in order, and each one's local number (t0, t1, ...)."""
+    order = [(i, prog.nodes[i]) for i in prog.live(outputs) if prog.nodes[i].op != "in"]
+    return order, {i: k for k, (i, _) in enumerate(order)}
