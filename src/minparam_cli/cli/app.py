@@ -72,6 +72,7 @@ COMMANDS = {
     "simulate": _add_module("simulate"),
     "singular": _add_module("singular"),
     "platform": _add_module("platform"),
+    "codegen": _add_module("codegen"),
 }
 
 
