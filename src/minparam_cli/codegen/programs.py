@@ -98,60 +98,65 @@ def record_regressor(chain: Chain) -> Recorded:
         qddj = [_dot([_snap(g) for g in G[j]], qdd) for j in range(n)]
     L = chain.length_scale
     g = [_snap(x, 10.0) for x in chain.gravity]
-    T, S, V, A = [], [], [], []
+    V, A, U = [], [], []
     Yj = [[0.0] * (10 * n) for _ in range(n)]
-    for j, ((C0, C1, C2), axis, origin) in enumerate(chain.local_terms):
+    for j, ((C0, C1, C2), _, _) in enumerate(chain.local_terms):
         c0, c1 = _snapped(C0, L), _snapped(C1, L)
         if chain.types[j] == REVOLUTE:
             c2 = _snapped(C2, L)
-            sn, vc = prog.call("sin", qj[j]), 1.0 - prog.call("cos", qj[j])
-            Lm = [[c0[r][c] + sn * c1[r][c] + vc * c2[r][c] for c in range(4)] for r in range(3)]
+            # C0 + s C1 + (1 − c) C2 written (C0 + C2) + s C1 − c C2: the constant part folds, and an
+            # entry cos q stays cos q (not 1 − (1 − cos q))
+            sn, cs = prog.call("sin", qj[j]), prog.call("cos", qj[j])
+            Lm = [[_snap(C0[r][c] + C2[r][c], L if c == 3 else 1.0) + sn * c1[r][c] - cs * c2[r][c] for c in range(4)]
+                  for r in range(3)]
         else:
             Lm = [[c0[r][c] + qj[j] * c1[r][c] for c in range(4)] for r in range(3)]
-        ax = [_snap(x) for x in axis]
-        org = [_snap(x, L) for x in origin]
-        p = chain.parents[j]
-        if p < 0:
-            Tj = Lm
-            z, o = ax, org
+        pL = [Lm[0][3], Lm[1][3], Lm[2][3]]
+
+        def to_child(u):
+            """A motion vector (ω; v at the parent's origin, parent coordinates) in link j's frame."""
+            t = _cross(u[:3], pL)
+            v = [u[3 + i] + t[i] for i in range(3)]
+            return [Lm[0][c] * u[0] + Lm[1][c] * u[1] + Lm[2][c] * u[2] for c in range(3)] + \
+                [Lm[0][c] * v[0] + Lm[1][c] * v[1] + Lm[2][c] * v[2] for c in range(3)]
+
+        # joint j's screw in link j's frame, a constant: the axis a passes through the origin of
+        # F_parent·Pre, the motion leaves it in place, and Post moves it: (R_postᵀ a, R_postᵀ (a × p_post))
+        post = chain.post[j]
+        Rp = [[_snap(post[r][c]) for c in range(3)] for r in range(3)]
+        pp = [_snap(post[r][3], L) for r in range(3)]
+        a = [_snap(x) for x in chain.axes[j]]
+        a_post = [Rp[0][c] * a[0] + Rp[1][c] * a[1] + Rp[2][c] * a[2] for c in range(3)]
+        if chain.types[j] == REVOLUTE:
+            t = _cross(a, pp)
+            own = a_post + [Rp[0][c] * t[0] + Rp[1][c] * t[1] + Rp[2][c] * t[2] for c in range(3)]
         else:
-            Tp = T[p]
-            Tj = [[Tp[r][0] * Lm[0][c] + Tp[r][1] * Lm[1][c] + Tp[r][2] * Lm[2][c] + (Tp[r][3] if c == 3 else 0.0)
-                   for c in range(4)] for r in range(3)]
-            z = [Tp[r][0] * ax[0] + Tp[r][1] * ax[1] + Tp[r][2] * ax[2] for r in range(3)]
-            o = [Tp[r][0] * org[0] + Tp[r][1] * org[1] + Tp[r][2] * org[2] + Tp[r][3] for r in range(3)]
-        T.append(Tj)
-        Sj = z + _cross(o, z) if chain.types[j] == REVOLUTE else [0.0, 0.0, 0.0] + z
-        S.append(Sj)
+            own = [0.0, 0.0, 0.0] + a_post
+        # forward pass in link frames (Luh, Walker & Paul 1980; Khalil & Kleinfinger 1987):
+        # V_j = X V_p + s q̇,  A_j = X A_p + s q̈ + (V_j ×_m s) q̇,  A_0 = (0, −g) in the base frame
+        p = chain.parents[j]
         Vp = [0.0] * 6 if p < 0 else V[p]
         Ap = [0.0, 0.0, 0.0, -g[0], -g[1], -g[2]] if p < 0 else A[p]
-        Vj = [Vp[i] + Sj[i] * qdj[j] for i in range(6)]
-        c1v, c2v, c3v = _cross(Vj[:3], Sj[:3]), _cross(Vj[:3], Sj[3:]), _cross(Vj[3:], Sj[:3])
-        Aj = [Ap[i] + Sj[i] * qddj[j] + c1v[i] * qdj[j] for i in range(3)]
-        Aj += [Ap[3 + i] + Sj[3 + i] * qddj[j] + (c2v[i] + c3v[i]) * qdj[j] for i in range(3)]
+        XV, XA = to_child(Vp), to_child(Ap)
+        Vj = [XV[i] + own[i] * qdj[j] for i in range(6)]
+        c1v, c2v, c3v = _cross(Vj[:3], own[:3]), _cross(Vj[:3], own[3:]), _cross(Vj[3:], own[:3])
+        Aj = [XA[i] + own[i] * qddj[j] + c1v[i] * qdj[j] for i in range(3)]
+        Aj += [XA[3 + i] + own[3 + i] * qddj[j] + (c2v[i] + c3v[i]) * qdj[j] for i in range(3)]
         V.append(Vj)
         A.append(Aj)
-        pos = [Tj[0][3], Tj[1][3], Tj[2][3]]
-        t = _cross(Vj[:3], pos)
-        vo = [Vj[3 + i] + t[i] for i in range(3)]
-        t = _cross(Aj[:3], pos)
-        ao = [Aj[3 + i] + t[i] for i in range(3)]
-        t = _cross(Vj[:3], vo)
-        ao = [ao[i] + t[i] for i in range(3)]
-
-        def local(x):
-            return [Tj[0][c] * x[0] + Tj[1][c] * x[1] + Tj[2][c] * x[2] for c in range(3)]
-
-        K = _link_wrench(local(Vj[:3]), local(Aj[:3]), local(ao))
-        for c in range(10):  # to the base origin in base coordinates: f0 = R Kf, n0 = R Kn + pos × f0
-            f = [Tj[r][0] * K[3][c] + Tj[r][1] * K[4][c] + Tj[r][2] * K[5][c] for r in range(3)]
-            m = [Tj[r][0] * K[0][c] + Tj[r][1] * K[1][c] + Tj[r][2] * K[2][c] for r in range(3)]
-            t = _cross(pos, f)
-            W = [m[r] + t[r] for r in range(3)] + f
-            k = j
-            while k >= 0:  # every joint from j back to the root carries link j
-                Yj[k][10 * j + c] = _dot(S[k], W)
-                k = chain.parents[k]
+        t = _cross(Vj[:3], Vj[3:])  # the classical acceleration of the origin: a = A_lin + ω × v
+        acc = [Aj[3 + i] + t[i] for i in range(3)]
+        K = _link_wrench(Vj[:3], Aj[:3], acc)
+        # the screw of every joint k that carries link j, in link j's frame (Khalil's projection in
+        # the link frame, where K_j is sparse and the local transforms hold the geometry's zeros)
+        screws = {j: own}
+        if p >= 0:
+            for k, u in U[p].items():
+                screws[k] = to_child(u)
+        U.append(screws)
+        for k, u in screws.items():  # every joint from j back to the root carries link j
+            for c in range(10):
+                Yj[k][10 * j + c] = _dot(u, [K[r][c] for r in range(6)])
     layout = chain.layout
     cols = list(layout.inertial_columns)
     rows = [[Yj[k][c] for c in cols] + [0.0] * len(layout.extra_columns) for k in range(n)]
