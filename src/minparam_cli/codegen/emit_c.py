@@ -70,10 +70,10 @@ def emit_c(prog, fns, prefix: str, header: list[str], chain, base, full: bool, s
     h = [_comment(header + usage), f"#ifndef {P}_MINPARAM_H", f"#define {P}_MINPARAM_H", "",
          "#ifdef __cplusplus", 'extern "C" {', "#endif", "",
          f"#define {P}_DOF {chain.dof}", f"#define {P}_N_BASE {base.n_base}", f"#define {P}_N_STANDARD {base.n_standard}", "",
-         f"/* names of the base parameters, in the order of the columns of Yb */",
+         "/* names of the base parameters, in the order of the columns of Yb */",
          f"extern const char *const {prefix}_base_names[{P}_N_BASE];"]
     if full:
-        h += [f"/* names of the standard parameters, in the order of the columns of Y */",
+        h += ["/* names of the standard parameters, in the order of the columns of Y */",
               f"extern const char *const {prefix}_standard_names[{P}_N_STANDARD];",
               f"/* K, row-major {P}_N_BASE x {P}_N_STANDARD: beta_b = K * phi */",
               f"extern const double {prefix}_K[{P}_N_BASE * {P}_N_STANDARD];"]

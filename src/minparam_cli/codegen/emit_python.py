@@ -98,7 +98,8 @@ def emit_python(prog, fns, header: list[str], chain, base, full: bool, casadi: b
     doc = "\n".join(header + usage).replace("\\", "\\\\").replace('"""', "'''")
     src = [f'"""{doc}\n"""', "", "import numpy as np"]
     if casadi:
-        src.append("import casadi as ca")
+        src += ["", "try:", "    import casadi as ca", "except ImportError as e:  # the one dependency beyond NumPy",
+                "    raise ImportError(\"this module needs CasADi: pip install casadi (or 'minparam[casadi]')\") from e"]
     src += ["", f"DOF = {chain.dof}", f"BASE_NAMES = {tuple(base.base_names)!r}"]
     if full:
         src += [f"STANDARD_NAMES = {tuple(base.standard_names)!r}",

@@ -25,7 +25,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from minparam_cli.chain import REVOLUTE, Chain
-from minparam_cli.codegen.trace import Program, Sym
+from minparam_cli.codegen.trace import Program
 
 SNAP = 1e-15
 
@@ -113,7 +113,7 @@ def record_regressor(chain: Chain) -> Recorded:
             Lm = [[c0[r][c] + qj[j] * c1[r][c] for c in range(4)] for r in range(3)]
         pL = [Lm[0][3], Lm[1][3], Lm[2][3]]
 
-        def to_child(u):
+        def to_child(u, Lm=Lm, pL=pL):
             """A motion vector (ω; v at the parent's origin, parent coordinates) in link j's frame."""
             t = _cross(u[:3], pL)
             v = [u[3 + i] + t[i] for i in range(3)]
@@ -252,7 +252,3 @@ def inverse_dynamics(rec: Recorded, kept, theta, terms=(), theta_model=None, smo
                 tau[j] = tau[j] + x * float(coef)
             c += m
     return tau, tuple(omitted)
-
-
-def is_sym(x) -> bool:
-    return isinstance(x, Sym)
