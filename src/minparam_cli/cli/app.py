@@ -71,8 +71,8 @@ COMMANDS = {
     "evaluate": _add_module("evaluate"),
     "simulate": _add_module("simulate"),
     "singular": _add_module("singular"),
-    "platform": _add_module("platform"),
     "codegen": _add_module("codegen"),
+    "platform": _add_module("platform"),
 }
 
 
