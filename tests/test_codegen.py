@@ -325,6 +325,21 @@ def test_c_output_is_self_contained(robots, tmp_path):
     assert "robots/puma560.yaml" in hdr and "sha256" in hdr and "minparam codegen" in hdr
 
 
+@needs_cc
+def test_a_regressor_that_reads_only_qdd_compiles_strictly(tmp_path):
+    """One vertical revolute joint under vertical gravity: Y_b = [q̈] (ZZR1); q and q̇ unused, and the
+    C still compiles with -Wall -Wextra -Werror."""
+    robot = tmp_path / "turntable.yaml"
+    robot.write_text("name: turntable\nconvention: dh\nunits: {length: m, angle: deg}\ngravity: [0, 0, -9.81]\n"
+                     "joints:\n  - {name: j1, type: revolute, alpha: 0, a: 0.3, d: 0.1, theta: 0}\n")
+    r = cli("codegen", robot, "--lang", "c", "-o", tmp_path / "tt.c")
+    assert r.exit_code == 0, r.output
+    lib = compile_shared(tmp_path / "tt.c", tmp_path / "tt.so")
+    rng = np.random.default_rng(SEED + 4)
+    q, qd, qdd = rng.standard_normal((3, 5, 1))
+    assert np.array_equal(call_c(lib.tt_base_regressor, q, qd, qdd, 1), qdd)
+
+
 def test_operation_counts_are_printed_and_generation_is_quick(robots, tmp_path):
     r = cli("codegen", robots["panda"], "--lang", "python", "-o", tmp_path / "p.py")
     assert r.exit_code == 0, r.output
