@@ -299,6 +299,32 @@ def test_mimic_joints_give_the_generalized_forces(tmp_path):
     assert_identity(Yb, base, phi, tau, "mimic NumPy")
 
 
+@pytest.mark.parametrize("key", ["branched_urdf", "stanford_prismatic", "mimic"])
+def test_the_torque_program_is_the_regressor_times_parameters(cases, key, tmp_path):
+    """codegen.programs.torque (what inverse_dynamics is made of: each link's wrench K_j φ_j once)
+    equals the recorded regressor times φ, extras and mimic coupling included."""
+    import test_mimic
+
+    from minparam_cli.codegen.programs import record_regressor, torque
+    from minparam_cli.codegen.trace import evaluate
+    from minparam_cli.pipeline import DeriveOptions, load_chain
+
+    if key == "mimic":
+        _, chain = load_chain(test_mimic.gripper_arm(tmp_path), DeriveOptions(friction=("viscous", "offset"), rotor_inertia=True))
+        rng = np.random.default_rng(SEED + 5)
+        q = rng.uniform(-0.05, 0.05, (STATES, chain.dof))
+        qd, qdd = rng.standard_normal((2, STATES, chain.dof))
+        phi = rng.standard_normal(chain.layout.size)
+    else:
+        _, chain, _, q, qd, qdd, phi, _ = cases[key]
+    rec = record_regressor(chain)
+    tau = np.array(evaluate(rec.prog, torque(rec, phi), {"q": q, "qd": qd, "qdd": qdd}, np)).T
+    Y = np.array([np.broadcast_to(v, (STATES,)) for v in evaluate(rec.prog, [x for row in rec.Y for x in row],
+                                                                   {"q": q, "qd": qd, "qdd": qdd}, np)])
+    expected = np.einsum("kpn,p->nk", Y.reshape(chain.dof, chain.layout.size, STATES), phi)
+    assert np.linalg.norm(tau - expected) <= 1e-13 * np.linalg.norm(expected)
+
+
 def test_names_and_order_are_derives(robots, tmp_path):
     path = robots["ur5_urdf"]
     r = cli("derive", path, "--format", "json", "--friction", "viscous", "--seed", "3")

@@ -20,7 +20,7 @@ the operations the rounding would otherwise cost.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -40,6 +40,12 @@ class Recorded:
     q: list
     qd: list
     qdd: list
+    # for the torque at given parameters (``torque``): per link j, K_j and {k: u_kj}; the chain
+    # column of each layout inertial column; per joint, its rows before the coupling; G or None
+    links: list = field(default_factory=list)
+    inertial_columns: tuple = ()
+    joint_rows: list = field(default_factory=list)
+    G: object = None
 
 
 def _snap(x: float, scale: float = 1.0) -> float:
@@ -98,7 +104,7 @@ def record_regressor(chain: Chain) -> Recorded:
         qddj = [_dot([_snap(g) for g in G[j]], qdd) for j in range(n)]
     L = chain.length_scale
     g = [_snap(x, 10.0) for x in chain.gravity]
-    V, A, U = [], [], []
+    V, A, U, links = [], [], [], []
     Yj = [[0.0] * (10 * n) for _ in range(n)]
     for j, ((C0, C1, C2), _, _) in enumerate(chain.local_terms):
         c0, c1 = _snapped(C0, L), _snapped(C1, L)
@@ -154,6 +160,7 @@ def record_regressor(chain: Chain) -> Recorded:
             for k, u in U[p].items():
                 screws[k] = to_child(u)
         U.append(screws)
+        links.append((K, screws))
         for k, u in screws.items():  # every joint from j back to the root carries link j
             for c in range(10):
                 Yj[k][10 * j + c] = _dot(u, [K[r][c] for r in range(6)])
@@ -170,11 +177,38 @@ def record_regressor(chain: Chain) -> Recorded:
             rows[k][col] = qdj[k]
         elif kind == "offset":
             rows[k][col] = 1.0
+    joint_rows, G = rows, None
     if chain.coupling is not None:  # virtual work: Y = Gᵀ Y_joints
-        G = chain.coupling.G
-        rows = [[_dot([_snap(G[j, i]) for j in range(n)], [rows[j][c] for j in range(n)]) for c in range(layout.size)]
+        G = [[_snap(x) for x in row] for row in chain.coupling.G]
+        rows = [[_dot([G[j][i] for j in range(n)], [joint_rows[j][c] for j in range(n)]) for c in range(layout.size)]
                 for i in range(dof)]
-    return Recorded(prog, rows, q, qd, qdd)
+    return Recorded(prog, rows, q, qd, qdd, links, tuple(cols), joint_rows, G)
+
+
+def torque(rec: Recorded, phi) -> list:
+    """τ = Y(q, q̇, q̈)·φ for constant standard parameters φ (layout order), traced as the
+    Newton–Euler torque itself: each link's wrench w_j = K_j φ_j once, then τ_k = Σ_j u_kjᵀ w_j over
+    the links joint k carries (6 products a link instead of one 6-vector product per column)."""
+    n = len(rec.joint_rows)
+    chain_phi = [0.0] * (10 * n)
+    for i, c in enumerate(rec.inertial_columns):
+        chain_phi[c] = float(phi[i])
+    tau = [0.0] * n
+    for j, (K, screws) in enumerate(rec.links):
+        pj = chain_phi[10 * j : 10 * j + 10]
+        if not any(pj):
+            continue
+        w = [_dot(K[r], pj) for r in range(6)]
+        for k, u in screws.items():
+            tau[k] = tau[k] + _dot(u, w)
+    first = len(rec.inertial_columns)
+    for k, row in enumerate(rec.joint_rows):  # the extras: their own columns of joint k's row
+        for c in range(first, len(row)):
+            if float(phi[c]) != 0.0:
+                tau[k] = tau[k] + row[c] * float(phi[c])
+    if rec.G is None:
+        return tau
+    return [_dot([rec.G[j][i] for j in range(n)], tau) for i in range(len(rec.G[0]))]
 
 
 def coulomb(prog: Program, qd, smoothing: float):
@@ -229,12 +263,16 @@ def inverse_dynamics(rec: Recorded, kept, theta, terms=(), theta_model=None, smo
     parameters (base parameters first, then each term's columns); ``terms``: the model's design
     terms (``identify.design.Term``).  Returns (τ per coordinate, the terms left out)."""
     prog = rec.prog
-    Yb = base_columns(rec, kept)
     nb = len(kept)
-    tau = [_dot(row, [float(t) for t in theta[:nb]]) for row in Yb]
-    tau_model = None
-    if theta_model is not None:
-        tau_model = [_dot(row, [float(t) for t in theta_model[:nb]]) for row in Yb]
+    P = len(rec.joint_rows[0])
+
+    def standard(values):  # Y_b θ_b = Y φ with φ = θ_b at the kept columns, 0 elsewhere
+        phi = np.zeros(P)
+        phi[list(kept)] = np.asarray(values[:nb], dtype=float)
+        return phi
+
+    tau = torque(rec, standard(theta))
+    tau_model = None if theta_model is None else torque(rec, standard(theta_model))
     from minparam_cli.identify.effects import EFFECTS
 
     c = nb
