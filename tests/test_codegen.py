@@ -30,6 +30,7 @@ needs_cc = pytest.mark.skipif(CC is None, reason="no C compiler (cc, gcc or clan
 EXTRAS = ["--friction", "coulomb,viscous,offset", "--rotor-inertia"]
 STATES = 100
 ROBOT_KEYS = ["puma560", "panda", "ur5_urdf", "branched_urdf", "stanford_prismatic"]
+FULL_KEYS = ("panda", "branched_urdf")
 SEED = 20261125  # the random states and parameters of every test below
 
 
@@ -190,8 +191,8 @@ def test_the_test_newton_euler_is_the_euler_lagrange_reference(cases, key):
     """The reference above agrees with tests/reference_dynamics.py (Euler–Lagrange, complex step)."""
     _, chain, _, q, qd, qdd, phi, _ = cases[key]
     n = chain.n
-    tau = newton_euler(chain, phi[: 10 * n], q[:3], qd[:3], qdd[:3])
-    for s in range(3):
+    tau = newton_euler(chain, phi[: 10 * n], q[:2], qd[:2], qdd[:2])
+    for s in range(2):
         tau_ref = ref.inverse_dynamics(chain, phi[: 10 * n], q[s], qd[s], qdd[s])
         assert np.linalg.norm(tau[s] - tau_ref) <= 1e-11 * np.linalg.norm(tau_ref)
 
@@ -238,12 +239,15 @@ def call_c(fn, q, qd, qdd, size):
 @pytest.mark.parametrize("key", ROBOT_KEYS)
 def test_c_base_regressor_times_base_parameters_is_newton_euler(cases, key, tmp_path):
     path, chain, base, q, qd, qdd, phi, tau = cases[key]
-    r = cli("codegen", path, "--lang", "c", "-o", tmp_path / "gen.c", *EXTRAS, "--full")
+    full = key in FULL_KEYS  # the full regressor doubles the code to compile: two robots show it
+    r = cli("codegen", path, "--lang", "c", "-o", tmp_path / "gen.c", *EXTRAS, *(["--full"] if full else []))
     assert r.exit_code == 0, r.output
     lib = compile_shared(tmp_path / "gen.c", tmp_path / "gen.so")
     dof, nb = chain.dof, base.n_base
     Yb = call_c(lib.gen_base_regressor, q, qd, qdd, dof * nb).reshape(-1, dof, nb)
     assert_identity(Yb, base, phi, tau, f"{key} C")
+    if not full:
+        return
     # the full regressor and K written beside it: Y·φ = τ, K as derive's
     Y = call_c(lib.gen_regressor, q, qd, qdd, dof * base.n_standard).reshape(-1, dof, base.n_standard)
     err = np.linalg.norm(np.einsum("nkp,p->nk", Y, phi) - tau, axis=1) / np.linalg.norm(tau, axis=1)
@@ -265,7 +269,7 @@ def test_python_base_regressor_times_base_parameters_is_newton_euler(cases, key,
     assert mod.BASE_NAMES == base.base_names
 
 
-@pytest.mark.parametrize("key", ["puma560", "branched_urdf", "stanford_prismatic"])
+@pytest.mark.parametrize("key", ["branched_urdf", "stanford_prismatic"])
 def test_casadi_base_regressor_times_base_parameters_is_newton_euler(cases, key, tmp_path):
     pytest.importorskip("casadi", reason="casadi is the optional extra minparam[casadi]")
     path, _, base, q, qd, qdd, phi, tau = cases[key]
@@ -435,7 +439,7 @@ def test_inverse_dynamics_of_a_saved_model_is_identifys_prediction(tmp_path, smo
     expected = model_reference(design, theta, q, qd, qdd)
     tau = mod.inverse_dynamics(q, qd, qdd)
     assert np.linalg.norm(tau - expected, axis=1).max() <= 1e-12 * np.linalg.norm(expected, axis=1).min()
-    if CC is not None:
+    if CC is not None and smoothing == 0.0:  # the C of one model: the emitters share the program
         r = cli("codegen", MODEL_ROBOT, "--model", model, "--lang", "c", "-o", tmp_path / "m.c")
         assert r.exit_code == 0, r.output
         lib = compile_shared(tmp_path / "m.c", tmp_path / "m.so")
