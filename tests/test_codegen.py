@@ -339,6 +339,13 @@ def test_names_and_order_are_derives(robots, tmp_path):
     assert import_file(tmp_path / "g.py", "g_names").BASE_NAMES == names
     text = (tmp_path / "g.py").read_text()
     assert "--seed 3" in text and "sha256 " in text and "Base parameters (beta_b = K * phi)" in text
+    scara = ROOT / "robots" / "scara.yaml"  # and the projection route's
+    r = cli("derive", scara, "--format", "json", "--method", "projection")
+    assert r.exit_code == 0, r.output
+    names = tuple(p["name"] for p in json.loads(r.stdout)["base_parameters"])
+    r = cli("codegen", scara, "--lang", "python", "-o", tmp_path / "s.py", "--method", "projection")
+    assert r.exit_code == 0, r.output
+    assert import_file(tmp_path / "s.py", "s_names").BASE_NAMES == names
 
 
 @needs_cc

@@ -35,6 +35,11 @@ class Lang(str, Enum):
     casadi = "casadi"
 
 
+class Method(str, Enum):
+    qr = "qr"
+    projection = "projection"
+
+
 class Which(str, Enum):
     physical = "physical"
     fit = "fit"
@@ -48,7 +53,7 @@ def codegen(
     which: Optional[Which] = typer.Option(None, "--parameters", help="With --model: the physical fit (default when the model has one) or the unconstrained fit."),
     full: bool = typer.Option(False, "--full", help="Also generate the full regressor Y and the matrix K (beta_b = K phi)."),
     name: Optional[str] = typer.Option(None, "--name", help="Prefix of the C identifiers (default: the output file's name)."),
-    method: str = typer.Option("qr", "--method", "-m", help="Base set as derive computes it: qr or projection."),
+    method: Method = typer.Option(Method.qr, "--method", "-m", help="Base set as derive computes it: qr (random samples + QR) or projection."),
     friction: str = typer.Option("", "--friction", help="Add friction columns to every joint: any of coulomb,viscous,offset."),
     rotor_inertia: bool = typer.Option(False, "--rotor-inertia", help="Add a rotor inertia column Ia per joint."),
     gravity: Optional[str] = typer.Option(None, "--gravity", help="Gravity vector X,Y,Z in m/s² (overrides the file)."),
@@ -91,8 +96,7 @@ def _codegen(robot, lang, output, model, which, full, name, method, friction, ro
     lang = Lang(lang).value
     if lang == "c" and (output is None or is_stdout(output)):
         raise InputError("C output is two files (.c and .h): give -o FILE.c")
-    if method not in ("qr", "projection"):
-        raise typer.BadParameter(f"expected qr or projection, got {method!r}", param_hint="--method")
+    method = Method(method).value
     kinds = tuple(k.strip() for k in friction.split(",") if k.strip())
     for k in kinds:
         if k not in FRICTION_KINDS:
