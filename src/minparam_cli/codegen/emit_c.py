@@ -87,7 +87,7 @@ def emit_c(prog, fns, prefix: str, header: list[str], chain, base, full: bool, s
     for f in fns:
         sig = (f"void {prefix}_{f.name}(const double q[{P}_DOF], const double qd[{P}_DOF], const double qdd[{P}_DOF], "
                f"double {f.out_name}[{sizes[f.name]}])")
-        h += ["", f"/* {f.doc} */", sig + ";"]
+        h += ["", "/* " + f.doc.replace("*/", "* /") + " */", sig + ";"]
         # (void) casts: a robot whose function reads no q (or no q̇) still compiles under -Wextra -Werror
         src += [sig, "{", "    (void)q;", "    (void)qd;", "    (void)qdd;"] + _body(prog, f.outputs, f.out_name) + ["}", ""]
     h += ["", "#ifdef __cplusplus", "}", "#endif", "", f"#endif /* {P}_MINPARAM_H */", ""]

@@ -16,6 +16,11 @@ _CASADI = {"sin": "ca.sin({})", "cos": "ca.cos({})", "tanh": "ca.tanh({})", "exp
 _BIN = {"add": "{} + {}", "sub": "{} - {}", "mul": "{} * {}"}
 
 
+def _docstring(text: str) -> str:
+    """Text that cannot end a triple-quoted string or escape (file names are the user's)."""
+    return text.replace("\\", "\\\\").replace('"""', "\'\'\'")
+
+
 def constant(x: float) -> str:
     s = repr(float(x))
     return f"({s})" if x < 0 else s
@@ -50,7 +55,7 @@ def _numpy_function(prog, f) -> list[str]:
     lines, outs = _body(prog, f.outputs, casadi=False)
     shape = f"(N, DOF, {f.cols})" if f.cols > 1 else "(N, DOF)"
     single = f"{f.out_name}[0]"
-    src = [f"def {f.name}(q, qd, qdd):", f'    """{f.doc}.', "",
+    src = [f"def {f.name}(q, qd, qdd):", f'    """{_docstring(f.doc)}.', "",
            f"    q, qd, qdd: (dof,) or (N, dof) arrays; returns shape {shape.replace('N, ', '')} or {shape}.", '    """',
            "    q, qd, qdd, single = _states(q, qd, qdd)", "    N = q.shape[0]"]
     src += lines
@@ -66,7 +71,7 @@ def _numpy_function(prog, f) -> list[str]:
 
 def _casadi_function(prog, f) -> list[str]:
     lines, outs = _body(prog, f.outputs, casadi=True)
-    src = [f"def _build_{f.name}():", f'    """{f.doc}."""',
+    src = [f"def _build_{f.name}():", f'    """{_docstring(f.doc)}."""',
            '    q, qd, qdd = ca.SX.sym("q", DOF), ca.SX.sym("qd", DOF), ca.SX.sym("qdd", DOF)']
     src += lines
     src.append(f"    {f.out_name} = ca.SX({f.rows}, {f.cols})")
@@ -95,7 +100,7 @@ _STATES = '''def _states(q, qd, qdd):
 def emit_python(prog, fns, header: list[str], chain, base, full: bool, casadi: bool) -> dict[str, str]:
     usage = ["", ("CasADi: every function below is a casadi.Function of (q, qd, qdd), built from SX on import."
                   if casadi else "Depends on NumPy only; every function is vectorised over samples.")]
-    doc = "\n".join(header + usage).replace("\\", "\\\\").replace('"""', "'''")
+    doc = _docstring("\n".join(header + usage))
     src = [f'"""{doc}\n"""', "", "import numpy as np"]
     if casadi:
         src += ["", "try:", "    import casadi as ca", "except ImportError as e:  # the one dependency beyond NumPy",
