@@ -71,6 +71,7 @@ COMMANDS = {
     "evaluate": _add_module("evaluate"),
     "simulate": _add_module("simulate"),
     "singular": _add_module("singular"),
+    "codegen": _add_module("codegen"),
     "platform": _add_module("platform"),
 }
 
