@@ -36,9 +36,13 @@ def simulate(robot: Robot | str | Path, *, effects: str | Iterable[str] = "", st
         specs = parse_effects(text, chain.dof)
     except InputError as e:
         raise InputError(f"--effects: {e}") from None
-    opts = SimulationOptions(duration=duration, rate=rate, harmonics=harmonics, base_frequency=base_frequency,
-                             effects=specs, strength=strength, noise=noise, noise_q=noise_q,
-                             random_inertia=random_inertia, coulomb_smoothing=coulomb_smoothing)
+    try:  # the CLI's types: a 20 given for a float option is 20.0 in the truth record
+        opts = SimulationOptions(duration=float(duration), rate=float(rate), harmonics=int(harmonics),
+                                 base_frequency=float(base_frequency), effects=specs, strength=float(strength),
+                                 noise=float(noise), noise_q=float(noise_q), random_inertia=bool(random_inertia),
+                                 coulomb_smoothing=float(coulomb_smoothing))
+    except (TypeError, ValueError) as e:
+        raise InputError(f"simulate: expected numbers for duration, rate, harmonics, base_frequency, strength and noise ({e})") from None
     validate_options(opts)
     notes = []
     if chain.phi_nominal is None and not random_inertia:
