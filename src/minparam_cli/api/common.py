@@ -75,5 +75,8 @@ def robot_path(robot: Any) -> Path:
     if isinstance(robot, Robot):
         return robot.path
     if isinstance(robot, (str, Path)):
-        return Path(robot)
+        path = Path(robot)
+        if not path.exists():  # the CLI's words (cli.batch.expand_paths)
+            raise InputError(f"{path}: no such file or folder")
+        return path
     raise InputError(f"expected a robot file path or a minparam.Robot, got {type(robot).__name__}")

@@ -54,6 +54,7 @@ def load_robot(path: str | Path, *, friction: str | Iterable[str] | None = None,
 
     if not (math.isfinite(coulomb_smoothing) and coulomb_smoothing >= 0):
         raise InputError(f"coulomb_smoothing: must be a finite velocity >= 0 (0: sign), got {coulomb_smoothing!r}")
+    path = robot_path(path)
     opts = load_options(None, friction, rotor_inertia, gravity, mimic, floating_base)
     opts = LoadOptions(opts.friction, opts.rotor_inertia, opts.gravity, opts.mimic, opts.floating_base, float(coulomb_smoothing))
     desc, chain = load_chain(Path(path), derive_options(opts))
@@ -67,7 +68,7 @@ def check(path: str | Path) -> CheckResult:
     """Validate a robot file (``minparam check --json``); raises ``DescriptionError`` when it is invalid."""
     from minparam_cli.pipeline import check_file
 
-    report = {**check_file(Path(path)), "status": "ok"}
+    report = {**check_file(robot_path(path)), "status": "ok"}
     return CheckResult(robot=report["robot"], dof=report["dof"], convention=report["convention"],
                        joint_types=report["types"], exact=report["exact"], inertial=report["inertial"], _report=report)
 
