@@ -173,6 +173,7 @@ def identify(robot: Robot | str | Path, data: Any, *, validate: Any = None, test
 
     load = LoadSettings(friction=kinds, rotor_inertia=rotor, gravity=g, coulomb_smoothing=smoothing, mimic=mimic_mode)
     saved = saved_model(str(path), read_robot_bytes(path), load, opts.data, opts.seed, art, report)
+    assert art.design is not None  # the stage always sets the final design
     model = Model(saved=saved, design=art.design, robot=str(path), names=tuple(saved.names))
     test_doc = report["test"]
     return Identification(
@@ -244,7 +245,7 @@ def predict(model: Model, q: Any, dq: Any, ddq: Any, t: Any = None, which: str =
     if len(tt) != N:
         raise InputError(f"t: expected {N} time stamps, got {len(tt)}")
     theta = model.saved.fit_theta(choice(which, ("fit", "physical"), "which"))
-    return run(model.design, theta, Block(tt, *arrays, np.zeros((N, n))))
+    return run(model.design, theta, Block(tt, arrays[0], arrays[1], arrays[2], np.zeros((N, n))))
 
 
 # --- evaluate -----------------------------------------------------------------------------------------

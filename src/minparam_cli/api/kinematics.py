@@ -196,9 +196,9 @@ def platform_ik(platform: str | Path, pose: Sequence[float] | None = None, *, po
 
         if pose is not None or position is not None or normal is not None:
             raise InputError("pose: a free truss has no pose; give node coordinates with coords")
-        model = truss_model(desc)
-        c = _numbers(coords, 18, "coords").reshape(6, 3) if coords is not None else model.nodes
-        d = rep.truss_ik_dict(model, c, truss_lengths(model, c))
+        truss = truss_model(desc)
+        c = _numbers(coords, 18, "coords").reshape(6, 3) if coords is not None else truss.nodes
+        d = rep.truss_ik_dict(truss, c, truss_lengths(truss, c))
         return PlatformResult("ik", lengths=tuple(d["lengths"]), _report=d)
     if coords is not None:
         raise InputError("coords: for a 12-leg truss; give pose or position and normal")

@@ -144,7 +144,7 @@ def regressor(robot: Robot | str | Path, q: Any, dq: Any, ddq: Any, base: bool |
             raise InputError(f"{name}: expected shape (N, {chain.dof}) like q, got {x.shape}")
         if not np.all(np.isfinite(x)):
             raise InputError(f"{name}: expected finite numbers")
-    Y = full_regressor(chain, *arrays)
+    Y = full_regressor(chain, arrays[0], arrays[1], arrays[2])
     if base is not False:
         if isinstance(base, BaseSet):
             names = list(chain.layout.names)

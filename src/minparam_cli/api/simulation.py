@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Any, Iterable
+from typing import Iterable
 
 from minparam_cli.api.common import choice, robot_path, warn
 from minparam_cli.api.results import Robot, Simulation
@@ -49,9 +49,11 @@ def simulate(robot: Robot | str | Path, *, effects: str | Iterable[str] = "", st
         notes.append(f"{path} does not give inertial data for every link; using random physically consistent "
                      "parameters (as with --random-inertia)")
     sim = run(chain, opts, np.random.default_rng(seed))
-    for j in sim.limits.over_effort if sim.limits is not None else ():
-        notes.append(f"joint {j + 1}: max |tau| {sim.limits.max_abs_tau[j]:.4g} exceeds its effort limit "
-                     f"{sim.limits.effort[j]:g} (reported, not enforced: a slower motion lowers only its inertial part)")
+    limits = sim.limits
+    for j in limits.over_effort if limits is not None else ():
+        assert limits is not None
+        notes.append(f"joint {j + 1}: max |tau| {limits.max_abs_tau[j]:.4g} exceeds its effort limit "
+                     f"{limits.effort[j]:g} (reported, not enforced: a slower motion lowers only its inertial part)")
     warn(notes)
     record = truth_record(sim, str(path), seed, chain.name, ddq)
     return Simulation(t=sim.t, q=sim.q, dq=sim.dq, ddq=sim.ddq, tau=sim.tau, seed=seed, _report=record)

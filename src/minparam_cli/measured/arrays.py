@@ -120,7 +120,7 @@ def chunks(record: Record, n: int, opts) -> Iterator[tuple[np.ndarray, dict]]:
     assert record.table is not None
     idx = column_indices(list(record.header), n, opts.columns, record.name)
     layout = _layout({k: ix is not None for k, ix in idx.items()}, n)
-    used = [c for k in KEYS if idx[k] is not None for c in idx[k]]
+    used = [c for k in KEYS for c in (idx[k] or [])]
     table = record.table
     if not len(table):
         raise DataError(f"{record.name}: no usable samples (the table has no rows)")
