@@ -155,3 +155,24 @@ def test_results_are_frozen():
     d = b.to_dict()
     d["n_base"] = -1
     assert b.to_dict()["n_base"] == b.n_base == 6
+
+
+def test_selection_and_test_data_from_arrays(sim):
+    n = len(sim.t)
+    parts = [{k: v[s] for k, v in sim.arrays().items()} for s in (slice(0, n // 2), slice(n // 2, 3 * n // 4),
+                                                                  slice(3 * n // 4, n))]
+    r = minparam.identify(ROBOT, parts[0], validate=parts[1], test=parts[2], diagnose=False)
+    d = r.to_dict()
+    assert (d["data"], d["validate"], d["test_files"]) == ("<data>", "<validate>", ["<test1>"])
+    assert d["samples_test"] == n - 3 * n // 4 and r.test is not None
+    # the same test data evaluated with the model give the identify report's test figures
+    ev = minparam.evaluate(r.model, parts[2])
+    assert ev.pooled is not None
+    assert ev.pooled.rms_per_joint == pytest.approx(r.test.rms_per_joint, rel=1e-9)
+
+
+def test_progress_true_draws_only_on_a_terminal(capsys):
+    minparam.derive(ROBOT, method="projection", progress=True)  # stderr is not a terminal here: silent
+    calls = []
+    minparam.derive(ROBOT, method="projection", progress=lambda done, total: calls.append((done, total)))
+    assert calls and capsys.readouterr() == ("", "")

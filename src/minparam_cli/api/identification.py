@@ -169,10 +169,10 @@ def identify(robot: Robot | str | Path, data: Any, *, validate: Any = None, test
             report, art = run(chain, data_name, opts, progress=bar)
     finally:
         close(bar)
-    from minparam_cli.cli.model_files import read_robot_bytes
+    from minparam_cli.describe.safety import read_bounded  # the robot file's bytes, for its hash
 
     load = LoadSettings(friction=kinds, rotor_inertia=rotor, gravity=g, coulomb_smoothing=smoothing, mimic=mimic_mode)
-    saved = saved_model(str(path), read_robot_bytes(path), load, opts.data, opts.seed, art, report)
+    saved = saved_model(str(path), read_bounded(Path(path)), load, opts.data, opts.seed, art, report)
     assert art.design is not None  # the stage always sets the final design
     model = Model(saved=saved, design=art.design, robot=str(path), names=tuple(saved.names))
     test_doc = report["test"]
@@ -190,7 +190,6 @@ def identify(robot: Robot | str | Path, data: Any, *, validate: Any = None, test
 def open_model(model: str | Path, robot: str | Path | None = None) -> tuple[SavedModel, Path, Design]:
     """Read a model file, check its robot file's SHA-256 and rebuild its design: (model, robot file,
     design).  ``robot``: the robot file to use instead of the one the model names."""
-    from minparam_cli.cli.model_files import read_robot_bytes
     from minparam_cli.describe.safety import read_bounded
     from minparam_cli.errors import DescriptionError
     from minparam_cli.identify.model import ModelError, check_robot, model_design, parse_model
@@ -207,7 +206,7 @@ def open_model(model: str | Path, robot: str | Path | None = None) -> tuple[Save
     robot_file = Path(robot) if robot is not None else Path(m.robot)
     if not robot_file.is_file():
         raise ModelError(f"{model}: robot file {robot_file} not found" + ("" if robot else " (give it with --robot)"))
-    check_robot(m, str(model), str(robot_file), read_robot_bytes(robot_file))
+    check_robot(m, str(model), str(robot_file), read_bounded(robot_file))
     _, chain = load_chain(robot_file, m.load.derive_options(m.seed))
     require_fixed_base(chain, "evaluate")
     chain = chain.with_coulomb_smoothing(m.load.coulomb_smoothing)
