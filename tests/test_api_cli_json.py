@@ -92,6 +92,17 @@ def test_identify_and_model_file(sim_files):
     same(api.model.to_dict(), json.loads((d / "m.json").read_text()))
 
 
+def test_identify_with_options(sim_files):
+    """Options map one to one: a run with non-default ones gives the CLI's report too."""
+    robot, d, _ = sim_files
+    cli = cli_json("identify", robot, d / "sim.csv", "-f", "json", "--no-diagnose", "--friction", "coulomb,viscous",
+                   "--split", "0.5,0.3,0.2", "--ols", "--cutoff", "8", "--filter", "--seed", "2", "--gravity", "0,-9.8,0")
+    api = minparam.identify(robot, d / "sim.csv", diagnose=False, friction=["coulomb", "viscous"], split=(0.5, 0.3, 0.2),
+                            ols=True, cutoff=8, filter=True, seed=2, gravity=(0, -9.8, 0))
+    same(api.to_dict(), cli)
+    assert api.to_dict()["method"] == "ols" and "Fv2" in api.parameters
+
+
 def test_evaluate(sim_files):
     robot, d, _ = sim_files
     cli = cli_json("evaluate", d / "m.json", d / "sim.csv", "-f", "json")
