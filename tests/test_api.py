@@ -33,6 +33,10 @@ def test_identify_from_arrays_equals_the_npz_file(sim, tmp_path):
     from_file = minparam.identify(ROBOT, tmp_path / "d.npz", diagnose=False)
     from_arrays = minparam.identify(ROBOT, sim.arrays(), diagnose=False)
     assert figures(from_arrays) == figures(from_file)
+    renamed = {"time": sim.t, "pos": sim.q, "vel": sim.dq, "acc": sim.ddq, "effort": sim.tau}
+    from_renamed = minparam.identify(ROBOT, renamed, diagnose=False,
+                                     columns={"t": "time", "q": "pos", "dq": "vel", "ddq": "acc", "tau": "effort"})
+    assert figures(from_renamed) == figures(from_file)
     assert from_arrays.to_dict()["data"] == "<data>"
     np.testing.assert_array_equal(from_arrays.theta, from_file.theta)
 

@@ -73,8 +73,8 @@ def as_record(data: Any, name: str) -> Record:
             arrays[str(k)] = np.asarray(v, dtype=float)
         except (TypeError, ValueError) as e:
             raise DataError(f"{name}: array '{k}' is not numeric ({e})") from None
-    if "q" in arrays or "tau" in arrays:
-        return Record(name, "arrays", arrays=arrays)
+    if "q" in arrays or "tau" in arrays or any(a.ndim >= 2 for a in arrays.values()):
+        return Record(name, "arrays", arrays=arrays)  # renamed members too: {"time", "pos", "effort"} + columns
     # one-dimensional columns named like a CSV header
     lengths = {a.shape for a in arrays.values()}
     if any(a.ndim != 1 for a in arrays.values()) or len(lengths) > 1:
