@@ -67,6 +67,17 @@ def test_pandas_is_not_imported_for_arrays():
     assert r.returncode == 0, r.stderr
 
 
+def test_import_minparam_loads_no_heavy_library():
+    """The start-up promise (benchmarks/bench_startup.py times it): re-exports only, numpy and the CLI's
+    libraries load when a call needs them."""
+    code = ("import sys, minparam\n"
+            "print(sorted(m for m in ('numpy', 'scipy', 'sympy', 'typer', 'click', 'yaml', 'pandas', 'matplotlib')"
+            " if m in sys.modules))\n")
+    r = subprocess.run([sys.executable, "-c", code], cwd=ROOT, capture_output=True, text=True,
+                       env={**__import__("os").environ, "PYTHONPATH": str(ROOT / "src")})
+    assert r.returncode == 0 and r.stdout.strip() == "[]", r.stdout + r.stderr
+
+
 def test_library_calls_print_nothing(sim, capsys):
     minparam.derive(ROBOT)
     minparam.identify(ROBOT, sim.arrays(), diagnose=False, progress=False)
