@@ -140,6 +140,11 @@ def test_platform():
          cli_json("platform", "ik", PLATFORM, "--pose", ",".join(map(str, pose)), "-f", "json"))
     fk = minparam.platform_fk(PLATFORM, LENGTHS)
     same(fk.to_dict(), cli_json("platform", "fk", PLATFORM, "--lengths", ",".join(map(str, LENGTHS)), "-f", "json"))
+    truss = "robots/platforms/dodekapod_truss.yaml"
+    tik = minparam.platform_ik(truss)
+    same(tik.to_dict(), cli_json("platform", "ik", truss, "-f", "json"))
+    same(minparam.platform_fk(truss, tik.lengths, frame=("B1", "B2", "B3")).to_dict(),
+         cli_json("platform", "fk", truss, "--lengths", ",".join(map(repr, tik.lengths)), "--frame", "B1,B2,B3", "-f", "json"))
     ws = minparam.platform_workspace(PLATFORM, samples=2000, seed=4)
     same(ws.to_dict(), cli_json("platform", "workspace", PLATFORM, "--samples", "2000", "--seed", "4", "-f", "json"))
     assert 0 < ws.reachable <= 1

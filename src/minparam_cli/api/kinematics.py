@@ -224,10 +224,11 @@ def platform_ik(platform: str | Path, pose: Sequence[float] | None = None, *, po
 
 def platform_fk(platform: str | Path, lengths: Sequence[float], *, method: str = "auto", starts: int | None = None,
                 particles: int = 50, iterations: int = 50, seed: int = 0, side: str = "both", rtol: float = 1e-12,
-                progress: ProgressArg = False) -> PlatformResult:
+                frame: Sequence[str] | None = None, progress: ProgressArg = False) -> PlatformResult:
     """Forward kinematics (``minparam platform fk``): every real assembly mode for the leg lengths.
     ``method``: "auto", "exact" (degree-16 elimination, octahedral 3-3 pattern), "pso" (the paper's
-    particle swarm) or "multistart"."""
+    particle swarm) or "multistart".  A free 12-leg truss gives node coordinates (in ``to_dict()``),
+    in the frame of the three nodes ``frame`` (default: the first face in node order)."""
     import numpy as np
 
     from minparam_cli.kinematics import platform_report as rep
@@ -237,7 +238,9 @@ def platform_fk(platform: str | Path, lengths: Sequence[float], *, method: str =
 
     desc = _platform(platform)
     if desc.structure == "truss":
-        raise InputError("platform_fk of a 12-leg truss is not in the Python API yet; use 'minparam platform fk'")
+        return _truss_fk(platform, desc, lengths, frame, seed, rtol)
+    if frame is not None:
+        raise InputError("frame: for a 12-leg truss")
     method = choice(method, ("auto", "exact", "pso", "multistart"), "method")
     side = choice(side, ("both", "above", "below"), "side")
     if seed < 0:
@@ -262,6 +265,34 @@ def platform_fk(platform: str | Path, lengths: Sequence[float], *, method: str =
     d = rep.fk_dict(model, result, seed, time.perf_counter() - t0)
     poses = tuple(tuple(float(v) for v in s["pose"].values()) for s in d["solutions"])
     return PlatformResult("fk", lengths=tuple(d["lengths"]), poses=poses, _report=d)
+
+
+def _truss_fk(platform: str | Path, desc, lengths: Sequence[float], frame: Sequence[str] | None, seed: int,
+              rtol: float) -> PlatformResult:
+    """The truss branch of ``minparam platform fk`` (same stage and report)."""
+    import numpy as np
+
+    from minparam_cli.kinematics import platform_report as rep
+    from minparam_cli.kinematics.platform_truss import truss_fk, truss_model
+
+    target = _numbers(lengths, len(desc.legs), "lengths")
+    if np.any(target <= 0):
+        raise InputError("lengths: leg lengths must be positive")
+    model = truss_model(desc)
+    face = None
+    if frame is not None:
+        names = [str(n).strip() for n in frame]
+        if len(names) != 3 or any(n not in model.node_names for n in names):
+            raise InputError(f"frame: expected three node names of {', '.join(model.node_names)}")
+        i, j, k = (model.node_names.index(n) for n in names)
+        face = (i, j, k)
+    t0 = time.perf_counter()
+    try:
+        result = truss_fk(model, target, face, rtol=rtol)
+    except ValueError as e:
+        raise InputError(f"{platform}: --frame: {e}") from None
+    d = rep.truss_fk_dict(model, result, seed, time.perf_counter() - t0)
+    return PlatformResult("fk", lengths=tuple(float(v) for v in target), _report=d)
 
 
 def platform_workspace(platform: str | Path, *, samples: int = 20000, orientation: Sequence[float] | None = None,
