@@ -57,3 +57,12 @@ def test_a_stale_output_is_caught(tmp_path):
     page.write_text("```python\nprint(1 + 1)\n```\n\n```text\n3\n```\n")
     with pytest.raises(AssertionError, match="page.md block 1"):
         run_blocks(page)
+
+
+def test_package_docstring_example():
+    import doctest
+
+    import minparam
+
+    failed, tried = doctest.testmod(minparam, verbose=False)
+    assert tried >= 2 and failed == 0
