@@ -49,3 +49,8 @@ class ComputationError(MinparamError):
     """A computation could not be completed (rank decision too close to call, out of memory...)."""
 
     exit_code = 1
+
+
+class MinparamWarning(UserWarning):
+    """A note the CLI prints as 'minparam: warning: ...' on stderr; the Python API issues it through
+    ``warnings.warn`` instead."""

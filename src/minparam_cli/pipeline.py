@@ -66,6 +66,12 @@ def require_fixed_base(chain, command: str) -> None:
 
 def derive_file(path: str | Path, opts: DeriveOptions, progress: Callable[[int, int], None] | None = None) -> dict:
     """Report dict (the JSON contract) for one robot file."""
+    return derive_all(path, opts, progress)[0]
+
+
+def derive_all(path: str | Path, opts: DeriveOptions, progress: Callable[[int, int], None] | None = None):
+    """``derive_file``'s report with what it was made from: (report, description, chain, BaseSet)
+    (the Python API keeps the base set's matrices beside the JSON)."""
     from minparam_cli.render.report import base_report
 
     t0 = time.perf_counter()
@@ -96,7 +102,7 @@ def derive_file(path: str | Path, opts: DeriveOptions, progress: Callable[[int, 
 
         report = add_symbolic(report, desc, chain, base)
     report["elapsed_s"] = round(time.perf_counter() - t0, 6)
-    return report
+    return report, desc, chain, base
 
 
 def check_file(path: str | Path) -> dict:

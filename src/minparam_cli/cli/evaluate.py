@@ -49,54 +49,22 @@ def evaluate(
 
 @guarded
 def _evaluate(model, data, which, predictions, fmt, output, robot, time_unit, topic):
-    from dataclasses import replace
-
-    from minparam_cli.cli.model_files import read_robot_bytes
+    from minparam_cli.api.identification import check_data_file, evaluation_report, evaluation_setup, open_model
     from minparam_cli.errors import InputError
     from minparam_cli.identify.evaluation import evaluate as run
-    from minparam_cli.identify.model import ModelError, check_robot, model_design, parse_model
-    from minparam_cli.measured.rosbag import coordinate_names, is_bag
-    from minparam_cli.pipeline import load_chain, require_fixed_base
 
     if predictions is not None and len(data) > 1:
         raise InputError(f"--predictions writes one file: give one DATA file (got {len(data)})")
-    from minparam_cli.describe.safety import read_bounded
-    from minparam_cli.errors import DescriptionError
-
-    try:  # a regular file of bounded size (a FIFO or /dev/zero given as the model would never end)
-        text = read_bounded(model).decode("utf-8")
-    except DescriptionError as e:
-        raise ModelError(f"cannot read the model file: {e}") from None
-    except UnicodeDecodeError as e:
-        raise ModelError(f"{model}: cannot read the model file (not UTF-8 text: {e.reason})") from None
-    m = parse_model(text, str(model))
-    robot_path = robot if robot is not None else Path(m.robot)
-    if not robot_path.is_file():
-        raise ModelError(f"{model}: robot file {robot_path} not found" + ("" if robot else " (give it with --robot)"))
-    check_robot(m, str(model), str(robot_path), read_robot_bytes(robot_path))
+    m, robot_path, design = open_model(model, robot)
     for p in data:
-        if not p.is_file() and not (p.is_dir() and is_bag(p)):
-            raise InputError(f"{p}: data file not found")
-    _, chain = load_chain(robot_path, m.load.derive_options(m.seed))
-    require_fixed_base(chain, "evaluate")
-    chain = chain.with_coulomb_smoothing(m.load.coulomb_smoothing)
-    design = model_design(m, chain, str(model))
-    kind = (which.value if which is not None else ("physical" if m.physical is not None else "fit"))
-    theta = m.fit_theta(kind)
-    # how the files are read, beside the model's data settings: their time unit, a bag's topic and joint names
-    m = replace(m, data=replace(m.data, time_unit=TimeUnit(time_unit).value, topic=topic, joint_names=coordinate_names(chain)))
-
+        check_data_file(p)
+    setup = evaluation_setup(str(model), m, str(robot_path), design, which.value if which is not None else None,
+                             TimeUnit(time_unit).value, topic)
     if predictions is None:
-        result = run(design, theta, data, m.data, kind)
+        result = run(setup.design, setup.theta, data, setup.data, setup.kind)
     else:
-        result = _with_predictions(predictions, design, theta, data, m, kind, run)
-    report = {"model_file": str(model), "robot": str(robot_path), "parameters": len(theta), **result.to_dict()}
-    ident = ((m.figures.get("physical") or {}).get("test") if kind == "physical" else None)
-    test = m.figures.get("test") or {}
-    if kind == "fit" and test.get("final"):
-        report["identify_test"] = test["final"]
-    elif kind == "physical" and ident and len(ident) == 1:
-        report["identify_test"] = next(iter(ident.values()))
+        result = _with_predictions(predictions, setup.design, setup.theta, data, setup, setup.kind, run)
+    report = evaluation_report(setup, result)
     if fmt == Fmt.json:
         text = json.dumps(report, indent=2, ensure_ascii=False)
     else:
@@ -123,7 +91,7 @@ def _with_predictions(path: Path, design, theta, data, m, kind, run):
             def sink(t, tau, pred):
                 np.savetxt(fh, np.column_stack([t, tau, pred]), delimiter=",", fmt="%.12g")
 
-            out["result"] = run(design, theta, data, m.data, kind, sink=sink)
+            out["result"] = run(design, theta, data, m.data, kind, sink=sink)  # m: the EvaluationSetup
 
     atomic_write(path, write, suffix=".csv")
     return out["result"]

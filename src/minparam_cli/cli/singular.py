@@ -18,7 +18,7 @@ import typer
 from minparam_cli.cli.common import Progress, guarded, parse_floats, save_png, write_output
 from minparam_cli.errors import InputError
 from minparam_cli.kinematics.defaults import DEFAULT_DAMPING, DEFAULT_EPSILON, DEFAULT_STEP_DEG
-from minparam_cli.render.singular_text import _clean, local_json, local_table, scan_json, scan_table, symbolic_json, symbolic_table
+from minparam_cli.render.singular_text import _clean, local_table, scan_table, symbolic_table
 
 HELP = (
     "Singular positions by screw theory (Glazunov 1985): the local test at --q, the dependent joints, "
@@ -120,22 +120,6 @@ def _check_joint_numbers(chain, joints, what):
             raise InputError(f"{what}: joint {j} does not exist; {chain.name} has joints 1..{chain.n}")
 
 
-def _tool_report(desc) -> tuple[dict, str]:
-    """Which tool point O_c the analysis uses: (JSON record, table line)."""
-    frame = desc.joints[-1].link_name if desc.convention == "urdf" else "last link"
-    point = (0.0, 0.0, 0.0) if desc.tool is None else tuple(float(v) for v in desc.tool)
-    where = f"{frame} frame" if desc.convention == "urdf" else "last link frame"
-    xyz = "(" + ", ".join(f"{v:.6g}" for v in point) + ") m"
-    if desc.tool_link is not None:
-        source, line = f"link {desc.tool_link}", f"link {desc.tool_link}: {xyz} in the {where}"
-    elif desc.tool is not None:
-        source, line = "the file's 'tool' entry", f"the file's 'tool' entry: {xyz} in the {where}"
-    else:
-        source, line = "none given", f"none given: {xyz}, the {where}'s origin"
-    doc = {"link": desc.tool_link, "point": list(point), "frame": frame, "source": source}
-    return doc, f"tool       {line}"
-
-
 # --- the command --------------------------------------------------------------------------------------
 
 
@@ -177,34 +161,23 @@ def singular(
     screws.require_serial(chain)
     angle = "rad" if rad else "deg"
     q_si = _q_to_si(chain, q, rad) if q is not None else None
-    tool_doc, tool_line = _tool_report(desc)
-    doc: dict = {"robot": chain.name, "source": str(robot), "tool": tool_doc}
-    sections: list[str] = []
+    from minparam_cli.api.kinematics import singular_analysis, tool_report
 
-    if q_si is not None:
-        held = None
-        if hold is not None:
-            _check_joint_numbers(chain, hold, "--hold")
-            held = tuple(h - 1 for h in hold)
-        report = screws.analyse(chain, q_si, twist=twist, epsilon=epsilon, hold=held, damping=damping)
-        check = None
-        if report.twist is not None:
-            check = screws.check_nearest(report, chain, np.random.default_rng(seed))
-        doc.update(local_json(report, check, seed))
-        sections.append(local_table(report, check, seed, angle))
-
-    if scan:
-        from minparam_cli.kinematics.singular_scan import scan as run_scan
-
-        q_fixed = q_si if q_si is not None else np.zeros(chain.n)
-        step_rad = step if rad else math.radians(step)
-        bar = Progress(1, "scanning", quiet=quiet)
-        try:
-            result = run_scan(chain, q_fixed, step=step_rad, epsilon=epsilon, progress=bar)
-        finally:
+    _, tool_line = tool_report(desc)
+    bar = Progress(1, "scanning", quiet=quiet) if scan else None
+    try:
+        res = singular_analysis(desc, chain, str(robot), q_si, twist=twist, epsilon=epsilon, hold=hold, damping=damping,
+                                seed=seed, scan_step=(step if rad else math.radians(step)) if scan else None,
+                                symbolic=symbolic, progress=bar)
+    finally:
+        if bar is not None:
             bar.close()
-        doc["scan"] = scan_json(result)
-        sections.append(scan_table(result, chain.types, angle))
+    doc = res.doc
+    sections: list[str] = []
+    if res.local is not None:
+        sections.append(local_table(res.local, res.check, seed, angle))
+    if res.scan is not None:
+        sections.append(scan_table(res.scan, chain.types, angle))
 
     if plot is not None:
         from minparam_cli.kinematics.singular_scan import sigma_map, swept_joints
@@ -222,16 +195,14 @@ def singular(
         from minparam_cli.render.singular_plot import render_map
 
         save_png(render_map(smap, chain, angle, marker=q_si), plot)
+        if "symbolic" in doc:  # the plot's section stays before the symbolic one in the output
+            doc = {**{k: v for k, v in doc.items() if k != "symbolic"}, "plot": None, "symbolic": doc["symbolic"]}
         doc["plot"] = {"file": str(plot), "joints": [pair[0] + 1, pair[1] + 1], "points_per_axis": int(smap.x.size),
                        "sigma_min_on_map": float(smap.sigma.min())}
         sections.append(f"map of sigma_min/sigma_max over joints {pair[0] + 1} and {pair[1] + 1} written to {plot}")
 
-    if symbolic:
-        from minparam_cli.kinematics.singular_symbolic import symbolic_conditions
-
-        sym = symbolic_conditions(chain)
-        doc["symbolic"] = symbolic_json(sym)
-        sections.append(symbolic_table(sym, chain, angle))
+    if res.symbolic is not None:
+        sections.append(symbolic_table(res.symbolic, chain, angle))
 
     if fmt == OutputFormat.json:
         text = json.dumps(_clean(doc), indent=2, allow_nan=False)

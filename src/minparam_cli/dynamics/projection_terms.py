@@ -147,7 +147,7 @@ def kron_map(kind: str, L: tuple, R: tuple, dtype) -> np.ndarray:
     """
     nY = Y_SIZE[kind]
     M = np.zeros((nY, 16, 16), dtype=dtype)
-    if dtype == object:
+    if np.dtype(dtype).kind == "O":  # sympy entries: zeros as Python ints, not None
         M[...] = 0
     for (a, b), targets in PRODUCT_RULES[kind].items():
         if L[a] is None or R[b] is None:
@@ -176,7 +176,7 @@ def phi_matrix(dtype) -> np.ndarray:
     J_xy = -XY.  The factor 2 keeps every entry an integer.
     """
     P = np.zeros((10, 16), dtype=dtype)
-    if dtype == object:
+    if np.dtype(dtype).kind == "O":  # sympy entries: zeros as Python ints, not None
         P[...] = 0
 
     def g(a, b):
@@ -205,7 +205,7 @@ SYM_PAIRS: tuple[tuple[int, int], ...] = tuple((a, a) for a in range(4)) + tuple
 def sym_matrix(dtype) -> np.ndarray:
     """(10, 16): vec(G) -> (G11, G22, G33, G44, G12+G21, G13+G31, G14+G41, G23+G32, G24+G42, G34+G43)."""
     S = np.zeros((10, 16), dtype=dtype)
-    if dtype == object:
+    if np.dtype(dtype).kind == "O":  # sympy entries: zeros as Python ints, not None
         S[...] = 0
     for i, (a, b) in enumerate(SYM_PAIRS):
         S[i, 4 * a + b] = 1

@@ -172,9 +172,17 @@ def time_span(path: str | Path, opts: DataOptions) -> tuple[float, float]:
     from minparam_cli.measured.columns import TIME_UNITS
     from minparam_cli.measured.rosbag import bag_time_span, is_bag
 
-    if is_bag(path):
+    from minparam_cli.measured.arrays import lookup
+
+    record = lookup(path)  # data held in memory (the Python API)
+    if record is None and is_bag(path):
         return bag_time_span(path, len(opts.joint_names), opts)
-    first, last = _file_time_span(path, name, opts)
+    if record is not None:
+        from minparam_cli.measured.arrays import time_span as record_span
+
+        first, last = record_span(record, len(opts.joint_names), opts)
+    else:
+        first, last = _file_time_span(path, name, opts)
     divisor = TIME_UNITS[opts.time_unit]
     return first / divisor, last / divisor
 

@@ -46,16 +46,24 @@ def split(table: np.ndarray, layout: dict) -> dict:
 def raw_chunks(path: Path, n: int, opts: DataOptions) -> Iterator[tuple[np.ndarray, dict]]:
     """Chunk by chunk: a table of the used columns (t, q, [dq], [ddq], tau) and its layout, time in
     seconds.  The format follows the name: a ROS bag (see ``measured.rosbag.is_bag``), .npz, or CSV."""
+    from minparam_cli.measured.arrays import lookup
     from minparam_cli.measured.rosbag import is_bag
 
+    record = lookup(path)  # data held in memory (the Python API), registered under a name
     path = Path(path)
-    if is_bag(path):
+    if record is None and is_bag(path):
         from minparam_cli.measured.rosbag import bag_chunks
 
         yield from bag_chunks(path, n, opts)
         return
     divisor = TIME_UNITS[opts.time_unit]
-    for table, layout in _file_chunks(path, n, opts):
+    if record is not None:
+        from minparam_cli.measured.arrays import chunks
+
+        source = chunks(record, n, opts)
+    else:
+        source = _file_chunks(path, n, opts)
+    for table, layout in source:
         if divisor != 1.0:
             table[:, 0] /= divisor  # a division: a stamp in ms, us or ns becomes the nearest double in s
         yield table, layout
@@ -73,32 +81,7 @@ def _file_chunks(path: Path, n: int, opts: DataOptions) -> Iterator[tuple[np.nda
                 raise
             except Exception as e:  # noqa: BLE001 - a damaged member: zlib, zipfile, format or dtype errors
                 raise DataError(f"{src}: cannot read .npz ({_short(e)})") from None
-        for k in ("t", "q", "tau"):
-            if arrays[k] is None:
-                raise DataError(f"{src}: missing array '{opts.columns.get(k, k)}'")
-        t = arrays["t"]
-        if t.ndim != 1 and t.size == max(t.shape, default=0):  # a column or a row of time stamps
-            t = arrays["t"] = t.reshape(-1)
-        if t.ndim != 1:
-            raise DataError(f"{src}: array '{opts.columns.get('t', 't')}' has shape {t.shape}, expected one time stamp a sample")
-        N = len(t)
-        if N == 0:
-            raise DataError(f"{src}: no usable samples (array '{opts.columns.get('t', 't')}' is empty)")
-        for k in KEYS[1:]:
-            a = arrays[k]
-            if a is not None:
-                name = opts.columns.get(k, k)
-                if a.ndim == 0 or a.shape[0] != N:
-                    raise DataError(f"{src}: array '{name}' has shape {a.shape}, expected ({N}, {n}): a row per time stamp, a column per joint")
-                shape, a = a.shape, a.reshape(N, -1)
-                if a.shape[1] != n:
-                    m = a.shape[1]
-                    raise DataError(f"{src}: the data have {m} joint{'s' if m != 1 else ''} (array '{name}' has shape {shape}), the robot has {n}")
-                arrays[k] = a
-        layout = _layout({k: a is not None for k, a in arrays.items()}, n)
-        used = [a.reshape(N, -1) for a in arrays.values() if a is not None]
-        for s in range(0, N, opts.chunk_rows):
-            yield np.hstack([a[s : s + opts.chunk_rows] for a in used]), layout
+        yield from array_chunks(arrays, src, n, opts)
         return
     try:
         fh = open(path, encoding="utf-8", errors="strict")
@@ -141,6 +124,37 @@ def _file_chunks(path: Path, n: int, opts: DataOptions) -> Iterator[tuple[np.nda
                     break
         finally:
             chunks.close()
+
+
+def array_chunks(arrays: dict, src: str, n: int, opts: DataOptions) -> Iterator[tuple[np.ndarray, dict]]:
+    """Chunks of whole arrays t (N,), q, [dq], [ddq], tau (N, n) (None where absent): an .npz file's, or
+    arrays held in memory (``measured.arrays``); the same checks and messages for both."""
+    for k in ("t", "q", "tau"):
+        if arrays[k] is None:
+            raise DataError(f"{src}: missing array '{opts.columns.get(k, k)}'")
+    t = arrays["t"]
+    if t.ndim != 1 and t.size == max(t.shape, default=0):  # a column or a row of time stamps
+        t = arrays["t"] = t.reshape(-1)
+    if t.ndim != 1:
+        raise DataError(f"{src}: array '{opts.columns.get('t', 't')}' has shape {t.shape}, expected one time stamp a sample")
+    N = len(t)
+    if N == 0:
+        raise DataError(f"{src}: no usable samples (array '{opts.columns.get('t', 't')}' is empty)")
+    for k in KEYS[1:]:
+        a = arrays[k]
+        if a is not None:
+            name = opts.columns.get(k, k)
+            if a.ndim == 0 or a.shape[0] != N:
+                raise DataError(f"{src}: array '{name}' has shape {a.shape}, expected ({N}, {n}): a row per time stamp, a column per joint")
+            shape, a = a.shape, a.reshape(N, -1)
+            if a.shape[1] != n:
+                m = a.shape[1]
+                raise DataError(f"{src}: the data have {m} joint{'s' if m != 1 else ''} (array '{name}' has shape {shape}), the robot has {n}")
+            arrays[k] = a
+    layout = _layout({k: a is not None for k, a in arrays.items()}, n)
+    used = [a.reshape(N, -1) for a in arrays.values() if a is not None]
+    for s in range(0, N, opts.chunk_rows):
+        yield np.hstack([a[s : s + opts.chunk_rows] for a in used]), layout
 
 
 MAX_LINE_CHARS = 2**20

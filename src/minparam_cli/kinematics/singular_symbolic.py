@@ -183,7 +183,6 @@ class _HalfAngle:
 
     def conditions(self, poly, formal: dict) -> list[Condition]:
         """Factor a t-polynomial into conditions written in cos/sin (with roots at 180° when degree is missing)."""
-        sp = self.sp
         _, factors = poly.factor_list()
         copies = []
         for f, mult in factors:

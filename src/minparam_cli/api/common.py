@@ -1,0 +1,82 @@
+"""What the API functions share: robot arguments, option checks, progress, warnings."""
+
+from __future__ import annotations
+
+import warnings
+from pathlib import Path
+from typing import Any, Callable, Iterable, Union
+
+from minparam_cli.errors import InputError, MinparamWarning
+
+ProgressArg = Union[bool, Callable[[int, int], None]]
+
+
+def progress_callback(progress: ProgressArg, total: int, label: str):
+    """None (no bar: the default), the caller's own callable, or the CLI's bar on stderr (True)."""
+    if progress is True:
+        from minparam_cli.cli.common import Progress
+
+        return Progress(total, label)
+    if callable(progress):
+        return progress
+    return None
+
+
+def close(bar: Any) -> None:
+    if bar is not None and hasattr(bar, "close"):
+        bar.close()
+
+
+def warn(messages: Iterable[str]) -> None:
+    for m in messages:
+        warnings.warn(m, MinparamWarning, stacklevel=3)
+
+
+def friction_kinds(friction: str | Iterable[str] | None) -> tuple[str, ...]:
+    """("coulomb", "viscous") from a list or from the CLI's "coulomb,viscous"; unknown kinds refused."""
+    from minparam_cli.params import FRICTION_KINDS
+
+    if friction is None:
+        return ()
+    items = friction.split(",") if isinstance(friction, str) else list(friction)
+    kinds = tuple(str(k).strip() for k in items if str(k).strip())
+    for k in kinds:
+        if k not in FRICTION_KINDS:
+            raise InputError(f"friction: unknown friction kind {k!r}; expected any of {','.join(FRICTION_KINDS)}")
+    return kinds
+
+
+def choice(value: str, allowed: Iterable[str], what: str) -> str:
+    value = getattr(value, "value", value)
+    allowed = tuple(allowed)
+    if value not in allowed:
+        raise InputError(f"{what}: {value!r} is not one of {', '.join(map(repr, allowed))}")
+    return str(value)
+
+
+def gravity3(gravity: Any) -> tuple[float, float, float] | None:
+    import math
+
+    if gravity is None:
+        return None
+    try:
+        g = tuple(float(x) for x in gravity)
+    except (TypeError, ValueError):
+        raise InputError(f"gravity: expected three numbers, got {gravity!r}") from None
+    if len(g) != 3 or not all(math.isfinite(x) for x in g):
+        raise InputError(f"gravity: expected three finite numbers, got {gravity!r}")
+    return (g[0], g[1], g[2])
+
+
+def robot_path(robot: Any) -> Path:
+    """The file of a Robot, or a path given directly."""
+    from minparam_cli.api.results import Robot
+
+    if isinstance(robot, Robot):
+        return robot.path
+    if isinstance(robot, (str, Path)):
+        path = Path(robot)
+        if not path.exists():  # the CLI's words (cli.batch.expand_paths)
+            raise InputError(f"{path}: no such file or folder")
+        return path
+    raise InputError(f"expected a robot file path or a minparam.Robot, got {type(robot).__name__}")

@@ -1,0 +1,330 @@
+"""Identification from files or from arrays in memory, the model file, and its evaluation:
+``identify``, ``Model.load/save/predict``, ``evaluate``.
+
+``identify`` builds the same ``IdentifyOptions`` as ``minparam identify`` and calls the same stage
+(``identify.stage.identify``); data held in memory are registered under a name (``<data>``,
+``<validate>``, ``<test1>``...) for the call and read by the readers as a file would be
+(``measured.arrays``): no file is written, and pandas is imported only by whoever made the DataFrame.
+``evaluate`` shares ``open_model``, ``evaluation_setup`` and ``evaluation_report`` with the CLI.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, replace
+from pathlib import Path
+from typing import TYPE_CHECKING, Any, Iterable, Sequence
+
+from minparam_cli.api.common import ProgressArg, choice, close, friction_kinds, gravity3, progress_callback, robot_path
+from minparam_cli.api.results import Errors, Evaluation, Identification, Model, Robot
+from minparam_cli.errors import InputError
+
+if TYPE_CHECKING:
+    import numpy as np
+
+    from minparam_cli.identify.data import DataOptions
+    from minparam_cli.identify.design import Design
+    from minparam_cli.identify.model import SavedModel
+
+TIME_UNITS = ("s", "ms", "us", "ns")
+PRIORS = ("none", "nominal")
+
+
+def _positive(value: float | None, what: str, message: str = "must be positive") -> None:
+    if value is not None and not (math.isfinite(value) and value > 0):
+        raise InputError(f"{what}: {message}, got {value!r}")
+
+
+def _columns(columns: str | dict[str, str] | None) -> dict[str, str]:
+    from minparam_cli.measured.columns import parse_columns, spec_problem
+
+    if columns is None:
+        return {}
+    if isinstance(columns, str):
+        try:
+            return parse_columns(columns)
+        except ValueError as e:
+            raise InputError(f"columns: {e}") from None
+    out = {str(k): str(v) for k, v in columns.items()}
+    for k, v in out.items():
+        problem = spec_problem(k, v)
+        if problem:
+            raise InputError(f"columns: {problem}")
+    return out
+
+
+def _sources(data: Any, validate: Any, test: Any) -> tuple[Any, Any, tuple[Any, ...], list]:
+    """Paths as they are; records held in memory registered under <data>, <validate>, <test1>..."""
+    from minparam_cli.measured.arrays import as_record, is_in_memory
+
+    records = []
+
+    def one(x: Any, name: str) -> Any:
+        if x is None:
+            return None
+        if is_in_memory(x):
+            records.append(as_record(x, name))
+            return name
+        if isinstance(x, (str, Path)):
+            return str(x)
+        raise InputError(f"{name.strip('<>')}: expected a file path, a mapping of arrays or a pandas DataFrame, "
+                         f"got {type(x).__name__}")
+
+    tests = [test] if test is not None and (isinstance(test, (str, Path)) or is_in_memory(test)) else list(test or ())
+    return (one(data, "<data>"), one(validate, "<validate>"),
+            tuple(one(t, f"<test{k + 1}>") for k, t in enumerate(tests)), records)
+
+
+def identify(robot: Robot | str | Path, data: Any, *, validate: Any = None, test: Any = None,
+             split: Sequence[float] = (0.6, 0.2, 0.2), columns: str | dict[str, str] | None = None,
+             time_unit: str = "s", topic: str | None = None, cutoff: float = 5.0, filter: bool = False,
+             rate: float | None = None, decimate: int | None = None, trim_still: float | None = None,
+             still_speed: float = 0.01, friction: str | Iterable[str] | None = None, rotor_inertia: bool | None = None,
+             coulomb_smoothing: float | None = None, gravity: Any = None, effects: str | Iterable[str] | None = None,
+             diagnose: bool = True, min_gain: float = 0.02, physical: bool = False, prior: str = "none",
+             prior_weight: float = 1e-3, ols: bool = False, seed: int = 0, mimic: str | None = None,
+             progress: ProgressArg = False) -> Identification:
+    """Identify the base parameters from measured joint data (``minparam identify``).
+
+    ``data``, ``validate`` and each ``test``: a data file (CSV, .npz, ROS bag), a mapping of arrays
+    ``{"t": (N,), "q": (N, dof), "dq": ..., "ddq": ..., "tau": (N, dof)}`` (dq, ddq optional: derived
+    by filtering as for a file), a mapping of CSV-style columns (``t, q1.., tau1..``) or a pandas
+    DataFrame with such columns.  The options are the CLI's (same names, same defaults).  The
+    diagnosis adds the effects the selection data ask for; ``result.test`` is measured on data that
+    chose nothing.
+    """
+    from minparam_cli.identify.data import DataOptions
+    from minparam_cli.identify.diagnose import DiagnosisOptions
+    from minparam_cli.identify.effects import EFFECT_IDS
+    from minparam_cli.identify.model import LoadSettings, saved_model
+    from minparam_cli.identify.stage import IdentifyOptions, identify as run
+    from minparam_cli.measured.arrays import registered
+    from minparam_cli.measured.rosbag import coordinate_names
+    from minparam_cli.pipeline import DeriveOptions, load_chain, require_fixed_base
+
+    path = robot_path(robot)
+    base = robot.options if isinstance(robot, Robot) else None
+    kinds = friction_kinds(friction) if friction is not None else (base.friction if base else ())
+    rotor = bool(rotor_inertia) if rotor_inertia is not None else (base.rotor_inertia if base else False)
+    g = gravity3(gravity) if gravity is not None else (base.gravity if base else None)
+    smoothing = float(coulomb_smoothing) if coulomb_smoothing is not None else (base.coulomb_smoothing if base else 0.0)
+    mimic_mode = choice(mimic, ("coupled", "fixed"), "mimic") if mimic is not None else (base.mimic if base else "coupled")
+    ids = (tuple(k.strip() for k in (effects.split(",") if isinstance(effects, str) else effects) if k.strip())
+           if effects is not None else ()) or EFFECT_IDS
+    for k in ids:
+        if k not in EFFECT_IDS:
+            raise InputError(f"effects: unknown effect {k!r}; expected any of {','.join(EFFECT_IDS)}")
+    shares = tuple(float(x) for x in split)
+    if (len(shares) != 3 or any(not (math.isfinite(v) and 0 <= v <= 1) for v in shares) or shares[0] <= 0
+            or sum(shares) <= 0):
+        raise InputError("split: three shares FIT,SELECTION,TEST in [0, 1], FIT > 0")
+    _positive(cutoff, "cutoff")
+    _positive(rate, "rate")
+    _positive(trim_still, "trim_still", "must be a positive number of seconds")
+    _positive(still_speed, "still_speed", "must be a positive speed")
+    _positive(prior_weight, "prior_weight", "must be a positive number")
+    if decimate is not None and decimate < 1:
+        raise InputError(f"decimate: must be >= 1, got {decimate}")
+    if not 0 <= min_gain < 1:
+        raise InputError(f"min_gain: must be in [0, 1), got {min_gain!r}")
+    if not (math.isfinite(smoothing) and smoothing >= 0):
+        raise InputError("coulomb_smoothing: must be a finite velocity >= 0 (0: sign)")
+    if seed < 0:
+        raise InputError(f"seed: must be >= 0, got {seed}")
+    unit = choice(time_unit, TIME_UNITS, "time_unit")
+    prior = choice(prior, PRIORS, "prior")
+    if prior != "none" and not physical:
+        raise InputError("prior: a prior needs physical=True")
+    column_map = _columns(columns)
+    physical_opts = None
+    if physical:
+        from minparam_cli.identify.physical import PhysicalOptions
+
+        physical_opts = PhysicalOptions(prior=prior, prior_weight=prior_weight)
+    _, chain = load_chain(path, DeriveOptions(friction=kinds, rotor_inertia=rotor, gravity=g, mimic=mimic_mode))
+    require_fixed_base(chain, "identify")
+    if physical and prior == "nominal":
+        from minparam_cli.describe.bodies import nominal_problems, nominal_problems_text
+
+        if nominal_problems(chain):
+            raise InputError("--prior nominal: " + nominal_problems_text(str(path), nominal_problems(chain)))
+    chain = chain.with_coulomb_smoothing(smoothing)
+    data_name, validate_name, test_names, records = _sources(data, validate, test)
+    opts = IdentifyOptions(
+        data=DataOptions(columns=column_map, cutoff_hz=cutoff, force_filter=filter, decimate=decimate,
+                         step_s=(1.0 / rate if rate else None), trim_still_s=trim_still, still_speed=still_speed,
+                         time_unit=unit, topic=topic, joint_names=coordinate_names(chain)),
+        split=(shares[0], shares[1], shares[2]),
+        validate=validate_name,
+        tests=test_names,
+        weighted=not ols,
+        diagnose=diagnose,
+        diagnosis=DiagnosisOptions(effects=ids, min_gain=min_gain, weighted=not ols),
+        seed=seed,
+        physical=physical_opts,
+    )
+    bar = progress_callback(progress, 1, "diagnosis")
+    try:
+        with registered(records):
+            report, art = run(chain, data_name, opts, progress=bar)
+    finally:
+        close(bar)
+    from minparam_cli.describe.safety import read_bounded  # the robot file's bytes, for its hash
+
+    load = LoadSettings(friction=kinds, rotor_inertia=rotor, gravity=g, coulomb_smoothing=smoothing, mimic=mimic_mode)
+    saved = saved_model(str(path), read_bounded(Path(path)), load, opts.data, opts.seed, art, report)
+    assert art.design is not None  # the stage always sets the final design
+    model = Model(saved=saved, design=art.design, robot=str(path), names=tuple(saved.names))
+    test_doc = report["test"]
+    return Identification(
+        robot=report["robot"], names=tuple(saved.names), theta=saved.theta.copy(), std_percent=saved.std_percent,
+        before=Errors.from_dict(report["before"]), after=Errors.from_dict(report["after"]),
+        test=Errors.from_dict(test_doc.get("final")), test_rigid=Errors.from_dict(test_doc.get("rigid")),
+        effects=tuple(report["effects"]), flags=tuple(report["flags"]), model=model, _report=report,
+    )
+
+
+# --- the model file -----------------------------------------------------------------------------------
+
+
+def open_model(model: str | Path, robot: str | Path | None = None) -> tuple[SavedModel, Path, Design]:
+    """Read a model file, check its robot file's SHA-256 and rebuild its design: (model, robot file,
+    design).  ``robot``: the robot file to use instead of the one the model names."""
+    from minparam_cli.describe.safety import read_bounded
+    from minparam_cli.errors import DescriptionError
+    from minparam_cli.identify.model import ModelError, check_robot, model_design, parse_model
+    from minparam_cli.pipeline import load_chain, require_fixed_base
+
+    model = Path(model)
+    try:  # a regular file of bounded size (a FIFO or /dev/zero given as the model would never end)
+        text = read_bounded(model).decode("utf-8")
+    except DescriptionError as e:
+        raise ModelError(f"cannot read the model file: {e}") from None
+    except UnicodeDecodeError as e:
+        raise ModelError(f"{model}: cannot read the model file (not UTF-8 text: {e.reason})") from None
+    m = parse_model(text, str(model))
+    robot_file = Path(robot) if robot is not None else Path(m.robot)
+    if not robot_file.is_file():
+        raise ModelError(f"{model}: robot file {robot_file} not found" + ("" if robot else " (give it with --robot)"))
+    check_robot(m, str(model), str(robot_file), read_bounded(robot_file))
+    _, chain = load_chain(robot_file, m.load.derive_options(m.seed))
+    require_fixed_base(chain, "evaluate")
+    chain = chain.with_coulomb_smoothing(m.load.coulomb_smoothing)
+    return m, robot_file, model_design(m, chain, str(model))
+
+
+def load_model(path: str | Path, robot: str | Path | None = None) -> Model:
+    """``Model.load``: a model file written by ``identify --save-model`` or ``Model.save``."""
+    m, robot_file, design = open_model(path, robot)
+    return Model(saved=m, design=design, robot=str(robot_file), names=tuple(m.names))
+
+
+def save_model(model: Model, path: str | Path) -> None:
+    """``Model.save``: the model file, written atomically."""
+    from minparam_cli.cli.common import write_output
+    from minparam_cli.identify.model import dumps
+
+    write_output(dumps(model.saved), Path(path))
+
+
+def predict(model: Model, q: Any, dq: Any, ddq: Any, t: Any = None, which: str = "fit") -> np.ndarray:
+    """``Model.predict``: τ = X(q, dq, ddq)·θ for (N, dof) joint states."""
+    import numpy as np
+
+    from minparam_cli.identify.data import Block
+    from minparam_cli.identify.evaluation import predict as run
+
+    n = model.design.chain.dof
+    arrays = [np.atleast_2d(np.asarray(x, dtype=float)) for x in (q, dq, ddq)]
+    for name, x in zip(("q", "dq", "ddq"), arrays):
+        if x.ndim != 2 or x.shape != arrays[0].shape or x.shape[1] != n:
+            raise InputError(f"{name}: expected shape (N, {n}) like q, got {x.shape}")
+    N = arrays[0].shape[0]
+    tt = np.zeros(N) if t is None else np.asarray(t, dtype=float).reshape(-1)
+    if len(tt) != N:
+        raise InputError(f"t: expected {N} time stamps, got {len(tt)}")
+    theta = model.saved.fit_theta(choice(which, ("fit", "physical"), "which"))
+    return run(model.design, theta, Block(tt, arrays[0], arrays[1], arrays[2], np.zeros((N, n))))
+
+
+# --- evaluate -----------------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class EvaluationSetup:
+    """What ``evaluate`` reads the data with: the model, its design and parameters, the data options."""
+
+    model_file: str
+    robot: str
+    saved: SavedModel
+    design: Design
+    kind: str
+    theta: np.ndarray
+    data: DataOptions
+
+
+def evaluation_setup(model_file: str, saved: SavedModel, robot_file: str, design: Design, which: str | None,
+                     time_unit: str = "s", topic: str | None = None) -> EvaluationSetup:
+    """The parameters to use (the physical fit by default when the model has one) and the model's data
+    settings with these files' time unit, a bag's topic and the robot's joint names."""
+    from minparam_cli.measured.rosbag import coordinate_names
+
+    kind = which if which is not None else ("physical" if saved.physical is not None else "fit")
+    theta = saved.fit_theta(kind)
+    data = replace(saved.data, time_unit=time_unit, topic=topic, joint_names=coordinate_names(design.chain))
+    return EvaluationSetup(model_file, robot_file, saved, design, kind, theta, data)
+
+
+def evaluation_report(setup: EvaluationSetup, result: Any) -> dict:
+    """The JSON report of ``minparam evaluate``."""
+    m, kind = setup.saved, setup.kind
+    report = {"model_file": setup.model_file, "robot": setup.robot, "parameters": len(setup.theta), **result.to_dict()}
+    ident = ((m.figures.get("physical") or {}).get("test") if kind == "physical" else None)
+    test = m.figures.get("test") or {}
+    if kind == "fit" and test.get("final"):
+        report["identify_test"] = test["final"]
+    elif kind == "physical" and ident and len(ident) == 1:
+        report["identify_test"] = next(iter(ident.values()))
+    return report
+
+
+def evaluate(model: Model | str | Path, data: Any, *, which: str | None = None, robot: str | Path | None = None,
+             time_unit: str = "s", topic: str | None = None) -> Evaluation:
+    """Errors of a saved model on data (``minparam evaluate``): per file and pooled.
+
+    ``model``: a :class:`Model` or a model file; ``data``: one data set or a list of them (files,
+    mappings of arrays, DataFrames), read with the model's settings.  ``which``: "physical" or "fit"
+    (default: physical when the model has one).
+    """
+    from minparam_cli.identify.evaluation import evaluate as run
+    from minparam_cli.measured.arrays import as_record, is_in_memory, registered
+
+    if isinstance(model, Model):
+        saved, robot_file, design, source = model.saved, model.robot, model.design, "<model>"
+    else:
+        saved, robot_path_, design = open_model(model, robot)
+        robot_file, source = str(robot_path_), str(model)
+    if which is not None:
+        which = choice(which, ("physical", "fit"), "which")
+    items = [data] if isinstance(data, (str, Path)) or is_in_memory(data) else list(data)
+    names, records = [], []
+    for k, x in enumerate(items):
+        if is_in_memory(x):
+            records.append(as_record(x, f"<data{k + 1}>"))
+            names.append(f"<data{k + 1}>")
+        else:
+            check_data_file(Path(x))
+            names.append(str(x))
+    setup = evaluation_setup(source, saved, robot_file, design, which, choice(time_unit, TIME_UNITS, "time_unit"), topic)
+    with registered(records):
+        result = run(setup.design, setup.theta, names, setup.data, setup.kind)
+    report = evaluation_report(setup, result)
+    return Evaluation(which=setup.kind, pooled=Errors.from_dict(report["pooled"]), files=tuple(names), _report=report)
+
+
+def check_data_file(p: Path) -> None:
+    """A data file must exist (a ROS bag may be a folder)."""
+    from minparam_cli.measured.rosbag import is_bag
+
+    if not p.is_file() and not (p.is_dir() and is_bag(p)):
+        raise InputError(f"{p}: data file not found")

@@ -1,0 +1,279 @@
+"""Typed, frozen result objects of the Python API.
+
+Every result keeps the JSON report of the CLI command it corresponds to; ``to_dict()`` returns a
+deep copy of it (so the two cannot drift: tests/test_api_cli_json.py), and the typed fields are read
+from the same computation.  Arrays are numpy arrays, names are tuples of str.
+"""
+
+from __future__ import annotations
+
+import copy
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:
+    import numpy as np
+
+    from minparam_cli.chain import Chain
+    from minparam_cli.describe.records import RobotDescription
+    from minparam_cli.identify.design import Design
+    from minparam_cli.identify.model import SavedModel
+
+
+class _Report:
+    """Mixin: the CLI's JSON report, kept as ``_report``."""
+
+    _report: dict[str, Any]
+
+    def to_dict(self) -> dict[str, Any]:
+        """The CLI's JSON report of the same call (a deep copy: changing it changes nothing here)."""
+        return copy.deepcopy(self._report)
+
+
+@dataclass(frozen=True)
+class LoadOptions:
+    """How a robot file becomes a chain (the options every command that loads a robot takes)."""
+
+    friction: tuple[str, ...] = ()  # any of "coulomb", "viscous", "offset", added to every joint
+    rotor_inertia: bool = False  # a rotor inertia column Ia per joint
+    gravity: tuple[float, float, float] | None = None  # m/s², overrides the file
+    mimic: str = "coupled"  # URDF mimic joints: "coupled" or "fixed"
+    floating_base: bool = False  # the URDF's root link is free
+    coulomb_smoothing: float = 0.0  # tanh(dq / V) for sign(dq) in Coulomb columns; 0: sign
+
+
+@dataclass(frozen=True)
+class Robot:
+    """A robot loaded from a file (YAML DH/MDH or URDF): its chain, ready for every computation.
+
+    ``standard_names``: the standard parameters in column order (XXj XYj XZj YYj YZj ZZj MXj MYj MZj Mj
+    per link, then the per-joint extras of ``options``).
+    """
+
+    path: Path
+    name: str
+    dof: int
+    joint_names: tuple[str, ...]
+    joint_types: tuple[str, ...]
+    standard_names: tuple[str, ...]
+    options: LoadOptions
+    chain: Chain = field(repr=False)
+    description: RobotDescription = field(repr=False)
+
+
+@dataclass(frozen=True)
+class CheckResult(_Report):
+    """What ``minparam check --json`` reports for one valid robot file."""
+
+    robot: str
+    dof: int
+    convention: str
+    joint_types: str
+    exact: bool
+    inertial: bool
+    _report: dict[str, Any] = field(repr=False)
+
+
+@dataclass(frozen=True)
+class BaseSet(_Report):
+    """Base (minimal) inertial parameters: ``beta_base = K @ phi`` for standard parameters ``phi``.
+
+    ``names[i]`` is a base parameter, ``expressions[i]`` its regrouping as text (``"ZZ1 - M1 - M2"``,
+    in geometry symbols with ``symbolic=True``), ``terms[i]`` its coefficients by standard name;
+    ``beta`` the regrouping coefficients (rows: base parameters, columns: ``dependent`` standard
+    parameters), ``K`` the whole (n_base, n_standard) map.
+    """
+
+    robot: str
+    method: str
+    names: tuple[str, ...]
+    expressions: tuple[str, ...]
+    terms: tuple[dict[str, float], ...]
+    standard_names: tuple[str, ...]
+    kept: tuple[str, ...]
+    dependent: tuple[str, ...]
+    unidentifiable: tuple[str, ...]
+    K: np.ndarray = field(repr=False)
+    beta: np.ndarray = field(repr=False)
+    exact: bool = False
+    seed: int | None = None
+    warnings: tuple[str, ...] = ()
+    _report: dict[str, Any] = field(default_factory=dict, repr=False)
+
+    @property
+    def n_base(self) -> int:
+        return len(self.names)
+
+    @property
+    def n_standard(self) -> int:
+        return len(self.standard_names)
+
+    def latex(self) -> str:
+        """The base parameters as a LaTeX ``align*`` block (``minparam derive --format latex``)."""
+        from minparam_cli.render.text import render_latex
+
+        return render_latex(self._report)
+
+    def markdown(self) -> str:
+        """``minparam derive --format markdown``."""
+        from minparam_cli.render.text import render_markdown
+
+        return render_markdown(self._report)
+
+    def table(self) -> str:
+        """``minparam derive`` (the terminal table)."""
+        from minparam_cli.render.text import render_table
+
+        return render_table(self._report)
+
+
+@dataclass(frozen=True)
+class Errors:
+    """Torque errors of a model on some data: RMS over all joints, RMS per joint (N·m or N) and
+    ‖r‖/‖τ‖."""
+
+    rms_total: float
+    rms_per_joint: tuple[float, ...]
+    relative_error: float
+
+    @staticmethod
+    def from_dict(d: dict[str, Any] | None) -> Errors | None:
+        if d is None:
+            return None
+        return Errors(float(d["rms_total"]), tuple(float(x) for x in d["rms_per_joint"]), float(d["relative_error"]))
+
+
+@dataclass(frozen=True)
+class Identification(_Report):
+    """An identification (``minparam identify``): the fitted parameters, the effects the diagnosis
+    added, and the errors before (rigid body) and after on the selection data, and on the test data
+    that chose nothing (``test``: the final model, ``test_rigid``: the rigid-body model; None when the
+    run has no test data)."""
+
+    robot: str
+    names: tuple[str, ...]
+    theta: np.ndarray = field(repr=False)
+    std_percent: tuple[float | None, ...] = field(repr=False)
+    before: Errors | None = None
+    after: Errors | None = None
+    test: Errors | None = None
+    test_rigid: Errors | None = None
+    effects: tuple[dict[str, Any], ...] = ()
+    flags: tuple[Any, ...] = ()
+    model: Model | None = field(default=None, repr=False)
+    _report: dict[str, Any] = field(default_factory=dict, repr=False)
+
+    @property
+    def parameters(self) -> dict[str, float]:
+        """{parameter name: value} of the final fit."""
+        return {n: float(v) for n, v in zip(self.names, self.theta)}
+
+    def predict(self, q: Any, dq: Any, ddq: Any, t: Any = None) -> np.ndarray:
+        """Torques (N, dof) the identified model predicts at joint states q, dq, ddq (N, dof)."""
+        assert self.model is not None
+        return self.model.predict(q, dq, ddq, t)
+
+    def summary(self) -> str:
+        """The report as ``minparam identify`` prints it."""
+        from minparam_cli.render.identify_text import render_identify
+
+        return render_identify(self._report)
+
+
+@dataclass(frozen=True)
+class Model:
+    """An identified model: the file ``identify --save-model`` writes and ``evaluate`` reads.
+
+    ``Model.load(path)`` reads one (checking its robot file's SHA-256), ``save(path)`` writes it,
+    ``predict(q, dq, ddq)`` gives torques with the unconstrained fit, or the physical one
+    (``which="physical"``)."""
+
+    saved: SavedModel = field(repr=False)
+    design: Design = field(repr=False)
+    robot: str = ""
+    names: tuple[str, ...] = ()
+
+    @staticmethod
+    def load(path: str | Path, robot: str | Path | None = None) -> Model:
+        from minparam_cli.api.identification import load_model
+
+        return load_model(path, robot)
+
+    def save(self, path: str | Path) -> None:
+        """Write the model file (JSON) atomically."""
+        from minparam_cli.api.identification import save_model
+
+        save_model(self, path)
+
+    def to_dict(self) -> dict[str, Any]:
+        """The model file's JSON."""
+        return self.saved.to_dict()
+
+    def theta(self, which: str = "fit") -> np.ndarray:
+        return self.saved.fit_theta(which)
+
+    def predict(self, q: Any, dq: Any, ddq: Any, t: Any = None, which: str = "fit") -> np.ndarray:
+        """Torques (N, dof) at joint states q, dq, ddq (N, dof); ``t`` (N,) in s matters only to a
+        drift term (default: zeros)."""
+        from minparam_cli.api.identification import predict
+
+        return predict(self, q, dq, ddq, t, which)
+
+
+@dataclass(frozen=True)
+class Evaluation(_Report):
+    """``minparam evaluate``: errors of a saved model on data, per file and pooled."""
+
+    which: str
+    pooled: Errors | None
+    files: tuple[str, ...]
+    _report: dict[str, Any] = field(default_factory=dict, repr=False)
+
+
+@dataclass(frozen=True)
+class Simulation(_Report):
+    """Synthetic measured data (``minparam simulate``): arrays t (N,), q, dq, ddq, tau (N, dof) in SI
+    units, and the truth record (``to_dict()``, the JSON of ``--truth``)."""
+
+    t: np.ndarray = field(repr=False)
+    q: np.ndarray = field(repr=False)
+    dq: np.ndarray = field(repr=False)
+    ddq: np.ndarray = field(repr=False)
+    tau: np.ndarray = field(repr=False)
+    seed: int = 0
+    _report: dict[str, Any] = field(default_factory=dict, repr=False)
+
+    def arrays(self, ddq: bool = True) -> dict[str, np.ndarray]:
+        """The data as ``identify`` reads them: {"t", "q", "dq", ["ddq",] "tau"} (the .npz members)."""
+        out = {"t": self.t, "q": self.q, "dq": self.dq}
+        if ddq:
+            out["ddq"] = self.ddq
+        out["tau"] = self.tau
+        return out
+
+
+@dataclass(frozen=True)
+class Singularity(_Report):
+    """``minparam singular``: the screw-theory test at q (``singular``: whether it is singular,
+    ``sigma_ratio``: σ_min/σ_max of the normalised screw matrix, ``dependent``: the dependent joint
+    groups, numbered from 1), with ``scan`` and ``symbolic`` sections when asked."""
+
+    robot: str
+    singular: bool | None = None
+    sigma_ratio: float | None = None
+    dependent: tuple[tuple[int, ...], ...] = ()
+    _report: dict[str, Any] = field(default_factory=dict, repr=False)
+
+
+@dataclass(frozen=True)
+class PlatformResult(_Report):
+    """``minparam platform ik|fk|workspace``: the report (``to_dict()``) and its main numbers:
+    ``lengths`` (ik: leg lengths), ``poses`` (fk: one x,y,z,roll,pitch,yaw per assembly mode, file
+    units), ``reachable`` (workspace: the share of sampled poses inside the leg limits)."""
+
+    kind: str
+    lengths: tuple[float, ...] = ()
+    poses: tuple[tuple[float, ...], ...] = ()
+    reachable: float | None = None
+    _report: dict[str, Any] = field(default_factory=dict, repr=False)

@@ -1,0 +1,150 @@
+"""The Python API and the CLI cannot drift: for every command, the API result's ``to_dict()`` equals
+the JSON the command prints for the same call (run through the real entry point), timings aside."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+from typer.testing import CliRunner
+
+import minparam
+from minparam_cli.cli.app import app
+
+ROBOT = "robots/planar2r.yaml"
+PLATFORM = "robots/dodekapod_dang2013.yaml"
+LENGTHS = [238.6357, 269.3776, 256.0046, 247.4046, 185.4388, 190.2705]  # Dang 2013 example (docs/platform.md)
+
+
+def cli_json(*args, jsonl: bool = False):
+    r = CliRunner().invoke(app, [str(a) for a in args])
+    assert r.exit_code == 0, r.output
+    if jsonl:
+        return [json.loads(line) for line in r.stdout.splitlines() if line.strip()]
+    return json.loads(r.stdout)
+
+
+def untimed(x):
+    """The report without its wall-clock fields (elapsed_s), the only values two runs may not share."""
+    if isinstance(x, dict):
+        return {k: untimed(v) for k, v in x.items() if k != "elapsed_s"}
+    if isinstance(x, list):
+        return [untimed(v) for v in x]
+    return x
+
+
+def same(api: dict, cli: dict) -> None:
+    # through JSON, as the CLI writes it: tuples become lists, NaN stays NaN (compared as text)
+    assert json.dumps(untimed(api), sort_keys=True) == json.dumps(untimed(cli), sort_keys=True)
+
+
+@pytest.fixture(scope="module")
+def sim_files(tmp_path_factory):
+    """A short simulated record of the planar 2R with friction (CSV, truth), and the CLI's identify report
+    and model file on it."""
+    d = tmp_path_factory.mktemp("api_cli")
+    from conftest import ROOT
+
+    robot = ROOT / ROBOT
+    r = CliRunner().invoke(app, ["simulate", str(robot), "--effects", "coulomb,viscous", "--noise", "0.05",
+                                 "--duration", "5", "--seed", "3", "-o", str(d / "sim.csv"), "--truth",
+                                 str(d / "truth.json"), "-q"])
+    assert r.exit_code == 0, r.output
+    report = cli_json("identify", robot, d / "sim.csv", "-f", "json", "--save-model", d / "m.json")
+    return robot, d, report
+
+
+def test_derive(tmp_path):
+    for kw, flags in (({}, []), ({"method": "projection", "friction": "coulomb,viscous", "rotor_inertia": True},
+                                 ["--method", "projection", "--friction", "coulomb,viscous", "--rotor-inertia"])):
+        api = minparam.derive(ROBOT, **kw)
+        same(api.to_dict(), cli_json("derive", ROBOT, "-f", "json", *flags))
+
+
+def test_derive_symbolic():
+    api = minparam.derive(ROBOT, symbolic=True)
+    same(api.to_dict(), cli_json("derive", ROBOT, "--symbolic", "-f", "json"))
+    assert "ZZ2 - a2**2*M2" in api.expressions  # geometry symbols where derive(ROBOT) has 0.64 = 0.8²
+
+
+def test_check():
+    api = minparam.check("robots/puma560_mdh.yaml")
+    (cli,) = cli_json("check", "robots/puma560_mdh.yaml", "--json", jsonl=True)
+    same(api.to_dict(), cli)
+
+
+def test_simulate(sim_files):
+    robot, d, _ = sim_files
+    api = minparam.simulate(robot, effects="coulomb,viscous", noise=0.05, duration=5, seed=3)
+    same(api.to_dict(), json.loads((d / "truth.json").read_text()))
+    table = np.loadtxt(d / "sim.csv", delimiter=",", skiprows=1)
+    n = api.q.shape[1]
+    np.testing.assert_array_equal(table, np.hstack([api.t[:, None], api.q, api.dq, api.ddq, api.tau]))
+    assert table.shape[1] == 1 + 4 * n
+
+
+def test_identify_and_model_file(sim_files):
+    robot, d, cli = sim_files
+    api = minparam.identify(robot, d / "sim.csv")
+    same(api.to_dict(), cli)
+    assert api.model is not None
+    same(api.model.to_dict(), json.loads((d / "m.json").read_text()))
+
+
+def test_identify_with_options(sim_files):
+    """Options map one to one: a run with non-default ones gives the CLI's report too."""
+    robot, d, _ = sim_files
+    cli = cli_json("identify", robot, d / "sim.csv", "-f", "json", "--no-diagnose", "--friction", "coulomb,viscous",
+                   "--split", "0.5,0.3,0.2", "--ols", "--cutoff", "8", "--filter", "--seed", "2", "--gravity", "0,-9.8,0")
+    api = minparam.identify(robot, d / "sim.csv", diagnose=False, friction=["coulomb", "viscous"], split=(0.5, 0.3, 0.2),
+                            ols=True, cutoff=8, filter=True, seed=2, gravity=(0, -9.8, 0))
+    same(api.to_dict(), cli)
+    assert api.to_dict()["method"] == "ols" and "Fv2" in api.parameters
+
+
+def test_evaluate(sim_files):
+    robot, d, _ = sim_files
+    cli = cli_json("evaluate", d / "m.json", d / "sim.csv", "-f", "json")
+    api = minparam.evaluate(d / "m.json", d / "sim.csv")
+    same(api.to_dict(), cli)
+    # Model.load gives the same model; evaluated as an object it names itself <model>, nothing else changes
+    loaded = minparam.Model.load(d / "m.json")
+    again = minparam.evaluate(loaded, d / "sim.csv").to_dict()
+    assert again.pop("model_file") == "<model>"
+    cli.pop("model_file")
+    same(again, cli)
+
+
+def test_singular():
+    q_deg = [10, -30, 40, 20, 0, 15]
+    twist = [0.1, 0.2, 0.3, 0.1, 0.1, 0.1]
+    cli = cli_json("singular", "robots/ur5.yaml", "--q", ",".join(map(str, q_deg)), "--twist",
+                   ",".join(map(str, twist)), "-f", "json")
+    api = minparam.singular("robots/ur5.yaml", q_deg, twist=twist, degrees=True)
+    same(api.to_dict(), cli)
+    # radians give the same document
+    same(minparam.singular("robots/ur5.yaml", np.radians(q_deg), twist=twist).to_dict(), cli)
+    assert api.singular == cli["singular"]
+
+
+def test_singular_scan_and_symbolic():
+    cli = cli_json("singular", "robots/planar3r.yaml", "--scan", "--step", "30", "--symbolic", "-f", "json")
+    api = minparam.singular("robots/planar3r.yaml", scan=True, step=30, degrees=True, symbolic=True)
+    same(api.to_dict(), cli)
+
+
+def test_platform():
+    pose = [0, 0, 200, 5, -3, 10]
+    same(minparam.platform_ik(PLATFORM, pose).to_dict(),
+         cli_json("platform", "ik", PLATFORM, "--pose", ",".join(map(str, pose)), "-f", "json"))
+    fk = minparam.platform_fk(PLATFORM, LENGTHS)
+    same(fk.to_dict(), cli_json("platform", "fk", PLATFORM, "--lengths", ",".join(map(str, LENGTHS)), "-f", "json"))
+    truss = "robots/platforms/dodekapod_truss.yaml"
+    tik = minparam.platform_ik(truss)
+    same(tik.to_dict(), cli_json("platform", "ik", truss, "-f", "json"))
+    same(minparam.platform_fk(truss, tik.lengths, frame=("B1", "B2", "B3")).to_dict(),
+         cli_json("platform", "fk", truss, "--lengths", ",".join(map(repr, tik.lengths)), "--frame", "B1,B2,B3", "-f", "json"))
+    ws = minparam.platform_workspace(PLATFORM, samples=2000, seed=4)
+    same(ws.to_dict(), cli_json("platform", "workspace", PLATFORM, "--samples", "2000", "--seed", "4", "-f", "json"))
+    assert 0 < ws.reachable <= 1
