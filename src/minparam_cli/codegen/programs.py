@@ -226,7 +226,9 @@ def base_columns(rec: Recorded, kept) -> list:
 def effect_columns(prog: Program, effect: str, q, qd, qdd, tau_model, hyper, smoothing: float) -> list:
     """The columns of one identified effect on one joint (as ``identify.effects.EFFECTS``), traced.
     ``tau_model``: that joint's rigid-body model torque (for gain and load_coulomb)."""
-    sgn = (lambda: coulomb(prog, qd, smoothing))
+    def sgn():
+        return coulomb(prog, qd, smoothing)
+
     if effect == "coulomb":
         return [sgn()]
     if effect == "viscous":
