@@ -45,6 +45,12 @@ class Prior(str, Enum):
     nominal = "nominal"
 
 
+class Sigma(str, Enum):
+    hac = "hac"
+    bootstrap = "bootstrap"
+    textbook = "textbook"
+
+
 class Fmt(str, Enum):
     table = "table"
     json = "json"
@@ -99,11 +105,14 @@ def identify(
     physical: bool = typer.Option(False, "--physical", help="Also fit the full parameters as a convex program: every link a real body (pseudo-inertia ⪰ 0), friction and rotor inertia ≥ 0 (needs the [physical] extra)."),
     prior: Prior = typer.Option(Prior.none, "--prior", help="With --physical: pull the full parameters toward the description's nominal inertias (nominal) or not (none)."),
     prior_weight: float = typer.Option(1e-3, "--prior-weight", help="With --prior nominal: weight of the prior against the mean squared weighted residual."),
+    sigma: Sigma = typer.Option(Sigma.hac, "--sigma", help="Which parameter σ the report shows: hac (Newey–West over time blocks, allows for correlated residuals; default), bootstrap (block bootstrap, seeded by --seed) or textbook (σ²(WᵀW)⁻¹, assumes white residuals). See docs/methods/uncertainty.md."),
+    block_length: Optional[float] = typer.Option(None, "--block-length", help="Time block (s) of the hac and bootstrap σ; default max(1 s, 5 / cut-off)."),
+    replicates: int = typer.Option(200, "--replicates", help="Bootstrap replicates (--sigma bootstrap)."),
     ols: bool = typer.Option(False, "--ols", help="Ordinary least squares instead of Gautier's per-joint weighting, in the diagnosis and the final fit."),
     fmt: Fmt = typer.Option(Fmt.table, "--format", "-f", help="Output format."),
     output: Optional[Path] = typer.Option(None, "--output", "-o", help="Write the report to this file (atomically)."),
     plot: Optional[Path] = typer.Option(None, "--plot", help="Folder for PNG figures (residual vs velocity, measured vs predicted)."),
-    seed: int = typer.Option(0, "--seed", help="Seed of the base-set computation (reported)."),
+    seed: int = typer.Option(0, "--seed", help="Seed of the base-set computation and of the bootstrap (reported)."),
     save_model: Optional[Path] = typer.Option(None, "--save-model", help="Write the identified model as JSON (robot file and its hash, base set, design, parameters, data settings) for 'minparam evaluate'."),
     export_urdf: Optional[Path] = typer.Option(None, "--export-urdf", help="With --physical: write the robot as URDF with the identified masses, centres of mass and inertias."),
     export_yaml: Optional[Path] = typer.Option(None, "--export-yaml", help="With --physical, for a YAML (DH/MDH) robot: write its YAML with the identified inertials."),
@@ -123,7 +132,7 @@ def _split(text: str) -> tuple[float, float, float]:
 @guarded
 def _identify(robot, data, validate, test, split, columns, time_unit, topic, cutoff, force_filter, rate, decimate, trim_still, still_speed,
               friction, rotor_inertia, coulomb_smoothing, gravity, effects, no_diagnose, min_gain, physical, prior,
-              prior_weight, ols, fmt, output, plot, seed, save_model, export_urdf, export_yaml, mimic, quiet):
+              prior_weight, sigma, block_length, replicates, ols, fmt, output, plot, seed, save_model, export_urdf, export_yaml, mimic, quiet):
     from minparam_cli.identify.data import DataOptions
     from minparam_cli.identify.diagnose import DiagnosisOptions
     from minparam_cli.identify.effects import EFFECT_IDS
@@ -191,6 +200,7 @@ def _identify(robot, data, validate, test, split, columns, time_unit, topic, cut
         diagnosis=DiagnosisOptions(effects=ids, min_gain=min_gain, weighted=not ols),
         seed=seed,
         physical=physical_opts,
+        uncertainty=_uncertainty(sigma, block_length, replicates, seed),
     )
     bar = Progress(1, "diagnosis", quiet)
     try:
@@ -220,6 +230,14 @@ def _identify(robot, data, validate, test, split, columns, time_unit, topic, cut
 
         text = render_identify(report)
     write_output(text, output)
+
+
+def _uncertainty(sigma, block_length, replicates, seed):
+    from minparam_cli.identify.uncertainty import UncertaintyOptions, check_options
+
+    u = UncertaintyOptions(kind=Sigma(sigma).value, block_s=block_length, replicates=replicates, seed=seed)
+    check_options(u)
+    return u
 
 
 def _check_exports(robot: Path, physical: bool, export_urdf, export_yaml) -> None:
