@@ -108,6 +108,8 @@ def identify(
     sigma: Sigma = typer.Option(Sigma.hac, "--sigma", help="Which parameter σ the report shows: hac (Newey–West over time blocks, allows for correlated residuals; default), bootstrap (block bootstrap, seeded by --seed) or textbook (σ²(WᵀW)⁻¹, assumes white residuals). See docs/methods/uncertainty.md."),
     block_length: Optional[float] = typer.Option(None, "--block-length", help="Time block (s) of the hac and bootstrap σ; default max(1 s, 5 / cut-off)."),
     replicates: int = typer.Option(200, "--replicates", help="Bootstrap replicates (--sigma bootstrap)."),
+    essential: bool = typer.Option(False, "--essential", help="Also report the essential parameters: drop the base parameter with the largest relative σ and refit until every relative σ is below --essential-bound (Pham & Gautier 1991)."),
+    essential_bound: float = typer.Option(10.0, "--essential-bound", help="With --essential: the largest relative σ (%) an essential parameter may have."),
     ols: bool = typer.Option(False, "--ols", help="Ordinary least squares instead of Gautier's per-joint weighting, in the diagnosis and the final fit."),
     fmt: Fmt = typer.Option(Fmt.table, "--format", "-f", help="Output format."),
     output: Optional[Path] = typer.Option(None, "--output", "-o", help="Write the report to this file (atomically)."),
@@ -132,7 +134,7 @@ def _split(text: str) -> tuple[float, float, float]:
 @guarded
 def _identify(robot, data, validate, test, split, columns, time_unit, topic, cutoff, force_filter, rate, decimate, trim_still, still_speed,
               friction, rotor_inertia, coulomb_smoothing, gravity, effects, no_diagnose, min_gain, physical, prior,
-              prior_weight, sigma, block_length, replicates, ols, fmt, output, plot, seed, save_model, export_urdf, export_yaml, mimic, quiet):
+              prior_weight, sigma, block_length, replicates, essential, essential_bound, ols, fmt, output, plot, seed, save_model, export_urdf, export_yaml, mimic, quiet):
     from minparam_cli.identify.data import DataOptions
     from minparam_cli.identify.diagnose import DiagnosisOptions
     from minparam_cli.identify.effects import EFFECT_IDS
@@ -201,6 +203,7 @@ def _identify(robot, data, validate, test, split, columns, time_unit, topic, cut
         seed=seed,
         physical=physical_opts,
         uncertainty=_uncertainty(sigma, block_length, replicates, seed),
+        essential=_essential(essential, essential_bound),
     )
     bar = Progress(1, "diagnosis", quiet)
     try:
@@ -238,6 +241,14 @@ def _uncertainty(sigma, block_length, replicates, seed):
     u = UncertaintyOptions(kind=Sigma(sigma).value, block_s=block_length, replicates=replicates, seed=seed)
     check_options(u)
     return u
+
+
+def _essential(essential: bool, bound: float):
+    from minparam_cli.errors import InputError
+
+    if not (math.isfinite(bound) and bound > 0):
+        raise InputError(f"--essential-bound {bound}: expected a positive percentage")
+    return bound if essential else None
 
 
 def _check_exports(robot: Path, physical: bool, export_urdf, export_yaml) -> None:

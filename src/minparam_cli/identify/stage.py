@@ -51,6 +51,7 @@ class IdentifyOptions:
     cond_limit: float = COND_LIMIT
     physical: PhysicalOptions | None = None  # --physical: the convex fit over the full parameters as well
     uncertainty: UncertaintyOptions = field(default_factory=UncertaintyOptions)  # --sigma: which σ the report shows
+    essential: float | None = None  # --essential: bound (%) on the relative σ of the essential parameters (essential.py)
 
 
 class _Thinned:
@@ -251,6 +252,11 @@ def _identify(chain: Chain, data_path: Path, opts: IdentifyOptions, progress) ->
     tests_final = {k: errors(acc_final[k], final_fit.theta, final_fit.columns) for k in test_keys}
     final_fit, artifacts.uncertainty = _honest_sigma(grams, maps, final_fit, opts, progress)
     artifacts.grams = (grams, maps)
+    essential = None
+    if opts.essential is not None and grams is not None:
+        from minparam_cli.identify.essential import essential_report
+
+        essential = essential_report(grams, maps, final_fit, opts.uncertainty, opts.essential, acc_final, test_keys)
     artifacts.design, artifacts.base = final_design, base
     artifacts.theta = full_theta(final_fit, final_design.p)
     artifacts.std_percent = np.full(final_design.p, np.inf)
@@ -306,6 +312,8 @@ def _identify(chain: Chain, data_path: Path, opts: IdentifyOptions, progress) ->
     }
     if physical is not None:
         report["physical"] = physical
+    if essential is not None:
+        report["essential"] = essential
     report["flags"] = flags(report, final_fit) + (artifacts.uncertainty.flags() if artifacts.uncertainty is not None else [])
     report["elapsed_s"] = round(time.perf_counter() - t_start, 4)
     return report, artifacts

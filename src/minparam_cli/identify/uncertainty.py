@@ -13,7 +13,7 @@ same streaming pass as the fit:
 * **hac** (Newey & West 1987, on block sums): with the block scores
   s_b = Σ_j (g_bj − G_bj θ) / σ_j² (g: the X–y part of G),
   Cov = c · H⁻¹ (Σ_b s_b s_bᵀ + ½ Σ_b (s_b s_{b+1}ᵀ + s_{b+1} s_bᵀ)) H⁻¹,
-  c = N / (N − p): a Bartlett kernel over block sums; deterministic;
+  c = N/(N − p) · B/(B − 1): a Bartlett kernel over block sums; deterministic;
 * **bootstrap** (block bootstrap, Carlstein 1986 / Künsch 1989 with
   non-overlapping blocks): R replicates draw B blocks with replacement
   (seeded ``numpy.random.Generator``), each replicate's weighted fit is solved
@@ -184,7 +184,8 @@ def _solve(Gw: np.ndarray) -> np.ndarray:
 
 
 def _hac(Gb: np.ndarray, theta: np.ndarray, keys: np.ndarray, rows: int) -> np.ndarray:
-    """Newey–West (Bartlett, one lag) over block scores; c = N/(N − q) small-sample factor."""
+    """Newey–West (Bartlett, one lag) over block scores; c = N/(N − q) · B/(B − 1) small-sample factor
+    (the block scores of the fitted θ sum to zero, as the residuals of a cluster-robust covariance do)."""
     q = len(theta)
     H = Gb.sum(axis=0)[:q, :q]
     s = Gb[:, :q, q] - Gb[:, :q, :q] @ theta  # (B, q) block scores
@@ -194,7 +195,8 @@ def _hac(Gb: np.ndarray, theta: np.ndarray, keys: np.ndarray, rows: int) -> np.n
         C = s[adjacent].T @ s[adjacent + 1]
         S += 0.5 * (C + C.T)
     Hi = np.linalg.inv(H)
-    return Hi @ S @ Hi * (rows / max(rows - q, 1))
+    B = len(Gb)
+    return Hi @ S @ Hi * (rows / max(rows - q, 1)) * (B / (B - 1))
 
 
 def _bootstrap(Gb: np.ndarray, replicates: int, seed: int, progress=None, batch: int = 50) -> np.ndarray:

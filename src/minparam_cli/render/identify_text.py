@@ -124,6 +124,10 @@ def render_identify(r: dict) -> str:
         from minparam_cli.render.uncertainty_text import sigma_line
 
         out.append(sigma_line(r["sigma"]))
+    if r.get("essential"):
+        from minparam_cli.render.uncertainty_text import essential_lines
+
+        out += [""] + essential_lines(r["essential"])
     for note in r.get("nominal_notes", []):
         out.append(f"note: {note}")
     out.append("")

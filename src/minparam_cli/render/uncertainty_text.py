@@ -20,3 +20,20 @@ def sigma_line(s: dict) -> str:
     if s.get("ratio_to_textbook_median") is not None and kind != "textbook":
         out += f"; median {s['ratio_to_textbook_median']:.2g}x the textbook σ"
     return out
+
+
+def essential_lines(e: dict) -> list[str]:
+    """The essential parameter set (Pham & Gautier 1991), what was dropped and why, and the cost in error."""
+    from minparam_cli.render.columns import columns
+
+    out = [f"Essential parameters (every relative σ ≤ {e['bound_percent']:g} %): {len(e['parameters'])} kept, "
+           f"{len(e['dropped'])} dropped; condition number {e['condition_number']:.4g} (all: {e['condition_number_full']:.4g})"]
+    rows = [(k, f"{v['value']:.6g}", f"{v['std_percent']:.3g}") for k, v in e["parameters"].items()]
+    out.append(columns(rows, ("essential", "value", "σ %"), right=(1, 2)))
+    for d in e["dropped"]:
+        out.append(f"dropped {d['parameter']} = {d['value']:.4g}: {d['why']}")
+    b, a = e["error_before"], e["error_after"]
+    rel = (lambda x: "-" if x is None else f"{100 * x:.3g} %")
+    out.append(f"error on {e['error_data']}: rms {b['rms_total']:.4g} -> {a['rms_total']:.4g}, "
+               f"‖r‖/‖τ‖ {rel(b['relative_error'])} -> {rel(a['relative_error'])} (all parameters -> essential set)")
+    return out
