@@ -30,10 +30,10 @@ def motion(duration: float, seed: int = 0):
     return t, q, dq, ddq
 
 
-def torque(ch, q, dq):
-    """Rigid body (nominal inertias) plus viscous 0.5 and Coulomb 0.3 N·m on both joints (0 at standstill)."""
-    t, q_, dq_, ddq = q
-    return rigid_torque(ch, q_, dq_, ddq, np.array(ch.phi_nominal, dtype=float)) + 0.5 * dq_ + 0.3 * np.sign(dq_)
+def torque(ch, m, viscous=0.5):
+    """Rigid body (nominal inertias) plus viscous ``viscous`` N·m·s/rad and Coulomb 0.3 N·m on both joints."""
+    t, q, dq, ddq = m
+    return rigid_torque(ch, q, dq, ddq, np.array(ch.phi_nominal, dtype=float)) + viscous * dq + 0.3 * np.sign(dq)
 
 
 def noise(n: int, scale: float, seed: int, cutoff_hz: float | None) -> np.ndarray:
@@ -46,11 +46,12 @@ def noise(n: int, scale: float, seed: int, cutoff_hz: float | None) -> np.ndarra
     return scale * e
 
 
-def write(path, duration: float, seed: int, cutoff_hz: float | None, scale: float = 0.2, motion_seed: int = 0, ch=None):
+def write(path, duration: float, seed: int, cutoff_hz: float | None, scale: float = 0.2, motion_seed: int = 0, ch=None,
+          viscous=0.5):
     ch = ch if ch is not None else chain()
     m = motion(duration, motion_seed)
     t, q, dq, ddq = m
-    tau = torque(ch, m, None) + noise(len(t), scale, seed, cutoff_hz)
+    tau = torque(ch, m, viscous) + noise(len(t), scale, seed, cutoff_hz)
     header = ["t", "q1", "q2", "dq1", "dq2", "ddq1", "ddq2", "tau1", "tau2"]
     np.savetxt(path, np.column_stack([t, q, dq, ddq, tau]), delimiter=",", header=",".join(header), comments="", fmt="%.10g")
     return path

@@ -82,7 +82,7 @@ def time_unit_option():
 
 def identify(
     robot: Path = typer.Argument(..., help="Robot description (YAML DH/MDH or URDF).", show_default=False),
-    data: Path = typer.Argument(..., help="Measured data: CSV with a header row, or .npz.", show_default=False),
+    data: List[Path] = typer.Argument(..., help="Measured data: CSV with a header row, or .npz (several recordings with --consistency).", show_default=False),
     validate: Optional[Path] = typer.Option(None, "--validate", help="Selection data (scores the candidate effects) in a second file, instead of a block of DATA."),
     test: List[Path] = typer.Option([], "--test", help="Test data file, touched only by the final report (repeatable); instead of the last block of DATA."),
     split: str = typer.Option("0.6,0.2,0.2", "--split", help="Shares of DATA's time span for fit, selection and test, in that order (shares given as files are dropped)."),
@@ -108,6 +108,7 @@ def identify(
     sigma: Sigma = typer.Option(Sigma.hac, "--sigma", help="Which parameter σ the report shows: hac (Newey–West over time blocks, allows for correlated residuals; default), bootstrap (block bootstrap, seeded by --seed) or textbook (σ²(WᵀW)⁻¹, assumes white residuals). See docs/methods/uncertainty.md."),
     block_length: Optional[float] = typer.Option(None, "--block-length", help="Time block (s) of the hac and bootstrap σ; default max(1 s, 5 / cut-off)."),
     replicates: int = typer.Option(200, "--replicates", help="Bootstrap replicates (--sigma bootstrap)."),
+    consistency: bool = typer.Option(False, "--consistency", help="Several recordings: fit each alone (declared model) and all together, and flag the parameters on which they disagree beyond their σ (table; --plot draws error bars per recording)."),
     essential: bool = typer.Option(False, "--essential", help="Also report the essential parameters: drop the base parameter with the largest relative σ and refit until every relative σ is below --essential-bound (Pham & Gautier 1991)."),
     essential_bound: float = typer.Option(10.0, "--essential-bound", help="With --essential: the largest relative σ (%) an essential parameter may have."),
     ols: bool = typer.Option(False, "--ols", help="Ordinary least squares instead of Gautier's per-joint weighting, in the diagnosis and the final fit."),
@@ -134,7 +135,7 @@ def _split(text: str) -> tuple[float, float, float]:
 @guarded
 def _identify(robot, data, validate, test, split, columns, time_unit, topic, cutoff, force_filter, rate, decimate, trim_still, still_speed,
               friction, rotor_inertia, coulomb_smoothing, gravity, effects, no_diagnose, min_gain, physical, prior,
-              prior_weight, sigma, block_length, replicates, essential, essential_bound, ols, fmt, output, plot, seed, save_model, export_urdf, export_yaml, mimic, quiet):
+              prior_weight, sigma, block_length, replicates, consistency, essential, essential_bound, ols, fmt, output, plot, seed, save_model, export_urdf, export_yaml, mimic, quiet):
     from minparam_cli.identify.data import DataOptions
     from minparam_cli.identify.diagnose import DiagnosisOptions
     from minparam_cli.identify.effects import EFFECT_IDS
@@ -205,6 +206,12 @@ def _identify(robot, data, validate, test, split, columns, time_unit, topic, cut
         uncertainty=_uncertainty(sigma, block_length, replicates, seed),
         essential=_essential(essential, essential_bound),
     )
+    if consistency or len(data) > 1:
+        from minparam_cli.cli.identify_consistency import run_consistency
+
+        return run_consistency(chain, data, opts, consistency, fmt.value, output, plot, quiet,
+                               {"--validate": validate, "--test": test, "--physical": physical, "--save-model": save_model})
+    data = data[0]
     bar = Progress(1, "diagnosis", quiet)
     try:
         report, art = run(chain, data, opts, progress=bar)

@@ -233,12 +233,29 @@ def estimate(grams: BlockGrams, maps, columns: list[int], sigma: np.ndarray | No
     if len(blocks) < 2:
         raise DataError(f"--block-length {grams.length:g} s is longer than the fit data ({grams.span():.4g} s): "
                         "the σ need at least two blocks; give a shorter --block-length")
-    q = len(columns)
-    if sigma is None:
-        G = blocks.sum(axis=(0, 1))
-        t = np.concatenate([_solve(G), [-1.0]])
-        sigma = np.full(blocks.shape[1], math.sqrt(max(float(t @ G @ t), 0.0) / max(rows - q, 1)) or 1.0)
-    Gb = _weighted(blocks, sigma)
+    return from_weighted(_weighted(blocks, resolve_sigma(blocks, sigma, rows)), keys, rows, opts, grams.length, progress)
+
+
+def resolve_sigma(blocks: np.ndarray, sigma: np.ndarray | None, rows: int) -> np.ndarray:
+    """Gautier's per-joint σ_j, or for OLS (None) one common s = sqrt(rss / (N − q)) on every joint."""
+    if sigma is not None:
+        return np.asarray(sigma, dtype=float)
+    G = blocks.sum(axis=(0, 1))
+    t = np.concatenate([_solve(G), [-1.0]])
+    s = math.sqrt(max(float(t @ G @ t), 0.0) / max(rows - (G.shape[0] - 1), 1)) or 1.0
+    return np.full(blocks.shape[1], s)
+
+
+def weighted_blocks(grams: BlockGrams, maps, columns: list[int], sigma: np.ndarray | None, rows: int) -> tuple[np.ndarray, np.ndarray]:
+    """(B, q+1, q+1) block Grams of ``columns`` and y with the joint weights 1/σ_j², and the block indices."""
+    blocks, keys = grams.stack(maps, columns)
+    return _weighted(blocks, resolve_sigma(blocks, sigma, rows)), keys
+
+
+def from_weighted(Gb: np.ndarray, keys: np.ndarray, rows: int, opts: UncertaintyOptions, block_s: float,
+                  progress=None) -> Uncertainty:
+    """The fit and its σ from weighted block Grams (blocks whose indices differ by one are neighbours in time)."""
+    q = Gb.shape[-1] - 1
     theta = _solve(Gb.sum(axis=0))
     cov_text = np.linalg.inv(Gb.sum(axis=0)[:q, :q])
     cov_hac = _hac(Gb, theta, keys, rows)
@@ -257,7 +274,7 @@ def estimate(grams: BlockGrams, maps, columns: list[int], sigma: np.ndarray | No
         replicates, seed = opts.replicates, opts.seed
     else:
         cov = cov_text
-    return Uncertainty(opts.kind, cov, cov_text, theta, grams.length, len(blocks), replicates, seed, doubling)
+    return Uncertainty(opts.kind, cov, cov_text, theta, block_s, len(Gb), replicates, seed, doubling)
 
 
 def relative_percent(theta: np.ndarray, std: np.ndarray) -> np.ndarray:
