@@ -332,7 +332,7 @@ def _honest_sigma(grams, maps, fit, opts: IdentifyOptions, progress):
         progress.label = "bootstrap"
     u = estimate(grams, maps, list(fit.columns), fit.sigma if fit.method == "wls" else None,
                  int(fit.rows), opts.uncertainty, progress)
-    return replace(fit, std_percent=relative_percent(fit.theta, u.std())), u
+    return replace(fit, std_percent=relative_percent(fit.theta, u.std())), replace(u, columns=tuple(fit.columns))
 
 
 def _physical(chain: Chain, base, design: Design, fit, acc: dict, popts: PhysicalOptions, test_keys: list):

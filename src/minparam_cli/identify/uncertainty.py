@@ -140,6 +140,7 @@ class Uncertainty:
     replicates: int | None
     seed: int | None
     doubling_ratio: float | None  # median over parameters of σ with blocks of 2L over σ with blocks of L (hac)
+    columns: tuple[int, ...] = ()  # the design columns the covariance is over (set by the stage)
 
     def std(self, which: str | None = None) -> np.ndarray:
         cov = self.cov_textbook if which == "textbook" else self.cov

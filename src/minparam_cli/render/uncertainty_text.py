@@ -37,3 +37,20 @@ def essential_lines(e: dict) -> list[str]:
     out.append(f"error on {e['error_data']}: rms {b['rms_total']:.4g} -> {a['rms_total']:.4g}, "
                f"‖r‖/‖τ‖ {rel(b['relative_error'])} -> {rel(a['relative_error'])} (all parameters -> essential set)")
     return out
+
+
+def band_lines(r: dict) -> list[str]:
+    """evaluate --band: per file and joint, the share of samples inside the band and its mean half-width."""
+    from minparam_cli.render.columns import columns
+
+    b = r["band"]
+    n = len(r["pooled"]["rms_per_joint"])
+    rows = []
+    entries = [(f["path"], f["band"]) for f in r["files"]] + ([("pooled", r["pooled"]["band"])] if len(r["files"]) > 1 else [])
+    for label, e in entries:
+        rows.append((label, *[f"{100 * x:.1f} %" for x in e["inside_per_joint"]],
+                     *[f"{h:.3g} ({hp:.2g})" for h, hp in zip(e["half_width_per_joint"], e["parameter_half_width_per_joint"])]))
+    hdr = ("data", *[f"inside {j}" for j in range(1, n + 1)], *[f"± {j} (θ part)" for j in range(1, n + 1)])
+    return [f"Prediction band {100 * b['level']:g} % (z = {b['z']:.3g}; parameter covariance: {b['sigma']}, "
+            "plus the fit's residual σ per joint): share of samples inside, mean half-width (N·m or N)",
+            columns(rows, hdr, right=tuple(range(1, 2 * n + 1)))]
