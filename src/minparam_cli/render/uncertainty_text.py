@@ -13,7 +13,7 @@ def sigma_line(s: dict) -> str:
     """One line: the kind of σ shown, its blocks, and how it compares with the textbook σ."""
     kind = s.get("kind", "textbook")
     out = f"σ: {WHAT.get(kind, kind)}"
-    if s.get("blocks"):
+    if s.get("blocks") and kind != "textbook":
         out += f"; {s['blocks']} blocks of {s['block_length_s']:g} s"
     if kind == "bootstrap":
         out += f", {s['replicates']} replicates, seed {s['seed']}"
