@@ -4,7 +4,6 @@ truth and noise are known (tests/uncertainty_data.py), against the spread of est
 from __future__ import annotations
 
 import json
-from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -38,7 +37,7 @@ def runs(tmp_path_factory):
         est, text, hac = [], [], []
         for s in range(SEEDS):
             path = ud.write(tmp_path_factory.mktemp(kind) / "d.csv", DURATION, s, cutoff, ch=ch)
-            rep, art = identify(ch, path, _opts())
+            rep, _ = identify(ch, path, _opts())
             est.append([v["value"] for v in rep["parameters"].values()])
             text.append(_sigma(rep, "std_percent_textbook"))
             hac.append(_sigma(rep, "std_percent"))
@@ -53,10 +52,10 @@ def _ratios(run):
 
 
 def test_white_noise_hac_agrees_with_textbook(runs):
-    est, text, hac = runs["white"]
+    _, text, hac = runs["white"]
     r = hac.mean(axis=0) / text.mean(axis=0)
     assert np.all(np.abs(r - 1) < 0.2), r
-    t_ratio, h_ratio = _ratios(runs["white"])
+    t_ratio, _ = _ratios(runs["white"])
     assert np.all((t_ratio > 1 / 1.5) & (t_ratio < 1.5)), t_ratio  # white noise: the textbook σ is right
 
 
@@ -70,7 +69,7 @@ def test_bootstrap_matches_hac_and_is_seeded(tmp_path):
     ch = ud.chain()
     path = ud.write(tmp_path / "c.csv", DURATION, 7, 2.0, ch=ch)
     hac, _ = identify(ch, path, _opts())
-    boot, art = identify(ch, path, _opts("bootstrap", replicates=400, seed=3))
+    boot, _ = identify(ch, path, _opts("bootstrap", replicates=400, seed=3))
     again, _ = identify(ch, path, _opts("bootstrap", replicates=400, seed=3))
     r = _sigma(boot, "std_percent") / _sigma(hac, "std_percent")
     assert np.all((r > 0.7) & (r < 1.4)), r
@@ -116,3 +115,15 @@ def test_bad_sigma_settings_exit_2(tmp_path, args, message):
     r = _cli("identify", ud.ROBOT, path, "--no-diagnose", "--quiet", *args)
     assert r.exit_code == 2, r.output
     assert message in r.output and len(r.output.strip().splitlines()) == 1 and "Traceback" not in r.output
+
+
+def test_block_statistics_follow_the_diagnosis_columns(tmp_path):
+    """Friction not declared: the diagnosis adds it through slot columns, and the final fit's block statistics
+    come from the streamed ones by the same column map; the fit from them equals the final fit."""
+    ch = ud.chain(friction=())
+    path = ud.write(tmp_path / "c.csv", DURATION, 1, 2.0, ch=ch)
+    rep, art = identify(ch, path, IdentifyOptions(uncertainty=UncertaintyOptions()))
+    assert any((s.get("label") or "").startswith("coulomb") for s in rep["steps"])
+    theta = np.array([v["value"] for v in rep["parameters"].values()])
+    assert len(art.uncertainty.theta) == len(theta) > 6
+    assert np.allclose(art.uncertainty.theta, theta, rtol=1e-8, atol=1e-10 * np.abs(theta).max())

@@ -32,7 +32,7 @@ def motion(duration: float, seed: int = 0):
 
 def torque(ch, m, viscous=0.5):
     """Rigid body (nominal inertias) plus viscous ``viscous`` N·m·s/rad and Coulomb 0.3 N·m on both joints."""
-    t, q, dq, ddq = m
+    _, q, dq, ddq = m
     return rigid_torque(ch, q, dq, ddq, np.array(ch.phi_nominal, dtype=float)) + viscous * dq + 0.3 * np.sign(dq)
 
 

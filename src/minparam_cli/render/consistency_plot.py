@@ -2,8 +2,6 @@
 
 from __future__ import annotations
 
-import numpy as np
-
 
 def consistency_plot(c: dict, title: str):
     """Values relative to the joint fit, (θ_r − θ_all) / scale with scale = max(|θ_all|, largest 2σ_r): every

@@ -26,8 +26,8 @@ def essential_lines(e: dict) -> list[str]:
     """The essential parameter set (Pham & Gautier 1991), what was dropped and why, and the cost in error."""
     from minparam_cli.render.columns import columns
 
-    out = [f"Essential parameters (every relative σ ≤ {e['bound_percent']:g} %): {len(e['parameters'])} kept, "
-           f"{len(e['dropped'])} dropped; condition number {e['condition_number']:.4g} (all: {e['condition_number_full']:.4g})"]
+    out = [(f"Essential parameters (every relative σ ≤ {e['bound_percent']:g} %): {len(e['parameters'])} kept, "
+            f"{len(e['dropped'])} dropped; condition number {e['condition_number']:.4g} (all: {e['condition_number_full']:.4g})")]
     rows = [(k, f"{v['value']:.6g}", f"{v['std_percent']:.3g}") for k, v in e["parameters"].items()]
     out.append(columns(rows, ("essential", "value", "σ %"), right=(1, 2)))
     for d in e["dropped"]:
@@ -51,6 +51,6 @@ def band_lines(r: dict) -> list[str]:
         rows.append((label, *[f"{100 * x:.1f} %" for x in e["inside_per_joint"]],
                      *[f"{h:.3g} ({hp:.2g})" for h, hp in zip(e["half_width_per_joint"], e["parameter_half_width_per_joint"])]))
     hdr = ("data", *[f"inside {j}" for j in range(1, n + 1)], *[f"± {j} (θ part)" for j in range(1, n + 1)])
-    return [f"Prediction band {100 * b['level']:g} % (z = {b['z']:.3g}; parameter covariance: {b['sigma']}, "
-            "plus the fit's residual σ per joint): share of samples inside, mean half-width (N·m or N)",
+    return [(f"Prediction band {100 * b['level']:g} % (z = {b['z']:.3g}; parameter covariance: {b['sigma']}, "
+             "plus the fit's residual σ per joint): share of samples inside, mean half-width (N·m or N)"),
             columns(rows, hdr, right=tuple(range(1, 2 * n + 1)))]
