@@ -47,20 +47,23 @@ def test_same_robot_recordings_agree_within_honest_sigma(recordings):
         assert min(r["value"] for r in p["recordings"]) - 1e-12 <= p["joint"]["value"] + 3 * p["joint"]["std"]
 
 
-def test_a_changed_parameter_is_flagged(recordings, tmp_path):
+def test_a_changed_parameter_is_flagged_in_table_and_plot(recordings, tmp_path):
+    """Through the stage and the renderers (the CLI path is the test above)."""
+    from minparam_cli.cli.common import save_png
+    from minparam_cli.identify.consistency import consistency
+    from minparam_cli.identify.stage import IdentifyOptions
+    from minparam_cli.render.consistency_plot import consistency_plot
+    from minparam_cli.render.consistency_text import render_consistency
+
     same, other = recordings
-    c = _consistency([same[0], same[1], other], "--plot", tmp_path / "figs")
-    assert "Fv1" in c["disagree"]
+    c, reports = consistency(ud.chain(), [same[0], same[1], other], IdentifyOptions())
+    assert len(reports) == 3 and "Fv1" in c["disagree"]
     fv1 = next(p for p in c["parameters"] if p["parameter"] == "Fv1")
     assert fv1["disagree"] and fv1["spread_over_sigma"] > 3
-    assert (tmp_path / "figs" / "consistency.png").stat().st_size > 1000
-
-
-def test_table_names_the_sigma_and_flags(recordings):
-    same, other = recordings
-    r = _cli("identify", ud.ROBOT, same[0], same[1], other, *FLAGS, "--consistency")
-    assert r.exit_code == 0, r.output
-    assert "σ: hac" in r.output and "DISAGREE" in r.output and "spread/σ textbook" in r.output
+    text = render_consistency(c)
+    assert "σ: hac" in text and "DISAGREE" in text and "spread/σ textbook" in text
+    save_png(consistency_plot(c, "test"), tmp_path / "consistency.png")
+    assert (tmp_path / "consistency.png").stat().st_size > 1000
 
 
 def test_recording_with_other_joint_count_exit_2(recordings, tmp_path):

@@ -71,8 +71,10 @@ def test_bootstrap_matches_hac_and_is_seeded(tmp_path):
     hac, _ = identify(ch, path, _opts())
     boot, _ = identify(ch, path, _opts("bootstrap", replicates=400, seed=3))
     again, _ = identify(ch, path, _opts("bootstrap", replicates=400, seed=3))
+    # one recording of 24 blocks: each σ estimate is itself uncertain by ~15 %, and hac has a lag term the
+    # bootstrap lacks; over 30 seeds both match the spread (docs/methods/uncertainty.md)
     r = _sigma(boot, "std_percent") / _sigma(hac, "std_percent")
-    assert np.all((r > 0.7) & (r < 1.4)), r
+    assert 0.75 < np.median(r) < 1.33 and np.all((r > 0.5) & (r < 2)), r
     assert boot["sigma"]["seed"] == 3 and boot["sigma"]["replicates"] == 400 and boot["sigma"]["kind"] == "bootstrap"
     assert _sigma(boot, "std_percent").tolist() == _sigma(again, "std_percent").tolist()
 

@@ -11,9 +11,11 @@ same streaming pass as the fit:
 * per time block b of length L (seconds, from the first fit sample) and per
   joint j, the Gram matrix G_bj = A_bjᵀA_bj of the rows A_bj = [X_j | y_j];
 * **hac** (Newey & West 1987, on block sums): with the block scores
-  s_b = Σ_j (g_bj − G_bj θ) / σ_j² (g: the X–y part of G),
-  Cov = c · H⁻¹ (Σ_b s_b s_bᵀ + ½ Σ_b (s_b s_{b+1}ᵀ + s_{b+1} s_bᵀ)) H⁻¹,
-  c = N/(N − p) · B/(B − 1): a Bartlett kernel over block sums; deterministic;
+  s_b = Σ_j (g_bj − G_bj θ) / σ_j² (g: the X–y part of G), bias-reduced as in
+  Bell & McCaffrey (2002),
+  Cov = H⁻¹ (Σ_b s_b s_bᵀ + ½ Σ_b (s_b s_{b+1}ᵀ + s_{b+1} s_bᵀ)) H⁻¹,
+  shrunk toward a scalar multiple of H⁻¹ when the blocks are few
+  (Ledoit & Wolf 2004); a Bartlett kernel over block sums; deterministic;
 * **bootstrap** (block bootstrap, Carlstein 1986 / Künsch 1989 with
   non-overlapping blocks): R replicates draw B blocks with replacement
   (seeded ``numpy.random.Generator``), each replicate's weighted fit is solved
@@ -42,6 +44,7 @@ MAX_BLOCKS = 256  # blocks held in memory; beyond, pairs merge and the block len
 MIN_BLOCK_S = 1.0  # the block length rule: max(MIN_BLOCK_S, CUTOFF_PERIODS / cut-off)
 CUTOFF_PERIODS = 5.0
 FEW_BLOCKS = 20  # fewer blocks than this: the σ are themselves uncertain by ~1/sqrt(2B), flagged
+CR2_FLOOR = 0.01  # a direction one block holds more than 99 % of: its score is scaled by at most 10
 DOUBLING_FLAG = 1.3  # median σ(2L)/σ(L) above this: the blocks look shorter than the residual correlation
 
 
@@ -185,19 +188,46 @@ def _solve(Gw: np.ndarray) -> np.ndarray:
 
 
 def _hac(Gb: np.ndarray, theta: np.ndarray, keys: np.ndarray, rows: int) -> np.ndarray:
-    """Newey–West (Bartlett, one lag) over block scores; c = N/(N − q) · B/(B − 1) small-sample factor
-    (the block scores of the fitted θ sum to zero, as the residuals of a cluster-robust covariance do)."""
+    """Newey–West (Bartlett, one lag) over block scores with Bell & McCaffrey's bias-reduced scores
+    (CR2: each whitened block score divided by sqrt(I − P_b), P_b the block's share of the information,
+    so that residual scores of the fitted θ are unbiased under independent errors), shrunk toward a scalar
+    inflation of H⁻¹ where the blocks are too few to estimate a q x q meat (Ledoit & Wolf 2004)."""
     q = len(theta)
     H = Gb.sum(axis=0)[:q, :q]
     s = Gb[:, :q, q] - Gb[:, :q, :q] @ theta  # (B, q) block scores
-    S = s.T @ s
+    L = np.linalg.cholesky(H)
+    Li = np.linalg.inv(L)
+    Z = Li @ s.T  # whitened scores z_b = u_b − P_b Σ_c u_c (u: scores at the true θ, Cov u_b = P_b if independent)
+    P, A = [], []
+    for b in range(len(Gb)):
+        P.append(Li @ Gb[b, :q, :q] @ Li.T)
+        w, V = np.linalg.eigh(np.eye(q) - P[-1])
+        A.append((V / np.sqrt(np.clip(w, CR2_FLOOR, None))) @ V.T)  # (I − P_b)^(-1/2)
+        Z[:, b] = A[-1] @ Z[:, b]
+    S = Z @ Z.T
     adjacent = np.flatnonzero(np.diff(keys) == 1)
     if len(adjacent):
-        C = s[adjacent].T @ s[adjacent + 1]
+        C = Z[:, adjacent] @ Z[:, adjacent + 1].T
+        # E z_b z_{b+1}ᵀ = −P_b P_{b+1} for independent residuals: remove that bias of fitted scores
+        C += sum(A[b] @ P[b] @ P[b + 1] @ A[b + 1] for b in adjacent)
         S += 0.5 * (C + C.T)
-    Hi = np.linalg.inv(H)
-    B = len(Gb)
-    return Hi @ S @ Hi * (rows / max(rows - q, 1)) * (B / (B - 1))
+    lam = _shrinkage(Z)
+    S = lam * (np.trace(S) / q) * np.eye(q) + (1 - lam) * S
+    return Li.T @ S @ Li
+
+
+def _shrinkage(Z: np.ndarray) -> float:
+    """Ledoit–Wolf weight of the scaled identity for the sample second moment of the columns z_b of Z:
+    near 0 with many blocks, near 1 when the blocks are fewer than the parameters."""
+    q, B = Z.shape
+    Sh = Z @ Z.T / B
+    m = np.trace(Sh) / q
+    d2 = float(np.sum((Sh - m * np.eye(q)) ** 2))
+    if d2 <= 0:
+        return 1.0
+    n2 = np.sum(Z * Z, axis=0)
+    b2 = float(np.sum(n2**2 - 2 * np.einsum("ib,ij,jb->b", Z, Sh, Z) + np.sum(Sh**2))) / B**2
+    return min(b2, d2) / d2
 
 
 def _bootstrap(Gb: np.ndarray, replicates: int, seed: int, progress=None, batch: int = 50) -> np.ndarray:
