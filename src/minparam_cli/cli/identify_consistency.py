@@ -21,7 +21,7 @@ def run_consistency(chain, data: list[Path], opts, consistency: bool, fmt: str, 
                              "selection and test data by --split and fitted with the declared model")
     bar = Progress(len(data), "recordings", quiet)
     try:
-        report, _ = run(chain, list(data), opts)
+        report, _ = run(chain, list(data), opts, progress=bar)
     finally:
         bar.close()
     if plot is not None:

@@ -20,11 +20,12 @@ from __future__ import annotations
 
 from dataclasses import dataclass, replace
 from pathlib import Path
+from typing import cast
 
 import numpy as np
 
 from minparam_cli.errors import DataError
-from minparam_cli.identify.uncertainty import from_weighted, relative_percent, weighted_blocks
+from minparam_cli.identify.uncertainty import Uncertainty, from_weighted, relative_percent, weighted_blocks
 
 LEVEL = 0.99  # a parameter is flagged when χ² exceeds this quantile
 
@@ -60,10 +61,10 @@ def fit_recording(chain, path: Path, opts, progress=None) -> tuple[Recording, di
     from minparam_cli.identify.stage import identify
 
     rep, art = identify(chain, path, replace(opts, diagnose=False, essential=None), progress)
-    u = art.uncertainty
-    grams, maps = art.grams
+    u = cast(Uncertainty, art.uncertainty)
+    grams, maps = cast(tuple, art.grams)
     fit_sigma = np.array(rep["sigma_per_joint"]) if rep["method"] == "wls" else None
-    cols = [i for i, n in enumerate(art.design.names) if n in rep["parameters"]]
+    cols = list(u.columns)  # the design columns of the fit (those not regrouped on this recording)
     rows = int(rep["samples_fit"]) * chain.dof  # equations of the fit: samples x joints
     Gb, keys = weighted_blocks(grams, maps, cols, fit_sigma, rows)
     return Recording(str(path), tuple(rep["parameters"]), np.array([v["value"] for v in rep["parameters"].values()]),
@@ -94,7 +95,7 @@ def combine(recs: list[Recording], opts) -> dict:
     limit = float(chi2.ppf(LEVEL, R - 1))
     out = []
     for k, name in enumerate(names):
-        row = {"parameter": name,
+        row: dict = {"parameter": name,
                "recordings": [{"value": float(T[i, k]), "std": float(S[i, k]), "std_textbook": float(S0[i, k])} for i in range(R)],
                "joint": {"value": float(joint.theta[k]), "std": float(joint.std()[k]),
                          "std_percent": float(relative_percent(joint.theta[k:k + 1], joint.std()[k:k + 1])[0])}}
@@ -128,8 +129,10 @@ def consistency(chain, paths: list[Path], opts, progress=None) -> tuple[dict, li
         raise DataError("--consistency needs at least two recordings")
     check_joint_counts(chain, paths, opts.data)
     recs, reports = [], []
-    for p in paths:
-        rec, rep = fit_recording(chain, Path(p), opts, progress)
+    for k, p in enumerate(paths):
+        rec, rep = fit_recording(chain, Path(p), opts)
         recs.append(rec)
         reports.append(rep)
+        if progress is not None:
+            progress(k + 1, len(paths))
     return combine(recs, opts), reports

@@ -72,6 +72,7 @@ def reduce(grams, maps, fit, opts: UncertaintyOptions, bound: float = DEFAULT_BO
                         "value": float(u.theta[worst]),
                         "why": f"largest relative σ ({rel[worst]:.3g} % > {bound:g} %) among the {len(keep)} parameters left"})
         del keep[worst]
+    assert u is not None  # the loop runs at least once: a fit has at least one column
     return Essential(bound, tuple(fit.names[k] for k in keep), u.theta, relative_percent(u.theta, u.std()), dropped,
                      _cond(Hfull[np.ix_(keep, keep)]), _cond(Hfull), tuple(keep))
 

@@ -104,7 +104,8 @@ class BlockGrams:
             self._merge()
 
     def _merge(self) -> None:
-        G, rows = {}, {}
+        G: dict[int, np.ndarray] = {}
+        rows: dict[int, int] = {}
         for b in sorted(self.G):
             h = b // 2
             if h in G:
@@ -115,7 +116,7 @@ class BlockGrams:
         self.G, self.rows, self.length = G, rows, 2 * self.length
 
     def span(self) -> float:
-        return 0.0 if self.t0 is None else self.t_last - self.t0
+        return 0.0 if self.t0 is None or self.t_last is None else self.t_last - self.t0
 
     def stack(self, maps: list[np.ndarray] | None, columns: list[int]) -> tuple[np.ndarray, np.ndarray]:
         """(B, n, q+1, q+1) block Grams of the final design's fitted ``columns`` and y, and the block indices.
