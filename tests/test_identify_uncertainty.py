@@ -129,3 +129,15 @@ def test_block_statistics_follow_the_diagnosis_columns(tmp_path):
     theta = np.array([v["value"] for v in rep["parameters"].values()])
     assert len(art.uncertainty.theta) == len(theta) > 6
     assert np.allclose(art.uncertainty.theta, theta, rtol=1e-8, atol=1e-10 * np.abs(theta).max())
+
+
+def test_short_data_with_the_default_block_falls_back_to_textbook_and_says_so(tmp_path):
+    """A 1.5 s recording has 0.9 s of fit data: fewer than two default blocks. The run still succeeds, with
+    the textbook σ, and both the σ kind and a flag say so (an explicit --block-length that long is refused)."""
+    ch = ud.chain()
+    path = ud.write(tmp_path / "s.csv", 1.5, 1, None, scale=0.05)
+    rep, _ = identify(ch, path, _opts())
+    assert rep["sigma"]["kind"] == "textbook"
+    assert any("shorter than two blocks" in f for f in rep["flags"])
+    r = _cli("identify", ud.ROBOT, path, "--friction", "viscous,coulomb", "--no-diagnose", "--quiet", "--block-length", "1")
+    assert r.exit_code == 2 and "longer than the fit data" in r.output

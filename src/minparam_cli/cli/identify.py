@@ -27,6 +27,8 @@ Examples:
   minparam identify robots/ur5.yaml log.csv --columns q=pos,dq=vel,tau=effort --cutoff 8
   minparam identify robots/ur5.yaml log.csv --columns 't=stamp,q=pos_{},tau={}_effort' --time-unit ms
   minparam identify robots/ur5.urdf run.mcap --topic /joint_states    (needs the [ros] extra)
+  minparam identify robots/panda.yaml run.csv --friction coulomb,viscous --no-diagnose --essential
+  minparam identify robots/panda.yaml a.csv b.csv c.csv --friction coulomb,viscous --consistency --plot figs/
 
 \b
 Data: columns t, q1..qn, dq1..dqn, optional ddq1..ddqn, tau1..taun (rad, m, N·m, N).

@@ -328,11 +328,16 @@ def _honest_sigma(grams, maps, fit, opts: IdentifyOptions, progress):
     """The final fit with the σ of ``opts.uncertainty.kind`` (uncertainty.py), and that estimate."""
     if grams is None:
         return fit, None
-    if progress is not None and opts.uncertainty.kind == "bootstrap":
+    uopts, note = opts.uncertainty, None
+    if uopts.block_s is None and uopts.kind != "textbook" and len(grams.G) < 2:  # the default length, not asked for
+        note = (f"the fit data ({grams.span():.3g} s) are shorter than two blocks of {grams.length:g} s: the σ shown are "
+                f"the textbook ones, not {uopts.kind} (give a shorter --block-length)")
+        uopts = replace(uopts, kind="textbook")
+    if progress is not None and uopts.kind == "bootstrap":
         progress.label = "bootstrap"
     u = estimate(grams, maps, list(fit.columns), fit.sigma if fit.method == "wls" else None,
-                 int(fit.rows), opts.uncertainty, progress)
-    return replace(fit, std_percent=relative_percent(fit.theta, u.std())), replace(u, columns=tuple(fit.columns))
+                 int(fit.rows), uopts, progress)
+    return replace(fit, std_percent=relative_percent(fit.theta, u.std())), replace(u, columns=tuple(fit.columns), note=note)
 
 
 def _physical(chain: Chain, base, design: Design, fit, acc: dict, popts: PhysicalOptions, test_keys: list):

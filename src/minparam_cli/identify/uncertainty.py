@@ -145,6 +145,7 @@ class Uncertainty:
     seed: int | None
     doubling_ratio: float | None  # median over parameters of σ with blocks of 2L over σ with blocks of L (hac)
     columns: tuple[int, ...] = ()  # the design columns the covariance is over (set by the stage)
+    note: str | None = None  # why another kind than the one asked for is shown (set by the stage)
 
     def std(self, which: str | None = None) -> np.ndarray:
         cov = self.cov_textbook if which == "textbook" else self.cov
@@ -163,7 +164,7 @@ class Uncertainty:
         }
 
     def flags(self) -> list[str]:
-        out = []
+        out = [self.note] if self.note else []
         if self.kind != "textbook" and self.blocks < FEW_BLOCKS:
             out.append(f"σ ({self.kind}) rests on {self.blocks} blocks of {self.block_s:g} s: the σ themselves are uncertain "
                        f"by about {100 / math.sqrt(2 * self.blocks):.0f} %")
@@ -262,7 +263,7 @@ def estimate(grams: BlockGrams, maps, columns: list[int], sigma: np.ndarray | No
 
     rows: the number of equations (samples × joints) of the fit."""
     blocks, keys = grams.stack(maps, columns)
-    if len(blocks) < 2:
+    if len(blocks) < 2 and opts.kind != "textbook":
         raise DataError(f"--block-length {grams.length:g} s is longer than the fit data ({grams.span():.4g} s): "
                         "the σ need at least two blocks; give a shorter --block-length")
     return from_weighted(_weighted(blocks, resolve_sigma(blocks, sigma, rows)), keys, rows, opts, grams.length, progress)
@@ -290,10 +291,10 @@ def from_weighted(Gb: np.ndarray, keys: np.ndarray, rows: int, opts: Uncertainty
     q = Gb.shape[-1] - 1
     theta = _solve(Gb.sum(axis=0))
     cov_text = np.linalg.inv(Gb.sum(axis=0)[:q, :q])
-    cov_hac = _hac(Gb, theta, keys, rows)
+    cov_hac = _hac(Gb, theta, keys, rows) if len(Gb) >= 2 else cov_text
     doubling = None
     G2, k2 = _merge_pairs(Gb, keys)
-    if len(G2) >= 2:
+    if len(G2) >= 2 and len(Gb) >= 2:
         s1 = np.sqrt(np.maximum(np.diag(cov_hac), 0))
         s2 = np.sqrt(np.maximum(np.diag(_hac(G2, theta, k2, rows)), 0))
         ok = s1 > 0
