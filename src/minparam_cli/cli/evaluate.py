@@ -40,15 +40,17 @@ def evaluate(
     predictions: Optional[Path] = typer.Option(None, "--predictions", help="Write t, tau_meas1..n, tau_pred1..n of the (one) DATA file as CSV (atomically)."),
     fmt: Fmt = typer.Option(Fmt.table, "--format", "-f", help="Output format."),
     output: Optional[Path] = typer.Option(None, "--output", "-o", help="Write the report to this file (atomically)."),
+    band: bool = typer.Option(False, "--band", help="Report a prediction band per joint (parameter covariance of the model file propagated to τ, plus the fit's residual σ) and the share of samples inside it."),
+    band_level: float = typer.Option(0.95, "--band-level", help="Probability of the prediction band (--band)."),
     robot: Optional[Path] = typer.Option(None, "--robot", help="Robot file to use instead of the one the model names (same SHA-256)."),
     time_unit: TimeUnit = time_unit_option(),
     topic: Optional[str] = topic_option(),
 ):
-    _evaluate(model, data, which, predictions, fmt, output, robot, time_unit, topic)
+    _evaluate(model, data, which, predictions, fmt, output, robot, time_unit, topic, band, band_level)
 
 
 @guarded
-def _evaluate(model, data, which, predictions, fmt, output, robot, time_unit, topic):
+def _evaluate(model, data, which, predictions, fmt, output, robot, time_unit, topic, band=False, band_level=0.95):
     from minparam_cli.api.identification import check_data_file, evaluation_report, evaluation_setup, open_model
     from minparam_cli.errors import InputError
     from minparam_cli.identify.evaluation import evaluate as run
@@ -60,10 +62,11 @@ def _evaluate(model, data, which, predictions, fmt, output, robot, time_unit, to
         check_data_file(p)
     setup = evaluation_setup(str(model), m, str(robot_path), design, which.value if which is not None else None,
                              TimeUnit(time_unit).value, topic)
+    prediction_band = _band(setup.saved, setup.kind, design.chain.dof, str(model), band_level) if band else None
     if predictions is None:
-        result = run(setup.design, setup.theta, data, setup.data, setup.kind)
+        result = run(setup.design, setup.theta, data, setup.data, setup.kind, band=prediction_band)
     else:
-        result = _with_predictions(predictions, setup.design, setup.theta, data, setup, setup.kind, run)
+        result = _with_predictions(predictions, setup.design, setup.theta, data, setup, setup.kind, run, prediction_band)
     report = evaluation_report(setup, result)
     if fmt == Fmt.json:
         text = json.dumps(report, indent=2, ensure_ascii=False)
@@ -74,7 +77,27 @@ def _evaluate(model, data, which, predictions, fmt, output, robot, time_unit, to
     write_output(text, output)
 
 
-def _with_predictions(path: Path, design, theta, data, m, kind, run):
+def _band(m, kind: str, n: int, source: str, level: float):
+    """The prediction band of the model file's covariance (one line, exit 2 where it cannot be made)."""
+    import numpy as np
+
+    from minparam_cli.identify.bands import Band, check_level
+    from minparam_cli.identify.model import ModelError
+
+    check_level(level)
+    if kind != "fit":
+        raise ModelError("--band needs --model fit: the stored covariance is that of the unconstrained fit")
+    u = m.uncertainty
+    if u is None:
+        raise ModelError(f"{source}: the model file has no parameter covariance (saved by an older minparam): "
+                         "run identify --save-model again for --band")
+    if len(u["residual_sigma_per_joint"]) != n:
+        raise ModelError(f"{source}: uncertainty.residual_sigma_per_joint has {len(u['residual_sigma_per_joint'])} "
+                         f"values, the robot has {n} joints")
+    return Band(np.array(u["columns"]), np.array(u["covariance"]), np.array(u["residual_sigma_per_joint"]), level, u["sigma"])
+
+
+def _with_predictions(path: Path, design, theta, data, m, kind, run, band=None):
     """Evaluate while streaming every block's predictions into a temporary file renamed at the end."""
     import numpy as np
 
@@ -91,7 +114,7 @@ def _with_predictions(path: Path, design, theta, data, m, kind, run):
             def sink(t, tau, pred):
                 np.savetxt(fh, np.column_stack([t, tau, pred]), delimiter=",", fmt="%.12g")
 
-            out["result"] = run(design, theta, data, m.data, kind, sink=sink)  # m: the EvaluationSetup
+            out["result"] = run(design, theta, data, m.data, kind, sink=sink, band=band)  # m: the EvaluationSetup
 
     atomic_write(path, write, suffix=".csv")
     return out["result"]

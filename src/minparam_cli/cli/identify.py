@@ -27,6 +27,8 @@ Examples:
   minparam identify robots/ur5.yaml log.csv --columns q=pos,dq=vel,tau=effort --cutoff 8
   minparam identify robots/ur5.yaml log.csv --columns 't=stamp,q=pos_{},tau={}_effort' --time-unit ms
   minparam identify robots/ur5.urdf run.mcap --topic /joint_states    (needs the [ros] extra)
+  minparam identify robots/panda.yaml run.csv --friction coulomb,viscous --no-diagnose --essential
+  minparam identify robots/panda.yaml a.csv b.csv c.csv --friction coulomb,viscous --consistency --plot figs/
 
 \b
 Data: columns t, q1..qn, dq1..dqn, optional ddq1..ddqn, tau1..taun (rad, m, N·m, N).
@@ -43,6 +45,12 @@ Exit codes: 0 success, 1 failed computation, 2 bad input.
 class Prior(str, Enum):
     none = "none"
     nominal = "nominal"
+
+
+class Sigma(str, Enum):
+    hac = "hac"
+    bootstrap = "bootstrap"
+    textbook = "textbook"
 
 
 class Fmt(str, Enum):
@@ -76,7 +84,7 @@ def time_unit_option():
 
 def identify(
     robot: Path = typer.Argument(..., help="Robot description (YAML DH/MDH or URDF).", show_default=False),
-    data: Path = typer.Argument(..., help="Measured data: CSV with a header row, or .npz.", show_default=False),
+    data: List[Path] = typer.Argument(..., help="Measured data: CSV with a header row, or .npz (several recordings with --consistency).", show_default=False),
     validate: Optional[Path] = typer.Option(None, "--validate", help="Selection data (scores the candidate effects) in a second file, instead of a block of DATA."),
     test: List[Path] = typer.Option([], "--test", help="Test data file, touched only by the final report (repeatable); instead of the last block of DATA."),
     split: str = typer.Option("0.6,0.2,0.2", "--split", help="Shares of DATA's time span for fit, selection and test, in that order (shares given as files are dropped)."),
@@ -99,11 +107,17 @@ def identify(
     physical: bool = typer.Option(False, "--physical", help="Also fit the full parameters as a convex program: every link a real body (pseudo-inertia ⪰ 0), friction and rotor inertia ≥ 0 (needs the [physical] extra)."),
     prior: Prior = typer.Option(Prior.none, "--prior", help="With --physical: pull the full parameters toward the description's nominal inertias (nominal) or not (none)."),
     prior_weight: float = typer.Option(1e-3, "--prior-weight", help="With --prior nominal: weight of the prior against the mean squared weighted residual."),
+    sigma: Sigma = typer.Option(Sigma.hac, "--sigma", help="Which parameter σ the report shows: hac (Newey–West over time blocks, allows for correlated residuals; default), bootstrap (block bootstrap, seeded by --seed) or textbook (σ²(WᵀW)⁻¹, assumes white residuals). See docs/methods/uncertainty.md."),
+    block_length: Optional[float] = typer.Option(None, "--block-length", help="Time block (s) of the hac and bootstrap σ; default max(1 s, 5 / cut-off)."),
+    replicates: int = typer.Option(200, "--replicates", help="Bootstrap replicates (--sigma bootstrap)."),
+    consistency: bool = typer.Option(False, "--consistency", help="Several recordings: fit each alone (declared model) and all together, and flag the parameters on which they disagree beyond their σ (table; --plot draws error bars per recording)."),
+    essential: bool = typer.Option(False, "--essential", help="Also report the essential parameters: drop the base parameter with the largest relative σ and refit until every relative σ is below --essential-bound (Pham & Gautier 1991)."),
+    essential_bound: float = typer.Option(10.0, "--essential-bound", help="With --essential: the largest relative σ (%) an essential parameter may have."),
     ols: bool = typer.Option(False, "--ols", help="Ordinary least squares instead of Gautier's per-joint weighting, in the diagnosis and the final fit."),
     fmt: Fmt = typer.Option(Fmt.table, "--format", "-f", help="Output format."),
     output: Optional[Path] = typer.Option(None, "--output", "-o", help="Write the report to this file (atomically)."),
     plot: Optional[Path] = typer.Option(None, "--plot", help="Folder for PNG figures (residual vs velocity, measured vs predicted)."),
-    seed: int = typer.Option(0, "--seed", help="Seed of the base-set computation (reported)."),
+    seed: int = typer.Option(0, "--seed", help="Seed of the base-set computation and of the bootstrap (reported)."),
     save_model: Optional[Path] = typer.Option(None, "--save-model", help="Write the identified model as JSON (robot file and its hash, base set, design, parameters, data settings) for 'minparam evaluate'."),
     export_urdf: Optional[Path] = typer.Option(None, "--export-urdf", help="With --physical: write the robot as URDF with the identified masses, centres of mass and inertias."),
     export_yaml: Optional[Path] = typer.Option(None, "--export-yaml", help="With --physical, for a YAML (DH/MDH) robot: write its YAML with the identified inertials."),
@@ -123,7 +137,7 @@ def _split(text: str) -> tuple[float, float, float]:
 @guarded
 def _identify(robot, data, validate, test, split, columns, time_unit, topic, cutoff, force_filter, rate, decimate, trim_still, still_speed,
               friction, rotor_inertia, coulomb_smoothing, gravity, effects, no_diagnose, min_gain, physical, prior,
-              prior_weight, ols, fmt, output, plot, seed, save_model, export_urdf, export_yaml, mimic, quiet):
+              prior_weight, sigma, block_length, replicates, consistency, essential, essential_bound, ols, fmt, output, plot, seed, save_model, export_urdf, export_yaml, mimic, quiet):
     from minparam_cli.identify.data import DataOptions
     from minparam_cli.identify.diagnose import DiagnosisOptions
     from minparam_cli.identify.effects import EFFECT_IDS
@@ -191,7 +205,15 @@ def _identify(robot, data, validate, test, split, columns, time_unit, topic, cut
         diagnosis=DiagnosisOptions(effects=ids, min_gain=min_gain, weighted=not ols),
         seed=seed,
         physical=physical_opts,
+        uncertainty=_uncertainty(sigma, block_length, replicates, seed),
+        essential=_essential(essential, essential_bound),
     )
+    if consistency or len(data) > 1:
+        from minparam_cli.cli.identify_consistency import run_consistency
+
+        return run_consistency(chain, data, opts, consistency, fmt.value, output, plot, quiet,
+                               {"--validate": validate, "--test": test, "--physical": physical, "--save-model": save_model})
+    data = data[0]
     bar = Progress(1, "diagnosis", quiet)
     try:
         report, art = run(chain, data, opts, progress=bar)
@@ -220,6 +242,22 @@ def _identify(robot, data, validate, test, split, columns, time_unit, topic, cut
 
         text = render_identify(report)
     write_output(text, output)
+
+
+def _uncertainty(sigma, block_length, replicates, seed):
+    from minparam_cli.identify.uncertainty import UncertaintyOptions, check_options
+
+    u = UncertaintyOptions(kind=Sigma(sigma).value, block_s=block_length, replicates=replicates, seed=seed)
+    check_options(u)
+    return u
+
+
+def _essential(essential: bool, bound: float):
+    from minparam_cli.errors import InputError
+
+    if not (math.isfinite(bound) and bound > 0):
+        raise InputError(f"--essential-bound {bound}: expected a positive percentage")
+    return bound if essential else None
 
 
 def _check_exports(robot: Path, physical: bool, export_urdf, export_yaml) -> None:

@@ -57,13 +57,25 @@ class Evaluation:
     which: str  # "fit" | "physical"
     files: tuple[tuple[str, Sums, DataReport], ...]
     pooled: Sums
+    bands: tuple | None = None  # per file, bands.BandCounts (with a Band)
+    band: object | None = None  # the bands.Band
 
     def to_dict(self) -> dict:
-        return {
+        out = {
             "model": self.which,
             "files": [{"path": p, **s.as_dict(), "preprocessing": rep.as_dict()} for p, s, rep in self.files],
             "pooled": self.pooled.as_dict(),
         }
+        if self.bands is not None:
+            for f, c in zip(out["files"], self.bands):
+                f["band"] = c.as_dict()
+            pooled = self.bands[0]
+            for c in self.bands[1:]:
+                pooled = pooled + c
+            out["pooled"]["band"] = pooled.as_dict()
+            out["band"] = {"level": self.band.level, "z": self.band.z, "sigma": self.band.kind,
+                           "residual_sigma_per_joint": [float(x) for x in self.band.sigma]}
+        return out
 
 
 def predict(design: Design, theta: np.ndarray, block) -> np.ndarray:
@@ -79,14 +91,19 @@ def predict(design: Design, theta: np.ndarray, block) -> np.ndarray:
 Sink = Callable[[np.ndarray, np.ndarray, np.ndarray], None]  # (t, tau measured, tau predicted) per block
 
 
-def evaluate(design: Design, theta: np.ndarray, paths, data: DataOptions, which: str = "fit", sink: Sink | None = None) -> Evaluation:
+def evaluate(design: Design, theta: np.ndarray, paths, data: DataOptions, which: str = "fit", sink: Sink | None = None,
+             band=None) -> Evaluation:
     """Errors of the model τ = X·θ on every data file, per file and pooled (sums streamed block by block).
-    ``sink`` receives each block's time, measured and predicted torques (the CLI writes them)."""
+    ``sink`` receives each block's time, measured and predicted torques (the CLI writes them); with a
+    ``band`` (bands.Band) the share of samples inside the prediction band is counted too."""
+    from minparam_cli.identify.bands import BandCounts, band_block
+
     n = design.chain.dof
-    files = []
+    files, counts = [], []
     for path in paths:
         rep = DataReport(str(path))
         sums = Sums.zeros(n)
+        cnt = BandCounts.zeros(n)
         for b in iter_blocks(path, n, data, rep):
             if not len(b):
                 continue
@@ -97,10 +114,13 @@ def evaluate(design: Design, theta: np.ndarray, paths, data: DataOptions, which:
                 raise DataError(f"{path}: the sample at t = {b.t[i]:.6g} s gives a non-finite predicted torque "
                                 "(a value of q, dq, ddq there is too large to use)")
             sums.add(b.tau, pred)
+            if band is not None:
+                cnt.add(b.tau, pred, *band_block(design, band, b))
             if sink is not None:
                 sink(b.t, b.tau, pred)
         files.append((str(path), sums, rep))
+        counts.append(cnt)
     pooled = Sums.zeros(n)
     for _, s, _ in files:
         pooled = pooled + s
-    return Evaluation(which, tuple(files), pooled)
+    return Evaluation(which, tuple(files), pooled, tuple(counts) if band is not None else None, band)

@@ -94,6 +94,7 @@ class SavedModel:
     data: DataOptions
     physical: PhysicalParameters | None = None
     figures: dict = field(default_factory=dict)
+    uncertainty: dict | None = None  # {"sigma", "columns", "covariance", "residual_sigma_per_joint"}: prediction bands
 
     def to_dict(self) -> dict:
         out = {
@@ -113,6 +114,8 @@ class SavedModel:
             "data": {k: (dict(v) if k == "columns" else v) for k, v in ((k, getattr(self.data, k)) for k in DATA_KEYS)},
             "figures": self.figures,
         }
+        if self.uncertainty is not None:
+            out["uncertainty"] = self.uncertainty
         if self.physical is not None:
             out["physical"] = {"phi_names": list(self.physical.phi_names), "phi": [float(x) for x in self.physical.phi],
                                "theta": [float(x) for x in self.physical.theta]}
@@ -147,8 +150,41 @@ def saved_model(robot: str, robot_bytes: bytes, load: LoadSettings, data: DataOp
         theta_model=None if d.theta_model is None else np.asarray(d.theta_model, dtype=float),
         t0=None if d.t0 is None else float(d.t0), names=tuple(d.names), theta=np.asarray(artifacts.theta, dtype=float),
         std_percent=tuple(float(s) if math.isfinite(s) else None for s in artifacts.std_percent),
-        data=data, physical=physical, figures=figures,
+        data=data, physical=physical, figures=figures, uncertainty=_uncertainty(artifacts, report),
     )
+
+
+def _uncertainty(artifacts, report: dict) -> dict | None:
+    """The covariance of the fitted parameters (the kind the report shows) and the residual σ per joint."""
+    u = getattr(artifacts, "uncertainty", None)
+    if u is None:
+        return None
+    return {"sigma": u.kind, "columns": [int(c) for c in u.columns],
+            "covariance": [[float(x) for x in row] for row in u.cov],
+            "residual_sigma_per_joint": [float(x) for x in report["sigma_per_joint"]]}
+
+
+def _parse_uncertainty(r, doc: dict, p: int) -> dict | None:
+    un = doc.get("uncertainty")
+    if un is None:
+        return None
+    kind = r.text(r.get(un, "sigma", "uncertainty"), "uncertainty.sigma")
+    cols_raw = r.get(un, "columns", "uncertainty")
+    if not isinstance(cols_raw, list) or not cols_raw:
+        r.fail("uncertainty.columns", "expected a non-empty list of design column indices")
+    cols = [r.integer(c, f"uncertainty.columns[{i}]", 0) for i, c in enumerate(cols_raw)]
+    if max(cols) >= p or len(set(cols)) != len(cols):
+        r.fail("uncertainty.columns", f"expected distinct indices below {p}, one per fitted parameter")
+    cov_raw = r.get(un, "covariance", "uncertainty")
+    if not isinstance(cov_raw, list) or len(cov_raw) != len(cols):
+        r.fail("uncertainty.covariance", f"expected {len(cols)} rows")
+    cov = np.array([r.numbers(row, f"uncertainty.covariance[{i}]", len(cols)) for i, row in enumerate(cov_raw)])
+    if not np.allclose(cov, cov.T, rtol=1e-9, atol=0.0) or np.any(np.diag(cov) < 0):
+        r.fail("uncertainty.covariance", "expected a symmetric matrix with a non-negative diagonal")
+    sig = r.numbers(r.get(un, "residual_sigma_per_joint", "uncertainty"), "uncertainty.residual_sigma_per_joint")
+    if any(s < 0 for s in sig):
+        r.fail("uncertainty.residual_sigma_per_joint", "expected numbers >= 0")
+    return {"sigma": kind, "columns": cols, "covariance": cov.tolist(), "residual_sigma_per_joint": sig}
 
 
 def dumps(model: SavedModel) -> str:
@@ -320,7 +356,7 @@ def parse_model(text: str, source: str) -> SavedModel:
     if not isinstance(figures, dict):
         r.fail("figures", "expected a JSON object")
     return SavedModel(path, sha, load, seed, kept, base_names, tuple(terms), theta_model, t0, names, theta, std,
-                      data, physical, figures)
+                      data, physical, figures, _parse_uncertainty(r, doc, len(names)))
 
 
 # --- the robot and the design ---------------------------------------------------------------------

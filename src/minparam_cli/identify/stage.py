@@ -31,6 +31,7 @@ from minparam_cli.identify.physical import PhysicalOptions
 from minparam_cli.identify.quality import COND_LIMIT, check_excitation, flags, keep_physical
 from minparam_cli.identify.roles import DEFAULT_SPLIT, FIT, SELECTION, TEST, Source, describe, parts, plan
 from minparam_cli.identify.slots import block_rows, final_maps, slot_sources
+from minparam_cli.identify.uncertainty import BlockGrams, UncertaintyOptions, block_length, estimate, relative_percent
 
 DIAGNOSIS_CAP = 12_000  # samples kept for the diagnosis (fit part; half as many of the selection part)
 REGRESSOR_ROWS = 4096
@@ -49,6 +50,8 @@ class IdentifyOptions:
     seed: int = 0
     cond_limit: float = COND_LIMIT
     physical: PhysicalOptions | None = None  # --physical: the convex fit over the full parameters as well
+    uncertainty: UncertaintyOptions = field(default_factory=UncertaintyOptions)  # --sigma: which σ the report shows
+    essential: float | None = None  # --essential: bound (%) on the relative σ of the essential parameters (essential.py)
 
 
 class _Thinned:
@@ -71,7 +74,7 @@ class _Thinned:
         return Block.concat(self.blocks) if self.blocks else None
 
 
-def _stream(design: Design, sources: list[Source], n: int, opts: IdentifyOptions, keep: bool, slots=()):
+def _stream(design: Design, sources: list[Source], n: int, opts: IdentifyOptions, keep: bool, slots=(), grams=None):
     """One pass over the data: per-joint factors of [design columns | slot columns | τ] for every part
     (fit, selection, test1, ...), the thinned diagnosis samples (fit and selection), the motion of
     the fit part, the data reports, and the design with its drift origin set."""
@@ -96,7 +99,10 @@ def _stream(design: Design, sources: list[Source], n: int, opts: IdentifyOptions
                 # the full regressor is n·10n numbers a sample: build it a few thousand samples at a time
                 for s0 in range(0, len(sub_block), REGRESSOR_ROWS):
                     sub = sub_block.take(slice(s0, s0 + REGRESSOR_ROWS))
-                    acc[piece.part].add_rows(_finite_rows(design, slots, sub, src.path))
+                    rows = _finite_rows(design, slots, sub, src.path)
+                    acc[piece.part].add_rows(rows)
+                    if grams is not None and piece.part == FIT:  # per time block, for σ with correlated residuals
+                        grams.add(sub.t, rows)
                 if piece.role == FIT:
                     motion.add(sub_block)
                 motion.count_still(piece.part, sub_block, opts.data.still_speed)
@@ -160,6 +166,8 @@ class Artifacts:
     std_percent: np.ndarray | None = None  # their relative σ (inf where regrouped)
     base: object | None = None  # the BaseSet the design's base columns come from
     physical: object | None = None  # PhysicalFit, with --physical
+    uncertainty: object | None = None  # uncertainty.Uncertainty of the final fit (its covariance feeds prediction bands)
+    grams: object | None = None  # uncertainty.BlockGrams of the fit data, with the map to the final fit's columns
 
 
 def identify(chain: Chain, data_path: str | Path, opts: IdentifyOptions, progress=None) -> tuple[dict, Artifacts]:
@@ -183,7 +191,9 @@ def _identify(chain: Chain, data_path: Path, opts: IdentifyOptions, progress) ->
     sources = plan(data_path, validate, tests, opts.split, span)
 
     slots = slot_sources(opts.diagnosis.effects) if opts.diagnose else ()
-    acc_all, thin, motion, reports, design = _stream(design, sources, n, opts, keep=opts.diagnose, slots=slots)
+    grams = BlockGrams(opts.uncertainty.block_s or block_length(opts.data.cutoff_hz))
+    acc_all, thin, motion, reports, design = _stream(design, sources, n, opts, keep=opts.diagnose, slots=slots, grams=grams)
+    maps = None
     keys = list(acc_all)
     for key in keys:
         need = design.p if key == FIT else 0
@@ -225,15 +235,28 @@ def _identify(chain: Chain, data_path: Path, opts: IdentifyOptions, progress) ->
             if maps is not None:  # every added effect has slots: no second pass over the file
                 acc_final = {k: a.transform(maps) for k, a in acc_all.items()}
             else:
-                acc_final, _, _, _, _ = _stream(final_design, sources, n, opts, keep=False)
+                grams = BlockGrams(grams.length)
+                acc_final, _, _, _, _ = _stream(final_design, sources, n, opts, keep=False, grams=grams)
             final_fit = solve(acc_final[FIT], final_design.names, opts.weighted)
+            kept_before = final_design
             final_design, final_fit, acc_final, removed = keep_physical(final_design, final_fit, acc_final, opts.weighted)
+            if removed:  # keep_physical refits on fewer columns: the blocks follow the accumulators' columns
+                from minparam_cli.identify.uncertainty import restrict_maps
+
+                maps = restrict_maps(maps, kept_before, final_design, grams)
             steps_out += removed
             after = errors(acc_final[SELECTION], final_fit.theta, final_fit.columns)
             if len(steps_out) > 1:
                 # the last step's errors are the refit on all the fit data, measured on all selection samples
                 steps_out[-1].update(_errs(after))
     tests_final = {k: errors(acc_final[k], final_fit.theta, final_fit.columns) for k in test_keys}
+    final_fit, artifacts.uncertainty = _honest_sigma(grams, maps, final_fit, opts, progress)
+    artifacts.grams = (grams, maps)
+    essential = None
+    if opts.essential is not None and grams is not None:
+        from minparam_cli.identify.essential import essential_report
+
+        essential = essential_report(grams, maps, final_fit, opts.uncertainty, opts.essential, acc_final, test_keys)
     artifacts.design, artifacts.base = final_design, base
     artifacts.theta = full_theta(final_fit, final_design.p)
     artifacts.std_percent = np.full(final_design.p, np.inf)
@@ -279,7 +302,9 @@ def _identify(chain: Chain, data_path: Path, opts: IdentifyOptions, progress) ->
         "test": _test_report(roles, tests_rigid, tests_final, acc),
         "effects": describe_terms(final_design, final_fit, motion),
         "rejected": [describe_rejected(r, data_reports) for r in rejected],
-        "parameters": {nm: {"value": float(v), "std_percent": _finite(s)} for nm, v, s in zip(final_fit.names, final_fit.theta, final_fit.std_percent)},
+        "parameters": {nm: {"value": float(v), "std_percent": _finite(s), "std_percent_textbook": _finite(s0)}
+                       for nm, v, s, s0 in zip(final_fit.names, final_fit.theta, final_fit.std_percent, _textbook(artifacts, final_fit))},
+        "sigma": artifacts.uncertainty.as_dict() if artifacts.uncertainty is not None else {"kind": "textbook"},
         "regrouped_on_this_data": list(final_fit.dependent),
         "nominal_notes": nominal_notes(chain, base, final_fit, opts.seed),
         "diagnosis": diag_info,
@@ -287,9 +312,32 @@ def _identify(chain: Chain, data_path: Path, opts: IdentifyOptions, progress) ->
     }
     if physical is not None:
         report["physical"] = physical
-    report["flags"] = flags(report, final_fit)
+    if essential is not None:
+        report["essential"] = essential
+    report["flags"] = flags(report, final_fit) + (artifacts.uncertainty.flags() if artifacts.uncertainty is not None else [])
     report["elapsed_s"] = round(time.perf_counter() - t_start, 4)
     return report, artifacts
+
+
+def _textbook(artifacts: Artifacts, fit) -> np.ndarray:
+    u = artifacts.uncertainty
+    return fit.std_percent if u is None else relative_percent(fit.theta, u.std("textbook"))
+
+
+def _honest_sigma(grams, maps, fit, opts: IdentifyOptions, progress):
+    """The final fit with the σ of ``opts.uncertainty.kind`` (uncertainty.py), and that estimate."""
+    if grams is None:
+        return fit, None
+    uopts, note = opts.uncertainty, None
+    if uopts.block_s is None and uopts.kind != "textbook" and len(grams.G) < 2:  # the default length, not asked for
+        note = (f"the fit data ({grams.span():.3g} s) are shorter than two blocks of {grams.length:g} s: the σ shown are "
+                f"the textbook ones, not {uopts.kind} (give a shorter --block-length)")
+        uopts = replace(uopts, kind="textbook")
+    if progress is not None and uopts.kind == "bootstrap":
+        progress.label = "bootstrap"
+    u = estimate(grams, maps, list(fit.columns), fit.sigma if fit.method == "wls" else None,
+                 int(fit.rows), uopts, progress)
+    return replace(fit, std_percent=relative_percent(fit.theta, u.std())), replace(u, columns=tuple(fit.columns), note=note)
 
 
 def _physical(chain: Chain, base, design: Design, fit, acc: dict, popts: PhysicalOptions, test_keys: list):

@@ -24,6 +24,10 @@ def render_evaluate(r: dict) -> str:
         rows.append(row("pooled", r["pooled"]))
     out = [f"Model {r['model_file']} ({r['model']} parameters, {r['parameters']} of them) on {r['robot']}",
            columns(rows, headers, right=tuple(range(1, n + 4)))]
+    if r.get("band"):
+        from minparam_cli.render.uncertainty_text import band_lines
+
+        out += band_lines(r)
     ident = r.get("identify_test")
     if ident:
         out.append(f"identify's test figure for this model: RMS total {ident['rms_total']:.4g}, ‖r‖/‖τ‖ {_pct(ident['relative_error'])}")

@@ -109,16 +109,25 @@ def render_identify(r: dict) -> str:
     for f in r.get("flags", []):
         out.append(f"flag: {f}")
     out.append("")
+    sig = f"σ % ({r.get('sigma', {}).get('kind', 'textbook')})"
     phys = r.get("physical")
     if phys:
         out += _physical_lines(phys) + [""]
         both = {**phys["base_parameters"], **phys["effect_coefficients"]}
         prows = [(k, f"{v['value']:.6g}", "-" if v["std_percent"] is None else f"{v['std_percent']:.3g}",
                   f"{both[k]:.6g}" if k in both else "-") for k, v in r["parameters"].items()]
-        out.append(columns(prows, ("parameter", "value", "σ %", "physical"), right=(1, 2, 3)))
+        out.append(columns(prows, ("parameter", "value", sig, "physical"), right=(1, 2, 3)))
     else:
         prows = [(k, f"{v['value']:.6g}", "-" if v["std_percent"] is None else f"{v['std_percent']:.3g}") for k, v in r["parameters"].items()]
-        out.append(columns(prows, ("parameter", "value", "σ %"), right=(1, 2)))
+        out.append(columns(prows, ("parameter", "value", sig), right=(1, 2)))
+    if r.get("sigma"):
+        from minparam_cli.render.uncertainty_text import sigma_line
+
+        out.append(sigma_line(r["sigma"]))
+    if r.get("essential"):
+        from minparam_cli.render.uncertainty_text import essential_lines
+
+        out += [""] + essential_lines(r["essential"])
     for note in r.get("nominal_notes", []):
         out.append(f"note: {note}")
     out.append("")
