@@ -103,6 +103,17 @@ def test_identify_with_options(sim_files):
     assert api.to_dict()["method"] == "ols" and "Fv2" in api.parameters
 
 
+def test_identify_uncertainty_options(sim_files):
+    """The σ kind, its block length and the essential reduction map one to one as well."""
+    robot, d, _ = sim_files
+    cli = cli_json("identify", robot, d / "sim.csv", "-f", "json", "--no-diagnose", "--sigma", "bootstrap",
+                   "--block-length", "2", "--replicates", "50", "--essential", "--essential-bound", "20")
+    api = minparam.identify(robot, d / "sim.csv", diagnose=False, sigma="bootstrap", block_length=2, replicates=50,
+                            essential=20)
+    same(api.to_dict(), cli)
+    assert api.to_dict()["sigma"]["kind"] == "bootstrap" and "essential" in api.to_dict()
+
+
 def test_evaluate(sim_files):
     robot, d, _ = sim_files
     cli = cli_json("evaluate", d / "m.json", d / "sim.csv", "-f", "json")

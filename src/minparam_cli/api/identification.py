@@ -83,7 +83,8 @@ def identify(robot: Robot | str | Path, data: Any, *, validate: Any = None, test
              coulomb_smoothing: float | None = None, gravity: Any = None, effects: str | Iterable[str] | None = None,
              diagnose: bool = True, min_gain: float = 0.02, physical: bool = False, prior: str = "none",
              prior_weight: float = 1e-3, ols: bool = False, seed: int = 0, mimic: str | None = None,
-             progress: ProgressArg = False) -> Identification:
+             sigma: str = "hac", block_length: float | None = None, replicates: int = 200,
+             essential: float | None = None, progress: ProgressArg = False) -> Identification:
     """Identify the base parameters from measured joint data (``minparam identify``).
 
     ``data``, ``validate`` and each ``test``: a data file (CSV, .npz, ROS bag), a mapping of arrays
@@ -91,9 +92,12 @@ def identify(robot: Robot | str | Path, data: Any, *, validate: Any = None, test
     by filtering as for a file), a mapping of CSV-style columns (``t, q1.., tau1..``) or a pandas
     DataFrame with such columns.  The options are the CLI's (same names, same defaults).  The
     diagnosis adds the effects the selection data ask for; ``result.test`` is measured on data that
-    chose nothing.
+    chose nothing.  ``sigma``: "hac" (default), "bootstrap" or "textbook" (docs/methods/uncertainty.md),
+    over time blocks of ``block_length`` s; ``essential``: the bound (%) of the essential-parameter
+    reduction (the CLI's ``--essential --essential-bound``), None for none.
     """
     from minparam_cli.identify.data import DataOptions
+    from minparam_cli.identify.uncertainty import UncertaintyOptions, check_options
     from minparam_cli.identify.diagnose import DiagnosisOptions
     from minparam_cli.identify.effects import EFFECT_IDS
     from minparam_cli.identify.model import LoadSettings, saved_model
@@ -132,6 +136,12 @@ def identify(robot: Robot | str | Path, data: Any, *, validate: Any = None, test
     if seed < 0:
         raise InputError(f"seed: must be >= 0, got {seed}")
     unit = choice(time_unit, TIME_UNITS, "time_unit")
+    uncertainty = UncertaintyOptions(kind=choice(sigma, ("hac", "bootstrap", "textbook"), "sigma"),
+                                     block_s=None if block_length is None else float(block_length),
+                                     replicates=int(replicates), seed=seed)
+    check_options(uncertainty)
+    if essential is not None and not (math.isfinite(essential) and essential > 0):
+        raise InputError(f"essential: {essential}: expected a positive percentage")
     prior = choice(prior, PRIORS, "prior")
     if prior != "none" and not physical:
         raise InputError("prior: a prior needs physical=True")
@@ -162,6 +172,8 @@ def identify(robot: Robot | str | Path, data: Any, *, validate: Any = None, test
         diagnosis=DiagnosisOptions(effects=ids, min_gain=min_gain, weighted=not ols),
         seed=seed,
         physical=physical_opts,
+        uncertainty=uncertainty,
+        essential=None if essential is None else float(essential),
     )
     bar = progress_callback(progress, 1, "diagnosis")
     try:
