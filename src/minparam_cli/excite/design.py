@@ -1,0 +1,328 @@
+"""Design an excitation trajectory: seeded multi-start SLSQP on Swevers' Fourier coefficients.
+
+Minimises the criterion of ``criterion`` (the base regressor's column-scaled
+condition number by default) over X = (q0, a, b) of every joint, subject to
+the limits of ``constraints`` on the grid of GRID_POINTS_PER_HARMONIC points
+per period of the highest harmonic, and (``rest``) the two linear rest
+conditions of ``fourier``.  The optimiser is scipy.optimize's SLSQP (Kraft
+1988): it takes the many linear limit constraints with their exact
+Jacobians, the gradient of the criterion is semi-analytic (``criterion``),
+and it needs no further dependency.
+
+Starts: ``starts`` random series drawn exactly as ``simulate`` draws its
+excitation (``identify.trajectory.fourier_excitation``: standard normal
+coefficients scaled into the margin-shrunk range and rate limits), one child
+generator per start from the one seeded generator; with ``rest`` each start
+is projected onto the rest conditions and scaled back into the limits.  The
+best end point wins; it is then checked densely and repaired
+(``constraints``), and the reported figures are computed on the output samples.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from minparam_cli.base.result import BaseSet
+from minparam_cli.chain import Chain
+from minparam_cli.errors import ComputationError, InputError
+from minparam_cli.excite import constraints as cons
+from minparam_cli.excite.criterion import CRITERIA, condition_number, criterion_value, sensitivities
+from minparam_cli.excite.fourier import basis, from_trajectory, project_to_rest, rest_rows, to_trajectory
+from minparam_cli.identify.trajectory import FourierTrajectory, fourier_excitation
+
+GRID_POINTS_PER_HARMONIC = 16
+REGRESSOR_CHUNK = 2048
+
+
+@dataclass(frozen=True)
+class ExciteOptions:
+    harmonics: int = 5
+    base_frequency: float = 0.1  # Hz
+    rate: float = 200.0  # Hz, output samples
+    periods: int = 1
+    criterion: str = "cond"
+    scaled: bool = True  # criterion of the column-scaled base regressor (False: in SI units)
+    starts: int = 2
+    max_iterations: int = 100
+    margin: float = 0.1
+    rest: bool = False
+
+
+@dataclass(frozen=True)
+class StartRecord:
+    start_criterion: float  # κ (cond) or the logdet criterion of the start, on the grid
+    end_criterion: float
+    iterations: int
+    message: str
+
+
+@dataclass(frozen=True, eq=False)
+class ExciteResult:
+    trajectory: FourierTrajectory
+    options: ExciteOptions
+    limits: cons.Limits
+    criterion: float  # on the grid: κ for cond, f for logdet
+    cond_output: float  # κ(W D⁻¹) of the base regressor on the output samples
+    cond_output_si: float  # κ(W), W in SI units, on the output samples
+    t: np.ndarray
+    q: np.ndarray
+    dq: np.ndarray
+    ddq: np.ndarray
+    tau: np.ndarray | None  # nominal rigid-body torque (None without inertial values)
+    box_path: np.ndarray | None
+    starts: tuple[StartRecord, ...]
+    best_start: int
+    repair_scale: tuple[float, ...]  # per joint, the factor of the final repair (1: none)
+    base_names: tuple[str, ...]
+    elapsed_s: float
+    grid_points: int
+    extra: dict = field(default_factory=dict)
+
+
+def validate(options: ExciteOptions) -> None:
+    o = options
+    if o.harmonics < 1:
+        raise InputError(f"--harmonics must be at least 1, got {o.harmonics}")
+    for value, flag in ((o.base_frequency, "--base-frequency"), (o.rate, "--rate")):
+        if not (math.isfinite(value) and value > 0):
+            raise InputError(f"{flag} must be a positive number of Hz, got {value:g}")
+    if o.harmonics * o.base_frequency >= o.rate / 2:
+        raise InputError(f"the highest harmonic ({o.harmonics} x {o.base_frequency:g} Hz) must be below half the --rate ({o.rate / 2:g} Hz)")
+    if o.rest and o.harmonics < 2:
+        raise InputError("--rest needs at least 2 harmonics (with one, starting at rest means not moving)")
+    if o.periods < 1:
+        raise InputError(f"--periods must be at least 1, got {o.periods}")
+    if o.starts < 1:
+        raise InputError(f"--starts must be at least 1, got {o.starts}")
+    if o.max_iterations < 1:
+        raise InputError(f"--max-iterations must be at least 1, got {o.max_iterations}")
+    if not 0 <= o.margin < 0.5:
+        raise InputError(f"--margin must be in [0, 0.5), got {o.margin:g}")
+    if o.criterion not in CRITERIA:
+        raise InputError(f"--criterion must be one of {', '.join(CRITERIA)}, got {o.criterion!r}")
+
+
+def chain_limits(chain: Chain, margin: float, box=None, point=None) -> cons.Limits:
+    """The description's limits for the independent coordinates (position defaults as simulate's)."""
+    from minparam_cli.identify.trajectory import joint_ranges
+
+    coords = chain.coordinates
+    given = [chain.limits[j] for j in coords] if chain.limits else [None] * len(coords)
+    ranges = np.array(joint_ranges(chain.coordinate_types, given), dtype=float)
+    defaulted = tuple(i for i, g in enumerate(given) if g is None)
+
+    def per(values):
+        if not values:
+            return np.full(len(coords), np.nan)
+        return np.array([np.nan if values[j] is None else float(values[j]) for j in coords])
+
+    lim = cons.Limits(ranges[:, 0], ranges[:, 1], per(chain.velocity_limits), per(chain.acceleration_limits),
+                      per(chain.effort_limits), float(margin), defaulted, box, point)
+    for j in range(lim.n):
+        if not lim.upper[j] > lim.lower[j]:
+            raise InputError(f"joint {j + 1}: empty position range [{lim.lower[j]:g}, {lim.upper[j]:g}]")
+    return lim
+
+
+def _start(limits: cons.Limits, options: ExciteOptions, rng: np.random.Generator) -> FourierTrajectory:
+    vel = [None if not np.isfinite(v) else float(v) for v in limits.velocity]
+    acc = [None if not np.isfinite(v) else float(v) for v in limits.acceleration]
+    ranges = np.column_stack([limits.lower, limits.upper])
+    traj = fourier_excitation(ranges, options.harmonics, options.base_frequency, rng, limits.margin, vel, acc)
+    if options.rest:
+        traj = to_trajectory(project_to_rest(from_trajectory(traj)), options.base_frequency)
+    return cons.scaled(traj, cons.rigorous_scale(traj, limits))
+
+
+def _report_value(f: float, kind: str) -> float:
+    return float(np.exp(f)) if kind == "cond" else float(f)
+
+
+def output_times(options: ExciteOptions) -> np.ndarray:
+    samples = int(round(options.periods * options.rate / options.base_frequency))
+    return np.arange(samples + (1 if options.rest else 0)) / options.rate
+
+
+def base_regressor(chain: Chain, kept, q, dq, ddq) -> np.ndarray:
+    """Stacked base regressor (N·n, p) at the samples, in chunks."""
+    from minparam_cli.dynamics.regressor import regressor
+
+    kept = list(kept)
+    rows = []
+    for s in range(0, q.shape[0], REGRESSOR_CHUNK):
+        e = s + REGRESSOR_CHUNK
+        Y = regressor(chain, q[s:e], dq[s:e], ddq[s:e])[:, :, kept]
+        rows.append(Y.reshape(-1, len(kept)))
+    return np.vstack(rows)
+
+
+def design(chain: Chain, base: BaseSet, options: ExciteOptions, limits: cons.Limits, rng: np.random.Generator,
+           phi=None, progress=None) -> ExciteResult:
+    """The excitation trajectory of ``chain`` (module docstring).  ``phi``: nominal standard inertial
+    parameters for the torque limits (None: no torque limits); ``progress(done, total)``."""
+    from scipy.optimize import minimize
+
+    validate(options)
+    t0 = time.perf_counter()
+    n, H, kind = chain.dof, options.harmonics, options.criterion
+    m = 1 + 2 * H
+    N = GRID_POINTS_PER_HARMONIC * max(H, 4)
+    period = 1.0 / options.base_frequency
+    tg = np.arange(N) * (period / N)
+    Bq, Bv, Ba = basis(tg, options.base_frequency, H)
+    A, b = cons.linear_constraints(limits, Bq, Bv, Ba)
+    use_tau = phi is not None and bool(np.isfinite(limits.effort).any())
+    tau_joints = np.flatnonzero(np.isfinite(limits.effort)) if use_tau else np.zeros(0, int)
+    kept = list(base.kept)
+    if use_tau:
+        _static_feasible(chain, limits, phi)
+
+    cache: dict = {}
+
+    def evaluate(x):
+        key = x.tobytes()
+        if key not in cache:
+            cache.clear()
+            X = x.reshape(n, m)
+            q, dq, ddq = Bq @ X.T, Bv @ X.T, Ba @ X.T
+            sens = sensitivities(chain, kept, q, dq, ddq, kind, phi if use_tau else None, options.scaled)
+            grad = sens.dq.T @ Bq + sens.ddq_v.T @ Bv + sens.ddq_a.T @ Ba
+            cache[key] = (sens, grad.ravel(), q)
+        return cache[key]
+
+    def fun(x):
+        sens, grad, _ = evaluate(x)
+        return sens.value, grad
+
+    constraints = [{"type": "ineq", "fun": lambda x: b - A @ x, "jac": lambda x: -A}]
+    if options.rest:
+        R = np.kron(np.eye(n), rest_rows(H))
+        constraints.append({"type": "eq", "fun": lambda x: R @ x, "jac": lambda x: R})
+    if use_tau:
+        e = limits.shrunk(limits.effort[tau_joints])
+
+        def tau_fun(x):
+            tau = evaluate(x)[0].tau[:, tau_joints]
+            return np.concatenate([(e - tau).ravel(), (e + tau).ravel()])
+
+        def tau_jac(x):
+            s = evaluate(x)[0]
+            J = cons.state_jacobian(s.tau_q[:, tau_joints], s.tau_v[:, tau_joints], s.tau_a[:, tau_joints], Bq, Bv, Ba)
+            return np.vstack([-J, J])
+
+        constraints.append({"type": "ineq", "fun": tau_fun, "jac": tau_jac})
+    if limits.box is not None:
+        axes = [(c, side) for c in range(3) for side in (0, 1) if np.isfinite(limits.box[c, side])]
+
+        def box_fun(x):
+            p = cons.box_point(chain, evaluate(x)[2], limits.point)
+            return np.concatenate([(p[:, c] - limits.box[c, 0]) if side == 0 else (limits.box[c, 1] - p[:, c]) for c, side in axes])
+
+        def box_jac(x):
+            q = evaluate(x)[2]
+            dp = cons.box_point_jacobian(chain, q, limits.point)  # (N, 3, n)
+            rows = []
+            for c, side in axes:
+                d = dp[:, c:c + 1] * (1.0 if side == 0 else -1.0)
+                rows.append(cons.state_jacobian(d, np.zeros_like(d), np.zeros_like(d), Bq, Bv, Ba))
+            return np.vstack(rows)
+
+        constraints.append({"type": "ineq", "fun": box_fun, "jac": box_jac})
+
+    records, best, best_f, best_x = [], -1, np.inf, None
+    total = options.starts * options.max_iterations
+    for i, child in enumerate(_children(rng, options.starts)):
+        x0 = from_trajectory(_start(limits, options, child)).ravel()
+        f0 = fun(x0)[0]
+        count = [0]
+
+        def step(_xk, i=i, count=count):
+            count[0] += 1
+            if progress:
+                progress(i * options.max_iterations + count[0], total)
+
+        res = minimize(fun, x0, jac=True, method="SLSQP", constraints=constraints, callback=step,
+                       options={"maxiter": options.max_iterations, "ftol": 1e-7})
+        x = np.asarray(res.x)
+        feasible = _grid_feasible(x, A, b, constraints)
+        f = fun(x)[0] if feasible else np.inf
+        if not feasible:  # SLSQP stopped outside the limits: keep the start's (feasible) value
+            x = x0
+            f = f0 if _grid_feasible(x0, A, b, constraints) else np.inf
+        records.append(StartRecord(_report_value(f0, kind), _report_value(f, kind), int(res.nit), str(res.message)))
+        if progress:
+            progress((i + 1) * options.max_iterations, total)
+        if f < best_f:
+            best, best_f, best_x = i, f, x
+    if best_x is None:
+        raise ComputationError("no start met the limits (torque limits or the Cartesian box may be infeasible)")
+
+    traj = to_trajectory(best_x.reshape(n, m), options.base_frequency)
+    scale = cons.rigorous_scale(traj, limits)
+    traj = cons.scaled(traj, scale)
+    t = output_times(options)
+    if use_tau or limits.box is not None:
+        check_t = cons.dense_times(traj, t)
+        for _ in range(cons.REPAIR_STEPS):
+            broken = cons.nonlinear_violations(chain, traj, limits, phi if use_tau else None, check_t)
+            if not broken:
+                break
+            traj = cons.scaled(traj, cons.REPAIR_FACTOR)
+            scale = scale * cons.REPAIR_FACTOR
+        else:
+            raise ComputationError("the designed motion breaks a limit between grid points and shrinking it did not help: "
+                                   + "; ".join(broken))
+    q, dq, ddq = traj.evaluate(t)
+    W = base_regressor(chain, kept, q, dq, ddq)
+    tau = None
+    if phi is not None:
+        from minparam_cli.identify.simulate import rigid_torque
+
+        tau = rigid_torque(chain, q, dq, ddq, phi)
+    box_path = cons.box_point(chain, q, limits.point) if limits.box is not None else None
+    qg, dqg, ddqg = traj.evaluate(tg)
+    final = criterion_value(base_regressor(chain, kept, qg, dqg, ddqg), kind, options.scaled)
+    return ExciteResult(
+        trajectory=traj, options=options, limits=limits, criterion=_report_value(final, kind),
+        cond_output=condition_number(W), cond_output_si=condition_number(W, scaled=False), t=t, q=q, dq=dq, ddq=ddq, tau=tau, box_path=box_path,
+        starts=tuple(records), best_start=best, repair_scale=tuple(float(s) for s in scale),
+        base_names=base.base_names, elapsed_s=time.perf_counter() - t0, grid_points=N,
+    )
+
+
+def _grid_feasible(x, A, b, constraints, rtol: float = 1e-6) -> bool:
+    """Every constraint holds on the grid, up to rtol of its bound's size."""
+    scale = max(1.0, float(np.abs(b).max()))
+    if np.any(A @ x - b > rtol * scale):
+        return False
+    for c in constraints[1:]:
+        v = c["fun"](x)
+        if c["type"] == "eq" and np.any(np.abs(v) > rtol * scale):
+            return False
+        if c["type"] == "ineq" and np.any(v < -rtol * max(1.0, float(np.abs(v).max()))):
+            return False
+    return True
+
+
+def _static_feasible(chain: Chain, limits: cons.Limits, phi) -> None:
+    """Refuse effort limits that the robot breaks standing still at the centre of its range."""
+    from minparam_cli.identify.simulate import rigid_torque
+
+    q = ((limits.lower + limits.upper) / 2.0)[None, :]
+    tau = np.abs(rigid_torque(chain, q, np.zeros_like(q), np.zeros_like(q), phi))[0]
+    e = limits.shrunk(limits.effort)
+    bad = [j for j in range(limits.n) if np.isfinite(e[j]) and tau[j] > e[j]]
+    if bad:
+        j = bad[0]
+        raise InputError(f"infeasible limits: joint {j + 1} needs {tau[j]:.4g} N·m against gravity at the centre of its range, "
+                         f"above its effort limit less the margin ({e[j]:.4g})")
+
+
+def _children(rng: np.random.Generator, count: int) -> list[np.random.Generator]:
+    from minparam_cli.identify.simulate import child_generators
+
+    return child_generators(rng, count)
