@@ -55,9 +55,32 @@ class TrajectoryKind(str, Enum):
     fourier = "fourier"
 
 
+def read_given_trajectory(text: str, n: int):
+    """``--trajectory FILE``: excite's .json (the series) or .csv (the samples); None for 'fourier'."""
+    if text == TrajectoryKind.fourier.value:
+        return None
+    from minparam_cli.identify.trajectory_file import MAX_BYTES, parse_trajectory_csv, parse_trajectory_json
+
+    path = Path(text)
+    suffix = path.suffix.lower()
+    if suffix not in (".json", ".csv"):
+        raise InputError(f"--trajectory {text}: expected 'fourier' or an excite output file (.json or .csv)")
+    if not path.is_file():
+        raise InputError(f"--trajectory {text}: no such file")
+    if path.stat().st_size > MAX_BYTES:
+        raise InputError(f"--trajectory {text}: larger than {MAX_BYTES >> 20} MiB")
+    try:
+        content = path.read_text(encoding="utf-8")
+    except (OSError, UnicodeDecodeError) as e:
+        raise InputError(f"--trajectory {text}: cannot read ({e})") from None
+    if suffix == ".json":
+        return parse_trajectory_json(content, n, text)
+    return parse_trajectory_csv(content, n, text)
+
+
 def simulate(
     robot: Path = typer.Argument(..., exists=True, dir_okay=False, help="Robot file (YAML DH/MDH or URDF).", show_default=False),
-    trajectory: TrajectoryKind = typer.Option(TrajectoryKind.fourier, "--trajectory", help="Excitation: a finite Fourier series."),
+    trajectory: str = typer.Option("fourier", "--trajectory", help="Excitation: fourier (a random finite Fourier series), or an excite output: its .json (the series, at --duration and --rate) or .csv (the samples as they are)."),
     effects: str = typer.Option("", "--effects", "-e", help="Effects to inject, e.g. coulomb,viscous,spring@2,cogging@3:k=12 (see below)."),
     strength: float = typer.Option(0.1, "--strength", help="Default effect size, as a fraction of each joint's rigid-body RMS torque."),
     noise: float = typer.Option(0.0, "--noise", help="Std of Gaussian noise added to every torque, N·m (N for prismatic joints)."),
@@ -86,7 +109,6 @@ def _simulate(robot, trajectory, effects, strength, noise, noise_q, seed, durati
     from minparam_cli.describe import load_description
     from minparam_cli.identify.simulate import SimulationOptions, parse_effects, simulate as run, truth_record, validate_options
 
-    TrajectoryKind(trajectory)
     if seed < 0:
         raise InputError(f"--seed must be >= 0, got {seed}")
     data_format = _output_format(output)
@@ -103,6 +125,12 @@ def _simulate(robot, trajectory, effects, strength, noise, noise_q, seed, durati
         specs = parse_effects(effects, chain.dof)
     except InputError as e:
         raise InputError(f"--effects: {e}") from None
+    given = read_given_trajectory(str(trajectory), chain.dof)
+    if given is not None and hasattr(given, "harmonics"):  # excite's series: its own harmonics and period
+        harmonics, base_frequency = given.harmonics, given.base_frequency
+    elif given is not None:  # samples: their own length and rate
+        step = float(np.median(np.diff(given.t)))
+        rate, duration = 1.0 / step, given.t.size * step
     opts = SimulationOptions(
         duration=duration, rate=rate, harmonics=harmonics, base_frequency=base_frequency, effects=specs,
         strength=strength, noise=noise, noise_q=noise_q, random_inertia=random_inertia,
@@ -113,7 +141,7 @@ def _simulate(robot, trajectory, effects, strength, noise, noise_q, seed, durati
         print(f"minparam: note: {robot} does not give inertial data for every link; using random physically consistent "
               "parameters (as with --random-inertia)", file=sys.stderr)
 
-    sim = run(chain, opts, np.random.default_rng(seed))
+    sim = run(chain, opts, np.random.default_rng(seed), given)
     include_ddq = not no_ddq
     if data_format == "npz":
         write_npz(data_arrays(sim, include_ddq), Path(output))
@@ -212,8 +240,9 @@ def summary_text(sim, robot_name: str, seed: int, output: Path | None, truth: Pa
     rms_rigid = np.sqrt(np.mean(sim.tau_rigid**2, axis=0))
     lines = [
         f"simulated  {robot_name}: {sim.t.size} samples, {o.duration:g} s at {o.rate:g} Hz, seed {seed}",
-        f"motion     Fourier series, {sim.trajectory.harmonics} harmonics of {sim.trajectory.base_frequency:g} Hz, "
-        f"inside {100 * (1 - 2 * o.margin):g}% of each joint range",
+        (f"motion     Fourier series, {sim.trajectory.harmonics} harmonics of {sim.trajectory.base_frequency:g} Hz, "
+         f"inside {100 * (1 - 2 * o.margin):g}% of each joint range") if hasattr(sim.trajectory, "harmonics")
+        else f"motion     samples of {sim.trajectory.source}",
         f"inertia    {'from the description' if sim.inertia_source == 'description' else 'random, physically consistent'}",
         "rigid RMS  " + " ".join(f"{x:.3g}" for x in rms_rigid) + " (N·m or N per joint)",
     ]

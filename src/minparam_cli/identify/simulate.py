@@ -112,7 +112,7 @@ class Simulation:
     phi: np.ndarray  # (10 n,) standard parameters used
     inertia_source: str  # "description" | "random"
     inertia: RandomInertia | None
-    trajectory: FourierTrajectory
+    trajectory: "FourierTrajectory | object"  # the series, or the given SampledMotion
     ranges: tuple[tuple[float, float], ...]
     effects: tuple[InjectedEffect, ...]
     options: SimulationOptions
@@ -345,8 +345,12 @@ def _inject(spec: EffectSpec, signals: Signals, rms_rigid: np.ndarray, strength:
     return injected, torque
 
 
-def simulate(chain: Chain, options: SimulationOptions, rng: np.random.Generator) -> Simulation:
-    """Synthetic measured data for ``chain`` (see the module docstring for every equation)."""
+def simulate(chain: Chain, options: SimulationOptions, rng: np.random.Generator, given=None) -> Simulation:
+    """Synthetic measured data for ``chain`` (see the module docstring for every equation).
+
+    ``given``: None (draw the random Fourier series), a FourierTrajectory (``excite``'s, evaluated at
+    the options' duration and rate) or a ``trajectory_file.SampledMotion`` (its samples as they are).
+    The generator's five children are drawn either way, so the other random parts do not change."""
     samples = validate_options(options)
     for spec in options.effects:
         if any(not 0 <= j < chain.dof for j in spec.joints):
@@ -357,10 +361,18 @@ def simulate(chain: Chain, options: SimulationOptions, rng: np.random.Generator)
     ranges = joint_ranges(chain.coordinate_types, [chain.limits[j] for j in chain.coordinates] if chain.limits else None)
     velocity, acceleration, effort = (_per_coordinate(chain, v) for v in
                                       (chain.velocity_limits, chain.acceleration_limits, chain.effort_limits))
-    traj = fourier_excitation(ranges, options.harmonics, options.base_frequency, traj_rng, options.margin,
-                              max_velocity=velocity, max_acceleration=acceleration)
-    t = np.arange(samples) / options.rate
-    q, dq, ddq = traj.evaluate(t)
+    if given is None:
+        traj = fourier_excitation(ranges, options.harmonics, options.base_frequency, traj_rng, options.margin,
+                                  max_velocity=velocity, max_acceleration=acceleration)
+    else:
+        traj = given
+    if isinstance(traj, FourierTrajectory):
+        t = np.arange(samples) / options.rate
+        q, dq, ddq = traj.evaluate(t)
+    else:  # sampled motion
+        if traj.q.shape[1] != chain.dof:
+            raise InputError(f"{traj.source}: {traj.q.shape[1]} joints in the trajectory, {chain.dof} in the robot")
+        t, q, dq, ddq = traj.t, traj.q, traj.dq, traj.ddq
 
     inertia = None
     if options.random_inertia or chain.phi_nominal is None:
@@ -440,6 +452,20 @@ def truth_record(sim: Simulation, robot: str, seed: int, robot_name: str = "", i
             }
         )
     traj = sim.trajectory
+    if isinstance(traj, FourierTrajectory):
+        motion = {
+            "type": "fourier",
+            "reference": "Swevers et al., IEEE T-RA 13(5), 1997",
+            "harmonics": traj.harmonics,
+            "base_frequency": traj.base_frequency,
+            "q0": traj.q0.tolist(),
+            "a": traj.a.tolist(),
+            "b": traj.b.tolist(),
+            "ranges": [list(r) for r in sim.ranges],
+            "margin": o.margin,
+        }
+    else:
+        motion = {"type": "samples", "source": traj.source, "samples": int(traj.t.size)}
     return {
         "robot": robot,
         "robot_name": robot_name,
@@ -456,17 +482,7 @@ def truth_record(sim: Simulation, robot: str, seed: int, robot_name: str = "", i
         "rate": o.rate,
         "duration": o.duration,
         "ddq_included": include_ddq,
-        "trajectory": {
-            "type": "fourier",
-            "reference": "Swevers et al., IEEE T-RA 13(5), 1997",
-            "harmonics": traj.harmonics,
-            "base_frequency": traj.base_frequency,
-            "q0": traj.q0.tolist(),
-            "a": traj.a.tolist(),
-            "b": traj.b.tolist(),
-            "ranges": [list(r) for r in sim.ranges],
-            "margin": o.margin,
-        },
+        "trajectory": motion,
         "limits": sim.limits.to_dict() if sim.limits is not None else None,
         "units": {"t": "s", "q": "rad or m", "dq": "rad/s or m/s", "ddq": "rad/s^2 or m/s^2", "tau": "N·m or N"},
     }
