@@ -180,17 +180,19 @@ def dense_times(traj: FourierTrajectory, extra=None) -> np.ndarray:
     return t
 
 
-def nonlinear_violations(chain: Chain, traj: FourierTrajectory, limits: Limits, phi, t) -> list[str]:
-    """Torque and box limits broken at times t (text per broken limit; empty: none)."""
+def nonlinear_violations(chain: Chain, traj: FourierTrajectory, limits: Limits, phi, t, shrunk: bool = False) -> list[str]:
+    """Torque and box limits broken at times t (text per broken limit; empty: none); ``shrunk``: against
+    the effort limits less the margin."""
     from minparam_cli.identify.simulate import rigid_torque
 
     out = []
     q, dq, ddq = traj.evaluate(t)
     if phi is not None and np.isfinite(limits.effort).any():
         tau = np.abs(rigid_torque(chain, q, dq, ddq, phi)).max(axis=0)
-        for j in np.flatnonzero(np.isfinite(limits.effort)):
-            if tau[j] > limits.effort[j]:
-                out.append(f"joint {j + 1}: max |tau| {tau[j]:.4g} > effort limit {limits.effort[j]:.4g}")
+        effort = limits.shrunk(limits.effort) if shrunk else limits.effort
+        for j in np.flatnonzero(np.isfinite(effort)):
+            if tau[j] > effort[j]:
+                out.append(f"joint {j + 1}: max |tau| {tau[j]:.4g} > effort limit {effort[j]:.4g}")
     if limits.box is not None:
         p = box_point(chain, q, limits.point)
         for c, axis in enumerate("xyz"):

@@ -178,8 +178,7 @@ def design(chain: Chain, base: BaseSet, options: ExciteOptions, limits: cons.Lim
     use_tau = phi is not None and bool(np.isfinite(limits.effort).any())
     tau_joints = np.flatnonzero(np.isfinite(limits.effort)) if use_tau else np.zeros(0, int)
     kept = list(base.kept)
-    if use_tau:
-        _static_feasible(chain, limits, phi)
+    centre = _feasible_centre(chain, limits, phi if use_tau else None) if (use_tau or limits.box is not None) else None
 
     cache: dict = {}
 
@@ -236,7 +235,10 @@ def design(chain: Chain, base: BaseSet, options: ExciteOptions, limits: cons.Lim
     records, best, best_f, best_x = [], -1, np.inf, None
     total = options.starts * options.max_iterations
     for i, child in enumerate(_children(rng, options.starts)):
-        x0 = from_trajectory(_start(limits, options, child)).ravel()
+        start = _start(limits, options, child)
+        if centre is not None:
+            start = _feasible_start(chain, start, limits, phi if use_tau else None, centre, tg)
+        x0 = from_trajectory(start).ravel()
         f0 = fun(x0)[0]
         count = [0]
 
@@ -308,18 +310,56 @@ def _grid_feasible(x, A, b, constraints, rtol: float = 1e-6) -> bool:
     return True
 
 
-def _static_feasible(chain: Chain, limits: cons.Limits, phi) -> None:
-    """Refuse effort limits that the robot breaks standing still at the centre of its range."""
+STATIC_SAMPLES = 4096
+START_SHRINK = 0.7  # a start that breaks a torque or box limit is shrunk by this factor until it does not
+START_SHRINK_STEPS = 20
+
+
+def _feasible_centre(chain: Chain, limits: cons.Limits, phi) -> np.ndarray:
+    """A position that meets the torque limits standing still (margin included) and puts the point in
+    the box: the best of STATIC_SAMPLES positions spread over the shrunk ranges (fixed-seed sampler,
+    the centre first).  None there is: the limits are refused as infeasible (a necessary condition)."""
     from minparam_cli.identify.simulate import rigid_torque
 
-    q = ((limits.lower + limits.upper) / 2.0)[None, :]
-    tau = np.abs(rigid_torque(chain, q, np.zeros_like(q), np.zeros_like(q), phi))[0]
-    e = limits.shrunk(limits.effort)
-    bad = [j for j in range(limits.n) if np.isfinite(e[j]) and tau[j] > e[j]]
-    if bad:
-        j = bad[0]
-        raise InputError(f"infeasible limits: joint {j + 1} needs {tau[j]:.4g} N·m against gravity at the centre of its range, "
-                         f"above its effort limit less the margin ({e[j]:.4g})")
+    lo, hi = limits.shrunk_range()
+    u = np.random.default_rng(0).uniform(size=(STATIC_SAMPLES, limits.n))
+    q = np.vstack([(lo + hi) / 2.0, lo + u * (hi - lo)])
+    badness = np.zeros(q.shape[0])
+    if phi is not None:
+        tau = np.abs(rigid_torque(chain, q, np.zeros_like(q), np.zeros_like(q), phi))
+        e = limits.shrunk(limits.effort)
+        has = np.isfinite(e)
+        ratio = np.where(has, tau / np.where(has, e, 1.0), 0.0)
+        worst = ratio.max(axis=1)
+        if np.all(worst > 1.0):
+            best = int(np.argmin(worst))
+            j = int(np.argmax(ratio[best]))
+            raise InputError(f"infeasible limits: standing still, joint {j + 1} needs at least {tau[best, j]:.4g} N·m (or N) "
+                             f"against gravity in every position tried, above its effort limit less the margin ({e[j]:.4g})")
+        badness = np.maximum(worst - 1.0, 0.0)
+    if limits.box is not None:
+        p = cons.box_point(chain, q, limits.point)
+        with np.errstate(invalid="ignore"):
+            out = np.nan_to_num(np.maximum(limits.box[:, 0] - p, 0.0)) + np.nan_to_num(np.maximum(p - limits.box[:, 1], 0.0))
+        miss = out.sum(axis=1)
+        if np.all(miss > 0):
+            raise InputError("infeasible limits: the --box point lies outside the box in every position tried")
+        badness = badness + 1e3 * miss
+        # among the feasible positions, the one deepest inside the box
+        depth = np.nan_to_num(np.minimum(p - limits.box[:, 0], limits.box[:, 1] - p), nan=np.inf).min(axis=1)
+        badness = badness - 1e-3 * np.where(np.isfinite(depth), depth, 0.0)
+    return q[int(np.argmin(badness))]
+
+
+def _feasible_start(chain, traj: FourierTrajectory, limits: cons.Limits, phi, centre, t) -> FourierTrajectory:
+    """``traj`` moved to ``centre`` and shrunk until it meets the torque and box limits at times t."""
+    traj = FourierTrajectory(traj.base_frequency, np.asarray(centre, dtype=float), traj.a, traj.b)
+    traj = cons.scaled(traj, cons.rigorous_scale(traj, limits))
+    for _ in range(START_SHRINK_STEPS):
+        if not cons.nonlinear_violations(chain, traj, limits, phi, t, shrunk=True):
+            break
+        traj = cons.scaled(traj, START_SHRINK)
+    return traj
 
 
 def _children(rng: np.random.Generator, count: int) -> list[np.random.Generator]:
