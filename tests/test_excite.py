@@ -4,6 +4,7 @@ the output read back by simulate and identify, and one test per kind of bad inpu
 from __future__ import annotations
 
 import json
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -50,7 +51,7 @@ def app():
 
 
 def from_json(path) -> FourierTrajectory:
-    tr = json.loads(open(path).read())["trajectory"]
+    tr = json.loads(Path(path).read_text())["trajectory"]
     return FourierTrajectory(tr["base_frequency"], np.array(tr["q0"]), np.array(tr["a"]), np.array(tr["b"]))
 
 
@@ -98,7 +99,7 @@ def test_criterion_gradient_matches_finite_differences(kind, scaled):
 
 def test_gradient_with_respect_to_the_coefficients(tmp_path):
     """Semi-analytic ∂f/∂X (regressor differences, extras in closed form) against central differences of f."""
-    desc, chain = load_chain(arm(tmp_path), DeriveOptions(friction=("viscous",), rotor_inertia=True))
+    _, chain = load_chain(arm(tmp_path), DeriveOptions(friction=("viscous",), rotor_inertia=True))
     kept = derive_qr(chain).kept
     rng = np.random.default_rng(4)
     X = rng.standard_normal((2, 7)) * 0.5
@@ -114,7 +115,7 @@ def test_gradient_with_respect_to_the_coefficients(tmp_path):
     fd = (f(X + h * E) - f(X - h * E)) / (2 * h)
     assert np.sum(grad * E) == pytest.approx(fd, rel=1e-4)
     # the torque derivatives: τ along the same direction
-    tau = lambda X: rigid_torque(chain, Bq @ X.T, Bv @ X.T, Ba @ X.T, chain.phi_nominal)  # noqa: E731
+    tau = lambda X: rigid_torque(chain, Bq @ X.T, Bv @ X.T, Ba @ X.T, chain.phi_nominal)
     J = cons.state_jacobian(s.tau_q, s.tau_v, s.tau_a, Bq, Bv, Ba)
     fd_tau = (tau(X + h * E) - tau(X - h * E)) / (2 * h)
     assert np.allclose(J @ E.ravel(), fd_tau.ravel(), rtol=1e-4, atol=1e-6 * np.abs(fd_tau).max())

@@ -76,5 +76,5 @@ def parse_trajectory_csv(text: str, n: int, source: str) -> SampledMotion:
     t = table[:, col["t"]]
     if np.any(np.diff(t) <= 0):
         raise DataError(f"{source}: t must increase from row to row")
-    pick = lambda g: table[:, [col[f"{g}{j}"] for j in range(1, n + 1)]]  # noqa: E731
+    pick = lambda g: table[:, [col[f"{g}{j}"] for j in range(1, n + 1)]]
     return SampledMotion(t, pick("q"), pick("dq"), pick("ddq"), source)
