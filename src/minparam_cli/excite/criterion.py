@@ -1,24 +1,26 @@
-"""The design criterion: conditioning of the column-scaled base regressor, with its gradient.
+"""The design criterion: conditioning of the base regressor, with its gradient.
 
 Stacking the base regressor (``dynamics.regressor`` columns ``kept`` of the base
-set, extras included) at the samples t_1..t_N of one period gives
-W (N·n × p).  Its columns have physical units that differ by orders of
-magnitude (kg, kg·m, kg·m², N·m), so W is scaled to unit column norms,
+set, declared extras included) at the samples t_1..t_N of one period gives
+W (N·n × p), in SI units (lengths in m).  Two versions of it are used:
 
-    W_s = W D⁻¹,   D = diag(‖w_1‖, …, ‖w_p‖),
+    W itself (``--scaling si``, the default), as Gautier & Khalil 1992 and
+    FIGAROH minimise and report it, and
+    W_s = W D⁻¹, D = diag(‖w_1‖, …, ‖w_p‖) (``--scaling columns``), unit column
+    norms, which makes the number independent of units, as identify's
+    excitation check reports it.
 
-which makes the criterion independent of the units (and of the lengths'
-unit) and is the scaling under which a small condition number means every
-base parameter is estimated with a comparable relative accuracy (Gautier &
-Khalil 1992 minimise cond(W) of the base regressor; Presse & Gautier 1993
-discuss the scaling).  The criteria, for the singular values σ_1 ≥ … ≥ σ_p of W_s:
+Measured on three robots (benchmarks/bench_excite.py), minimising κ(W) also
+lowers κ(W_s) by 1.7–2×, while minimising κ(W_s) raises κ(W): the SI
+criterion is the default.  The criteria, for the singular values
+σ_1 ≥ … ≥ σ_p of the chosen matrix:
 
-    cond    f = log κ(W_s) = log σ_1 − log σ_p                  (reported as κ)
-    logdet  f = −(1/p) log det(W_sᵀ W_s) = −(2/p) Σ_i log σ_i   (D-optimal)
+    cond    f = log κ = log σ_1 − log σ_p                         (reported as κ)
+    logdet  f = −(1/p) log det(WᵀW) = −(2/p) Σ_i log σ_i           (D-optimal)
 
-Gradients with respect to W_s (σ_i simple): ∂σ_i/∂W_s = u_i v_iᵀ, so
-G_s = u_1 v_1ᵀ/σ_1 − u_p v_pᵀ/σ_p for cond and −(2/p) W_s (W_sᵀ W_s)⁻¹ for
-logdet; through the scaling, column c of ∂f/∂W is
+Gradients with respect to the matrix (σ_i simple): ∂σ_i/∂W = u_i v_iᵀ, so
+G = u_1 v_1ᵀ/σ_1 − u_p v_pᵀ/σ_p for cond and −(2/p) W (WᵀW)⁻¹ for logdet;
+through the column scaling, column c of ∂f/∂W is
 
     G_c = G_s,c / D_c − w_c (G_s,cᵀ w_c) / D_c³.
 
@@ -27,10 +29,10 @@ contraction of G with ∂Y/∂q_k, ∂Y/∂q̇_k and ∂Y/∂q̈_k.  Y is linear
 quadratic in q̇, so finite differences in q̇ and q̈ are exact (up to
 rounding: a forward difference with unit step in q̈, a central one in q̇);
 in q a forward difference (step 1e-6 rad or m) is first-order accurate,
-about 1e-6 relative, ample for the optimiser.  The extra
-columns (rotor inertia q̈_k, viscous q̇_k, Coulomb sign(q̇_k), offset 1) are
-differentiated in closed form (sign has zero derivative away from q̇ = 0; the
-smooth tanh form its own).
+about 1e-6 relative, ample for the optimiser.  The extra columns (rotor
+inertia q̈_k, viscous q̇_k, Coulomb sign(q̇_k), offset 1) are differentiated
+in closed form (sign has zero derivative away from q̇ = 0; the smooth tanh
+form its own).
 """
 
 from __future__ import annotations

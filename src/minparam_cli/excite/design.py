@@ -45,9 +45,9 @@ class ExciteOptions:
     rate: float = 200.0  # Hz, output samples
     periods: int = 1
     criterion: str = "cond"
-    scaled: bool = True  # criterion of the column-scaled base regressor (False: in SI units)
-    starts: int = 2
-    max_iterations: int = 100
+    scaled: bool = False  # criterion of the base regressor in SI units (True: with unit-norm columns)
+    starts: int = 4
+    max_iterations: int = 150
     margin: float = 0.1
     rest: bool = False
 

@@ -26,7 +26,8 @@ def render_trajectory(result, types, angle: str = "deg"):
             ax.axhline(f(v), color="red", linewidth=0.6, linestyle="--")
         ax.set_ylabel(f"q{j + 1} ({unit})")
     axes[-1].set_xlabel("t (s)")
-    fig.suptitle(f"excitation: cond {result.cond_output:.3g} (column-scaled base regressor); red: limits, dashed: margin",
+    fig.suptitle(f"excitation: cond {result.cond_output_si:.3g} (base regressor, SI), {result.cond_output:.3g} column-scaled; "
+                 "red: limits, dashed: margin",
                  fontsize=9)
     fig.tight_layout()
     return fig
