@@ -85,6 +85,7 @@ def json_record(result, robot: str, robot_name: str, seed: int, effects: dict) -
         "repair_scale": list(result.repair_scale),
         "limits": {"margin": lim.margin, "joints": joint_usage(result)},
         "elapsed_s": round(result.elapsed_s, 3),
+        "cpu_s": round(result.cpu_s, 3),
         "units": {"t": "s", "q": "rad or m", "dq": "rad/s or m/s", "ddq": "rad/s^2 or m/s^2", "tau": "N·m or N",
                   "a, b": "rad/s or m/s"},
     }
@@ -122,5 +123,5 @@ def summary_text(result, robot_name: str, seed: int) -> str:
         p = result.box_path
         lines.append("box        point x " + ", ".join(f"{a} [{p[:, c].min():.3f}, {p[:, c].max():.3f}]" for c, a in enumerate("xyz"))
                      + " m")
-    lines.append(f"time       {result.elapsed_s:.1f} s")
+    lines.append(f"time       {result.elapsed_s:.1f} s ({result.cpu_s:.1f} s CPU)")
     return "\n".join(lines) + "\n"
