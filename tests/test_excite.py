@@ -271,3 +271,13 @@ def test_missing_position_limits_use_simulates_defaults_with_a_note(tmp_path, ap
     assert r.exit_code == 0 and "gives no position limits for joint(s) 1, 2; using ±90°" in r.output
     q, _, _ = from_json(js).evaluate(np.linspace(0, 10, 20_001))
     assert np.abs(q).max() <= np.pi / 2
+
+
+def test_box_the_point_never_enters(tmp_path, app):
+    _one_line_exit_2(runner.invoke(app, ["excite", arm(tmp_path), "--box", "5:,:,:", "-q"]), "the --box point lies outside the box")
+
+
+def test_trajectory_csv_without_the_joint_columns(tmp_path, app):
+    bad = tmp_path / "x.csv"
+    bad.write_text("t,q1,dq1,ddq1\n0,0,0,0\n0.1,0,0,0\n")
+    _one_line_exit_2(runner.invoke(app, ["simulate", arm(tmp_path), "--trajectory", str(bad)]), "missing column(s) q2")
