@@ -35,6 +35,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from minparam_cli.chain import Chain, forward_kinematics
+from minparam_cli.errors import ComputationError
 from minparam_cli.identify.trajectory import FourierTrajectory
 
 DENSE_POINTS_PER_HARMONIC = 256
@@ -162,7 +163,7 @@ def rigorous_scale(traj: FourierTrajectory, limits: Limits) -> np.ndarray:
         s = np.minimum(s, r)
     if np.any(s < 0):  # q0 outside the shrunk range: no scale helps
         j = int(np.argmin(s))
-        raise ValueError(f"joint {j + 1}: mean position {q0[j]:g} outside the range [{lo[j]:g}, {hi[j]:g}]")
+        raise ComputationError(f"joint {j + 1}: mean position {q0[j]:g} outside the range [{lo[j]:g}, {hi[j]:g}]")
     return s
 
 
