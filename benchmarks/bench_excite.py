@@ -16,8 +16,11 @@ Run: python benchmarks/bench_excite.py [--random 10] [--quick]
 
 from __future__ import annotations
 
-import argparse
 import os
+
+for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
+    os.environ.setdefault(_var, "1")  # before numpy: as the CLI does (common.py sets it too, but after numpy here)
+import argparse
 import resource
 import shutil
 import statistics
@@ -98,6 +101,8 @@ def main() -> None:
             k = 1 if scaled else 0
             mine = res.cond_output if scaled else res.cond_output_si
             med = float(np.median(rnd[:, k]))
+            print(f"  {chain.name} {'scaled' if scaled else 'SI'}: random median {float(np.median(rnd[:, 1 if scaled else 0])):.3g}, "
+                  f"excite {(res.cond_output if scaled else res.cond_output_si):.3g}, {cpu:.1f} s CPU", file=sys.stderr, flush=True)
             rows.append([chain.name, "column-scaled" if scaled else "SI", base.n_base,
                          f"{med:.3g} ({rnd[:, k].min():.3g}-{rnd[:, k].max():.3g})", f"{mine:.3g}", f"{med / mine:.2f}x",
                          f"{(res.cond_output_si if scaled else res.cond_output):.3g}", f"{wall:.1f}", f"{cpu:.1f}"])
