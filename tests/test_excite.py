@@ -281,3 +281,31 @@ def test_trajectory_csv_without_the_joint_columns(tmp_path, app):
     bad = tmp_path / "x.csv"
     bad.write_text("t,q1,dq1,ddq1\n0,0,0,0\n0.1,0,0,0\n")
     _one_line_exit_2(runner.invoke(app, ["simulate", arm(tmp_path), "--trajectory", str(bad)]), "missing column(s) q2")
+
+
+def test_urdf_velocity_and_effort_limits_hold_on_a_fine_grid(tmp_path, app):
+    """UR5 URDF: <limit velocity effort> read, enforced, and met at every one of 100 001 instants."""
+    js = tmp_path / "u.json"
+    r = runner.invoke(app, ["excite", "robots/ur5.urdf", "-o", str(tmp_path / "u.csv"), "--json", str(js),
+                            "--starts", "1", "--max-iterations", "15", "--harmonics", "3", "--rate", "20", "-q"])
+    assert r.exit_code == 0, r.output
+    chain = build_chain(load_description("robots/ur5.urdf"))
+    record = json.loads(js.read_text())
+    traj = from_json(js)
+    q, dq, ddq = traj.evaluate(np.linspace(0.0, 1.0 / traj.base_frequency, 100_001))
+    vel = np.array(chain.velocity_limits, dtype=float)
+    assert np.all(np.abs(dq).max(axis=0) <= vel)
+    assert max(u["max_abs_dq"] / u["velocity_limit"] for u in record["limits"]["joints"]) > 0.85  # they bind
+    lo, hi = np.array([lim[0] for lim in chain.limits]), np.array([lim[1] for lim in chain.limits])
+    assert np.all(q >= lo) and np.all(q <= hi)
+    tau = rigid_torque(chain, q[::50], dq[::50], ddq[::50], chain.phi_nominal)
+    assert np.all(np.abs(tau).max(axis=0) <= np.array(chain.effort_limits, dtype=float))
+
+
+def test_logdet_criterion_improves_on_its_start(tmp_path, app):
+    js = tmp_path / "d.json"
+    r = runner.invoke(app, ["excite", arm(tmp_path), "-o", str(tmp_path / "d.csv"), "--json", str(js), "--criterion", "logdet", *FAST])
+    assert r.exit_code == 0, r.output
+    record = json.loads(js.read_text())
+    assert record["criterion"]["name"] == "logdet"
+    assert all(s["end"] < s["start"] for s in record["starts"])

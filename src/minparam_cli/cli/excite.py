@@ -139,9 +139,6 @@ def _excite(robot, output, json_path, plot, harmonics, base_frequency, rate, per
         js = ", ".join(str(j + 1) for j in limits.defaulted)
         print(f"minparam: note: {robot} gives no position limits for joint(s) {js}; using ±90° (revolute) or ±0.1 m "
               "(prismatic), as simulate does", file=sys.stderr)
-    if not quiet and not (np.isfinite(limits.velocity).any() or np.isfinite(limits.acceleration).any()):
-        print(f"minparam: note: {robot} gives no velocity or acceleration limits; only the position ranges and the period "
-              "bound the speeds (add velocity: and acceleration: to the joints, or lower --base-frequency)", file=sys.stderr)
     phi = None
     if chain.phi_nominal is not None and np.isfinite(limits.effort).any():
         phi = np.array(chain.phi_nominal, dtype=float)
@@ -169,6 +166,9 @@ def _excite(robot, output, json_path, plot, harmonics, base_frequency, rate, per
         save_png(render_trajectory(result, chain.coordinate_types), Path(plot))
     if not quiet:
         sys.stderr.write(summary_text(result, chain.name, seed))
+    if not quiet and not (np.isfinite(limits.velocity).any() or np.isfinite(limits.acceleration).any()):
+        print(f"minparam: note: {robot} gives no velocity or acceleration limits; only the position ranges and the period "
+              "bound the speeds (add velocity: and acceleration: to the joints, or lower --base-frequency)", file=sys.stderr)
 
 
 def register(app: typer.Typer) -> None:
