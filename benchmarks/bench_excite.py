@@ -8,6 +8,7 @@
   [design at least 5x lower];
   both the SI (raw) condition number and the column-scaled one, each design
   optimising the one it is compared on;
+* the same with Coulomb and viscous friction columns declared (Panda, TX40);
 * time to design a Panda trajectory on one core: the whole `minparam excite`
   process pinned to one CPU (taskset), wall and CPU time, peak RSS [<= 60 s].
 
@@ -42,6 +43,8 @@ from minparam_cli.identify.trajectory import fourier_excitation  # noqa: E402
 from minparam_cli.pipeline import DeriveOptions, load_chain  # noqa: E402
 
 ROBOTS = ("robots/puma560.yaml", "robots/panda.yaml", "robots/tx40.yaml")
+# (robot, friction) rows: the declared effects' columns in the regressor (SI criterion only)
+WITH_FRICTION = (("robots/panda.yaml", ("coulomb", "viscous")), ("robots/tx40.yaml", ("coulomb", "viscous")))
 
 
 def random_conds(chain, kept, limits, options, seeds):
@@ -86,12 +89,13 @@ def main() -> None:
     ap.add_argument("--quick", action="store_true", help="one start of 40 iterations (a smoke run, not the figures)")
     args = ap.parse_args()
     rows = []
-    for robot in ROBOTS:
-        _, chain = load_chain(ROOT / robot, DeriveOptions())
+    cases = [(r, ()) for r in ROBOTS] + list(WITH_FRICTION)
+    for robot, friction in cases:
+        _, chain = load_chain(ROOT / robot, DeriveOptions(friction=friction))
         base = derive_qr(chain)
         limits = chain_limits(chain, 0.1)
         rnd = None
-        for scaled in (False, True):
+        for scaled in ((False, True) if not friction else (False,)):
             opts = ExciteOptions(scaled=scaled, **({"starts": 1, "max_iterations": 40} if args.quick else {}))
             if rnd is None:
                 rnd = random_conds(chain, base.kept, limits, opts, range(args.random))
@@ -103,7 +107,8 @@ def main() -> None:
             med = float(np.median(rnd[:, k]))
             print(f"  {chain.name} {'scaled' if scaled else 'SI'}: random median {float(np.median(rnd[:, 1 if scaled else 0])):.3g}, "
                   f"excite {(res.cond_output if scaled else res.cond_output_si):.3g}, {cpu:.1f} s CPU", file=sys.stderr, flush=True)
-            rows.append([chain.name, "column-scaled" if scaled else "SI", base.n_base,
+            name = chain.name + (f" + {','.join(friction)}" if friction else "")
+            rows.append([name, "column-scaled" if scaled else "SI", base.n_base,
                          f"{med:.3g} ({rnd[:, k].min():.3g}-{rnd[:, k].max():.3g})", f"{mine:.3g}", f"{med / mine:.2f}x",
                          f"{(res.cond_output_si if scaled else res.cond_output):.3g}", f"{wall:.1f}", f"{cpu:.1f}"])
     print(f"condition number of the base regressor on 2000 output samples (5 harmonics, 0.1 Hz, margin 0.1); "
