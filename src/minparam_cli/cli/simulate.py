@@ -151,7 +151,7 @@ def _simulate(robot, trajectory, effects, strength, noise, noise_q, seed, durati
         record = truth_record(sim, str(robot), seed, chain.name, include_ddq)
         write_output(json_text(record), Path(truth))
     if not quiet:
-        sys.stderr.write(summary_text(sim, chain.name, seed, output, truth))
+        sys.stderr.write(summary_text(sim, chain.name, seed, output, truth, None if given is None else str(trajectory)))
     for j in sim.limits.over_effort if sim.limits is not None else ():
         warning_line(f"joint {j + 1}: max |tau| {sim.limits.max_abs_tau[j]:.4g} exceeds its effort limit "
                      f"{sim.limits.effort[j]:g} (reported, not enforced: a slower motion lowers only its inertial part)")
@@ -233,16 +233,16 @@ def _joints_text(joints: tuple[int, ...], n: int) -> str:
     return "+".join(str(j) for j in js)
 
 
-def summary_text(sim, robot_name: str, seed: int, output: Path | None, truth: Path | None) -> str:
-    """A few lines for stderr: what was simulated and where it went."""
+def summary_text(sim, robot_name: str, seed: int, output: Path | None, truth: Path | None, given_from: str | None = None) -> str:
+    """A few lines for stderr: what was simulated and where it went (``given_from``: the --trajectory file)."""
     o = sim.options
     n = sim.q.shape[1]
     rms_rigid = np.sqrt(np.mean(sim.tau_rigid**2, axis=0))
     lines = [
         f"simulated  {robot_name}: {sim.t.size} samples, {o.duration:g} s at {o.rate:g} Hz, seed {seed}",
         (f"motion     Fourier series, {sim.trajectory.harmonics} harmonics of {sim.trajectory.base_frequency:g} Hz, "
-         f"inside {100 * (1 - 2 * o.margin):g}% of each joint range") if hasattr(sim.trajectory, "harmonics")
-        else f"motion     samples of {sim.trajectory.source}",
+         + (f"from {given_from}" if given_from else f"inside {100 * (1 - 2 * o.margin):g}% of each joint range"))
+        if hasattr(sim.trajectory, "harmonics") else f"motion     samples of {sim.trajectory.source}",
         f"inertia    {'from the description' if sim.inertia_source == 'description' else 'random, physically consistent'}",
         "rigid RMS  " + " ".join(f"{x:.3g}" for x in rms_rigid) + " (N·m or N per joint)",
     ]
