@@ -14,7 +14,7 @@ excitation (``identify.trajectory.fourier_excitation``: standard normal
 coefficients scaled into the margin-shrunk range and rate limits), one child
 generator per start from the one seeded generator; with ``rest`` each start
 is projected onto the rest conditions and scaled back into the limits.  The
-best end point wins; it is then checked densely and repaired
+best end point that passes the dense check wins, after its repair
 (``constraints``), and the reported figures are computed on the output samples.
 """
 
@@ -35,6 +35,11 @@ from minparam_cli.excite.fourier import basis, from_trajectory, project_to_rest,
 from minparam_cli.identify.trajectory import FourierTrajectory, fourier_excitation
 
 GRID_POINTS_PER_HARMONIC = 16
+BOX_GRID_POINTS_PER_HARMONIC = 64  # the box constraint is cheap (forward kinematics): a finer grid
+# The optimiser keeps the point this far inside the --box (m); SQP ends can break a constraint by a hair,
+# and an end point is accepted when it is at least half of this inside the box (and within the effort
+# limits themselves) on the grid.
+BOX_MARGIN = 0.005
 REGRESSOR_CHUNK = 2048
 
 
@@ -199,9 +204,11 @@ def design(chain: Chain, base: BaseSet, options: ExciteOptions, limits: cons.Lim
         return sens.value, grad
 
     constraints = [{"type": "ineq", "fun": lambda x: b - A @ x, "jac": lambda x: -A}]
+    slack = [0.0]  # per constraint: how far below 0 its value may go with the limits themselves still met
     if options.rest:
         R = np.kron(np.eye(n), rest_rows(H))
         constraints.append({"type": "eq", "fun": lambda x: R @ x, "jac": lambda x: R})
+        slack.append(0.0)
     if use_tau:
         e = limits.shrunk(limits.effort[tau_joints])
 
@@ -215,25 +222,30 @@ def design(chain: Chain, base: BaseSet, options: ExciteOptions, limits: cons.Lim
             return np.vstack([-J, J])
 
         constraints.append({"type": "ineq", "fun": tau_fun, "jac": tau_jac})
+        slack.append(np.tile(np.repeat(limits.margin * limits.effort[tau_joints][None, :], N, axis=0).ravel(), 2))
     if limits.box is not None:
         axes = [(c, side) for c in range(3) for side in (0, 1) if np.isfinite(limits.box[c, side])]
 
+        tb = np.arange(BOX_GRID_POINTS_PER_HARMONIC * max(H, 4)) * (period / (BOX_GRID_POINTS_PER_HARMONIC * max(H, 4)))
+        Bq_box = basis(tb, options.base_frequency, H)[0]
+
         def box_fun(x):
-            p = cons.box_point(chain, evaluate(x)[2], limits.point)
-            return np.concatenate([(p[:, c] - limits.box[c, 0]) if side == 0 else (limits.box[c, 1] - p[:, c]) for c, side in axes])
+            p = cons.box_point(chain, Bq_box @ x.reshape(n, m).T, limits.point)
+            return np.concatenate([(p[:, c] - limits.box[c, 0] - BOX_MARGIN) if side == 0 else (limits.box[c, 1] - BOX_MARGIN - p[:, c])
+                                   for c, side in axes])
 
         def box_jac(x):
-            q = evaluate(x)[2]
-            dp = cons.box_point_jacobian(chain, q, limits.point)  # (N, 3, n)
+            dp = cons.box_point_jacobian(chain, Bq_box @ x.reshape(n, m).T, limits.point)  # (N_box, 3, n)
             rows = []
             for c, side in axes:
                 d = dp[:, c:c + 1] * (1.0 if side == 0 else -1.0)
-                rows.append(cons.state_jacobian(d, np.zeros_like(d), np.zeros_like(d), Bq, Bv, Ba))
+                rows.append(cons.state_jacobian(d, np.zeros_like(d), np.zeros_like(d), Bq_box, Bq_box, Bq_box))
             return np.vstack(rows)
 
         constraints.append({"type": "ineq", "fun": box_fun, "jac": box_jac})
+        slack.append(BOX_MARGIN / 2)
 
-    records, best, best_f, best_x = [], -1, np.inf, None
+    records, ends = [], []
     total = options.starts * options.max_iterations
     for i, child in enumerate(_children(rng, options.starts)):
         start = _start(limits, options, child)
@@ -251,34 +263,30 @@ def design(chain: Chain, base: BaseSet, options: ExciteOptions, limits: cons.Lim
         res = minimize(fun, x0, jac=True, method="SLSQP", constraints=constraints, callback=step,
                        options={"maxiter": options.max_iterations, "ftol": 1e-7})
         x = np.asarray(res.x)
-        feasible = _grid_feasible(x, A, b, constraints)
+        feasible = _grid_feasible(x, A, b, constraints, slack)
         f = fun(x)[0] if feasible else np.inf
         if not feasible:  # SLSQP stopped outside the limits: keep the start's (feasible) value
             x = x0
-            f = f0 if _grid_feasible(x0, A, b, constraints) else np.inf
+            f = f0 if _grid_feasible(x0, A, b, constraints, slack) else np.inf
         records.append(StartRecord(_report_value(f0, kind), _report_value(f, kind), int(res.nit), str(res.message)))
         if progress:
             progress((i + 1) * options.max_iterations, total)
-        if f < best_f:
-            best, best_f, best_x = i, f, x
-    if best_x is None:
+        if np.isfinite(f):
+            ends.append((f, i, x))
+    if not ends:
         raise ComputationError("no start met the limits (torque limits or the Cartesian box may be infeasible)")
 
-    traj = to_trajectory(best_x.reshape(n, m), options.base_frequency)
-    scale = cons.rigorous_scale(traj, limits)
-    traj = cons.scaled(traj, scale)
     t = output_times(options)
-    if use_tau or limits.box is not None:
-        check_t = cons.dense_times(traj, t)
-        for _ in range(cons.REPAIR_STEPS):
-            broken = cons.nonlinear_violations(chain, traj, limits, phi if use_tau else None, check_t)
-            if not broken:
-                break
-            traj = cons.scaled(traj, cons.REPAIR_FACTOR)
-            scale = scale * cons.REPAIR_FACTOR
-        else:
-            raise ComputationError("the designed motion breaks a limit between grid points and shrinking it did not help: "
-                                   + "; ".join(broken))
+    failures = []
+    for _, best, best_x in sorted(ends, key=lambda e: e[0]):  # the best end point that passes the dense check
+        traj, scale, broken = _checked(chain, to_trajectory(best_x.reshape(n, m), options.base_frequency), limits,
+                                       phi if use_tau else None, t)
+        if not broken:
+            break
+        failures.append(broken)
+    else:
+        raise ComputationError("the designed motion breaks a limit between grid points (" + "; ".join(failures[0])
+                               + "); try a wider --box, a larger --margin or another --seed")
     q, dq, ddq = traj.evaluate(t)
     W = base_regressor(chain, kept, q, dq, ddq)
     tau = None
@@ -298,16 +306,38 @@ def design(chain: Chain, base: BaseSet, options: ExciteOptions, limits: cons.Lim
     )
 
 
-def _grid_feasible(x, A, b, constraints, rtol: float = 1e-6) -> bool:
-    """Every constraint holds on the grid, up to rtol of its bound's size."""
+def _checked(chain, traj: FourierTrajectory, limits: cons.Limits, phi, t):
+    """``traj`` repaired and checked densely (``constraints``): the all-instant repair of positions and
+    rates, then torques and the box, shrinking the motion about its mean while they fail (which lowers
+    the dynamic torques; for the box it helps only when the mean lies well inside).  Returns the trajectory, the per-joint scale and
+    the limits still broken (empty: none)."""
+    scale = cons.rigorous_scale(traj, limits)
+    traj = cons.scaled(traj, scale)
+    if phi is None and limits.box is None:
+        return traj, scale, []
+    check_t = cons.dense_times(traj, t)
+    broken: list[str] = []
+    for _ in range(cons.REPAIR_STEPS):
+        broken = cons.nonlinear_violations(chain, traj, limits, phi, check_t)
+        if not broken:
+            break
+        traj = cons.scaled(traj, cons.REPAIR_FACTOR)
+        scale = scale * cons.REPAIR_FACTOR
+    return traj, scale, broken
+
+
+def _grid_feasible(x, A, b, constraints, slack, rtol: float = 1e-6) -> bool:
+    """Every constraint holds on the grid: the linear ones and the rest conditions up to rtol of their
+    bound's size, the torque and box ones up to their ``slack`` (the limits themselves, not the
+    optimiser's tighter targets)."""
     scale = max(1.0, float(np.abs(b).max()))
     if np.any(A @ x - b > rtol * scale):
         return False
-    for c in constraints[1:]:
+    for c, sl in zip(constraints[1:], slack[1:]):
         v = c["fun"](x)
         if c["type"] == "eq" and np.any(np.abs(v) > rtol * scale):
             return False
-        if c["type"] == "ineq" and np.any(v < -rtol * max(1.0, float(np.abs(v).max()))):
+        if c["type"] == "ineq" and np.any(v + sl < -rtol * max(1.0, float(np.abs(v).max()))):
             return False
     return True
 

@@ -121,7 +121,7 @@ def summary_text(result, robot_name: str, seed: int) -> str:
             lines.append(f"{'limits' if label == '|dq|' else '':<10} max {label}/limit {ratios}")
     if result.box_path is not None:
         p = result.box_path
-        lines.append("box        point x " + ", ".join(f"{a} [{p[:, c].min():.3f}, {p[:, c].max():.3f}]" for c, a in enumerate("xyz"))
+        lines.append("box        point " + ", ".join(f"{a} [{p[:, c].min():.3f}, {p[:, c].max():.3f}]" for c, a in enumerate("xyz"))
                      + " m")
     lines.append(f"time       {result.elapsed_s:.1f} s ({result.cpu_s:.1f} s CPU)")
     return "\n".join(lines) + "\n"
