@@ -70,6 +70,7 @@ COMMANDS = {
     "identify": _add_module("identify"),
     "evaluate": _add_module("evaluate"),
     "simulate": _add_module("simulate"),
+    "excite": _add_module("excite"),
     "singular": _add_module("singular"),
     "codegen": _add_module("codegen"),
     "platform": _add_module("platform"),

@@ -54,9 +54,32 @@ class TrajectoryKind(str, Enum):
     fourier = "fourier"
 
 
+def read_given_trajectory(text: str, n: int):
+    """``--trajectory FILE``: excite's .json (the series) or .csv (the samples); None for 'fourier'."""
+    if text == TrajectoryKind.fourier.value:
+        return None
+    from minparam_cli.identify.trajectory_file import MAX_BYTES, parse_trajectory_csv, parse_trajectory_json
+
+    path = Path(text)
+    suffix = path.suffix.lower()
+    if suffix not in (".json", ".csv"):
+        raise InputError(f"--trajectory {text}: expected 'fourier' or an excite output file (.json or .csv)")
+    if not path.is_file():
+        raise InputError(f"--trajectory {text}: no such file")
+    if path.stat().st_size > MAX_BYTES:
+        raise InputError(f"--trajectory {text}: larger than {MAX_BYTES >> 20} MiB")
+    try:
+        content = path.read_text(encoding="utf-8")
+    except (OSError, UnicodeDecodeError) as e:
+        raise InputError(f"--trajectory {text}: cannot read ({e})") from None
+    if suffix == ".json":
+        return parse_trajectory_json(content, n, text)
+    return parse_trajectory_csv(content, n, text)
+
+
 def simulate(
     robot: Path = typer.Argument(..., exists=True, dir_okay=False, help="Robot file (YAML DH/MDH or URDF).", show_default=False),
-    trajectory: TrajectoryKind = typer.Option(TrajectoryKind.fourier, "--trajectory", help="Excitation: a finite Fourier series."),
+    trajectory: str = typer.Option("fourier", "--trajectory", help="Excitation: fourier (a random finite Fourier series), or an excite output: its .json (the series, at --duration and --rate) or .csv (the samples as they are)."),
     effects: str = typer.Option("", "--effects", "-e", help="Effects to inject, e.g. coulomb,viscous,spring@2,cogging@3:k=12 (see below)."),
     strength: float = typer.Option(0.1, "--strength", help="Default effect size, as a fraction of each joint's rigid-body RMS torque."),
     noise: float = typer.Option(0.0, "--noise", help="Std of Gaussian noise added to every torque, N·m (N for prismatic joints)."),
@@ -85,7 +108,6 @@ def _simulate(robot, trajectory, effects, strength, noise, noise_q, seed, durati
     from minparam_cli.describe import load_description
     from minparam_cli.identify.simulate import SimulationOptions, Stream, parse_effects, plan as make_plan, truth_record, validate_options
 
-    TrajectoryKind(trajectory)
     if seed < 0:
         raise InputError(f"--seed must be >= 0, got {seed}")
     data_format = _output_format(output)
@@ -102,6 +124,12 @@ def _simulate(robot, trajectory, effects, strength, noise, noise_q, seed, durati
         specs = parse_effects(effects, chain.dof)
     except InputError as e:
         raise InputError(f"--effects: {e}") from None
+    given = read_given_trajectory(str(trajectory), chain.dof)
+    if given is not None and hasattr(given, "harmonics"):  # excite's series: its own harmonics and period
+        harmonics, base_frequency = given.harmonics, given.base_frequency
+    elif given is not None:  # samples: their own length and rate
+        step = float(np.median(np.diff(given.t)))
+        rate, duration = 1.0 / step, given.t.size * step
     opts = SimulationOptions(
         duration=duration, rate=rate, harmonics=harmonics, base_frequency=base_frequency, effects=specs,
         strength=strength, noise=noise, noise_q=noise_q, random_inertia=random_inertia,
@@ -114,7 +142,7 @@ def _simulate(robot, trajectory, effects, strength, noise, noise_q, seed, durati
     samples = validate_options(opts)
     bar = Progress(2 * samples, "simulate", quiet)
     try:
-        plan = make_plan(chain, opts, np.random.default_rng(seed), progress=bar)
+        plan = make_plan(chain, opts, np.random.default_rng(seed), progress=bar, given=given)
         stream = Stream(plan, progress=bar)
         include_ddq = not no_ddq
         if data_format == "npz":
@@ -128,7 +156,7 @@ def _simulate(robot, trajectory, effects, strength, noise, noise_q, seed, durati
         record = truth_record(plan, str(robot), seed, chain.name, include_ddq, limits=limits)
         write_output(json_text(record), Path(truth))
     if not quiet:
-        sys.stderr.write(summary_text(plan, limits, chain.name, seed, output, truth))
+        sys.stderr.write(summary_text(plan, limits, chain.name, seed, output, truth, None if given is None else str(trajectory)))
     for j in limits.over_effort:
         warning_line(f"joint {j + 1}: max |tau| {limits.max_abs_tau[j]:.4g} exceeds its effort limit "
                      f"{limits.effort[j]:g} (reported, not enforced: a slower motion lowers only its inertial part)")
@@ -214,16 +242,18 @@ def _joints_text(joints: tuple[int, ...], n: int) -> str:
     return "+".join(str(j) for j in js)
 
 
-def summary_text(sim, limits, robot_name: str, seed: int, output: Path | None, truth: Path | None) -> str:
-    """A few lines for stderr: what was simulated (a ``Plan`` or a ``Simulation``) and where it went."""
+def summary_text(sim, limits, robot_name: str, seed: int, output: Path | None, truth: Path | None,
+                 given_from: str | None = None) -> str:
+    """A few lines for stderr: what was simulated (a ``Plan`` or a ``Simulation``) and where it went
+    (``given_from``: the --trajectory file)."""
     o = sim.options
     n = sim.tau_rigid.shape[1]
     rms_rigid = np.sqrt(np.mean(sim.tau_rigid**2, axis=0))
     lines = [
         f"simulated  {robot_name}: {sim.samples} samples, {o.duration:g} s at {o.rate:g} Hz, seed {seed}",
         (f"motion     Fourier series, {sim.trajectory.harmonics} harmonics of {sim.trajectory.base_frequency:g} Hz, "
-         f"inside {100 * (1 - 2 * o.margin):g}% of each joint range") if hasattr(sim.trajectory, "harmonics")
-        else f"motion     samples of {sim.trajectory.source}",
+         + (f"from {given_from}" if given_from else f"inside {100 * (1 - 2 * o.margin):g}% of each joint range"))
+        if hasattr(sim.trajectory, "harmonics") else f"motion     samples of {sim.trajectory.source}",
         f"inertia    {'from the description' if sim.inertia_source == 'description' else 'random, physically consistent'}",
         "rigid RMS  " + " ".join(f"{x:.3g}" for x in rms_rigid) + " (N·m or N per joint)",
     ]

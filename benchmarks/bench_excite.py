@@ -1,0 +1,132 @@
+"""Benchmark of `minparam excite` (issue 17 targets in brackets).
+
+* condition number of the base regressor on the output samples (one period of
+  2000 samples: 5 harmonics of 0.1 Hz at 200 Hz, margin 0.1, each robot's
+  position limits) for the PUMA 560, the Panda and the TX40: the design
+  (seed 0, default starts and iterations) against the random Fourier series
+  that `simulate` draws (seeds 0..R-1, same harmonics, period and limits)
+  [design at least 5x lower];
+  both the SI (raw) condition number and the column-scaled one, each design
+  optimising the one it is compared on;
+* the same with Coulomb and viscous friction columns declared (Panda, TX40);
+* time to design a Panda trajectory on one core: the whole `minparam excite`
+  process pinned to one CPU (taskset), wall and CPU time, peak RSS [<= 60 s].
+
+Run: python benchmarks/bench_excite.py [--random 10] [--quick]
+"""
+
+from __future__ import annotations
+
+import os
+
+for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
+    os.environ.setdefault(_var, "1")  # before numpy: as the CLI does (common.py sets it too, but after numpy here)
+import argparse
+import resource
+import shutil
+import statistics
+import subprocess
+import sys
+import time
+
+import numpy as np
+from common import ROOT, minparam_cmd, peak_rss_mb
+from tabulate import tabulate
+
+sys.path.insert(0, str(ROOT / "src"))
+
+from minparam_cli.base.qr import derive_qr  # noqa: E402
+from minparam_cli.excite.criterion import condition_number  # noqa: E402
+from minparam_cli.excite.design import ExciteOptions, base_regressor, chain_limits, design, output_times  # noqa: E402
+from minparam_cli.identify.simulate import child_generators  # noqa: E402
+from minparam_cli.identify.trajectory import fourier_excitation  # noqa: E402
+from minparam_cli.pipeline import DeriveOptions, load_chain  # noqa: E402
+
+ROBOTS = ("robots/puma560.yaml", "robots/panda.yaml", "robots/tx40.yaml")
+# (robot, friction) rows: the declared effects' columns in the regressor (SI criterion only)
+WITH_FRICTION = (("robots/panda.yaml", ("coulomb", "viscous")), ("robots/tx40.yaml", ("coulomb", "viscous")))
+
+
+def random_conds(chain, kept, limits, options, seeds):
+    """(SI, column-scaled) condition numbers of simulate's random series for each seed."""
+    t = output_times(options)
+    out = []
+    for seed in seeds:
+        traj_rng = child_generators(np.random.default_rng(seed), 5)[0]  # simulate's trajectory generator
+        ranges = np.column_stack([limits.lower, limits.upper])
+        traj = fourier_excitation(ranges, options.harmonics, options.base_frequency, traj_rng, limits.margin)
+        W = base_regressor(chain, kept, *traj.evaluate(t))
+        out.append((condition_number(W, scaled=False), condition_number(W)))
+    return np.array(out)
+
+
+def one_core_run(robot: str) -> tuple[float, float, float]:
+    """Wall s, CPU s and peak RSS MB of `minparam excite ROBOT` on one core."""
+    cmd = [*minparam_cmd(), "excite", robot, "-o", os.devnull, "-q"]
+    if shutil.which("taskset"):
+        cmd = ["taskset", "-c", "0", *cmd]
+    before = resource.getrusage(resource.RUSAGE_CHILDREN)
+    t0 = time.perf_counter()
+    gnu = os.path.exists("/usr/bin/time")
+    rss_file = ROOT / ".bench_excite_rss"
+    full = ["/usr/bin/time", "-f", "%M", "-o", str(rss_file), *cmd] if gnu else cmd
+    p = subprocess.run(full, cwd=ROOT, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+    wall = time.perf_counter() - t0
+    if p.returncode != 0:
+        raise SystemExit(f"excite failed: {p.stderr.strip()}")
+    after = resource.getrusage(resource.RUSAGE_CHILDREN)
+    cpu = (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
+    rss = float("nan")
+    if gnu and rss_file.exists():
+        rss = float(rss_file.read_text().split()[-1]) / 1024
+        rss_file.unlink()
+    return wall, cpu, rss
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser()
+    ap.add_argument("--random", type=int, default=10, help="random series per robot (seeds 0..R-1)")
+    ap.add_argument("--quick", action="store_true", help="one start of 40 iterations (a smoke run, not the figures)")
+    args = ap.parse_args()
+    rows = []
+    cases = [(r, ()) for r in ROBOTS] + list(WITH_FRICTION)
+    for robot, friction in cases:
+        _, chain = load_chain(ROOT / robot, DeriveOptions(friction=friction))
+        base = derive_qr(chain)
+        limits = chain_limits(chain, 0.1)
+        rnd = None
+        for scaled in ((False, True) if not friction else (False,)):
+            opts = ExciteOptions(scaled=scaled, **({"starts": 1, "max_iterations": 40} if args.quick else {}))
+            if rnd is None:
+                rnd = random_conds(chain, base.kept, limits, opts, range(args.random))
+            t0, c0 = time.perf_counter(), time.process_time()
+            res = design(chain, base, opts, limits, np.random.default_rng(0))
+            wall, cpu = time.perf_counter() - t0, time.process_time() - c0
+            k = 1 if scaled else 0
+            mine = res.cond_output if scaled else res.cond_output_si
+            med = float(np.median(rnd[:, k]))
+            print(f"  {chain.name} {'scaled' if scaled else 'SI'}: random median {float(np.median(rnd[:, 1 if scaled else 0])):.3g}, "
+                  f"excite {(res.cond_output if scaled else res.cond_output_si):.3g}, {cpu:.1f} s CPU", file=sys.stderr, flush=True)
+            name = chain.name + (f" + {','.join(friction)}" if friction else "")
+            rows.append([name, "column-scaled" if scaled else "SI", base.n_base,
+                         f"{med:.3g} ({rnd[:, k].min():.3g}-{rnd[:, k].max():.3g})", f"{mine:.3g}", f"{med / mine:.2f}x",
+                         f"{(res.cond_output_si if scaled else res.cond_output):.3g}", f"{wall:.1f}", f"{cpu:.1f}"])
+    print(f"condition number of the base regressor on 2000 output samples (5 harmonics, 0.1 Hz, margin 0.1); "
+          f"random: simulate's series, seeds 0..{args.random - 1}: median (range); design: seed 0, "
+          f"{'1 start x 40 iterations' if args.quick else 'default starts and iterations'}")
+    print(tabulate(rows, headers=["robot", "criterion", "base params", "random", "excite", "random/excite",
+                                  "other cond of the design", "wall s", "CPU s"], tablefmt="github"))
+    print(f"peak RSS of this process: {peak_rss_mb():.0f} MB")
+    if not args.quick:
+        runs = [one_core_run("robots/panda.yaml") for _ in range(3)]
+        wall = statistics.median(r[0] for r in runs)
+        cpu = statistics.median(r[1] for r in runs)
+        rss = max(r[2] for r in runs)
+        print()
+        print(tabulate([["minparam excite robots/panda.yaml (defaults)", f"{wall:.1f}", f"{cpu:.1f}", f"{rss:.0f}", "60"]],
+                       headers=["one core (taskset -c 0), median of 3", "wall s", "CPU s", "peak RSS MB", "goal s"],
+                       tablefmt="github"))
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,175 @@
+"""``minparam excite``: design an excitation trajectory for identification.
+
+Parses the options, builds the chain with the declared effects, derives the
+base parameters, calls the pure stage ``excite.design.design``, renders the
+CSV, JSON and plot, writes them atomically, maps errors to exit codes.
+"""
+
+from __future__ import annotations
+
+import sys
+from enum import Enum
+from pathlib import Path
+from typing import Optional
+
+import numpy as np
+import typer
+
+from minparam_cli.cli.common import MimicMode, Progress, check_output_path, guarded, mimic_option, parse_floats, save_png, write_output
+from minparam_cli.errors import InputError
+from minparam_cli.params import FRICTION_KINDS
+
+HELP = (
+    "Design an excitation trajectory: a finite Fourier series (Swevers et al. 1997) that minimises the condition "
+    "number (or log-det) of the base regressor, declared friction / rotor inertia / offsets included, within the "
+    "joint position, velocity, acceleration and torque limits; writes t, q, dq, ddq as CSV and the coefficients as JSON."
+)
+
+EPILOG = """\b
+Examples:
+  minparam excite robots/puma560.yaml -o traj.csv --json traj.json --plot traj.png
+  minparam excite robots/panda.yaml --friction coulomb,viscous --rest --harmonics 6 -o panda_traj.csv
+  minparam excite robots/tx40.yaml --criterion logdet --seed 3 -o tx40.csv
+  minparam excite arm.urdf --box ":,:,0.10:" -o traj.csv     # keep the tool 10 cm above the table (z >= 0.10 m)
+
+\b
+Columns: t, q1..qn, dq1..dqn, ddq1..ddqn in s, rad or m, rad/s or m/s,
+rad/s² or m/s² (simulate's and identify's names).  Run it on the robot, add
+the measured tau1..taun columns, and give the file to identify; or give it to
+simulate --trajectory.  Without -o the CSV goes to stdout.
+
+Exit codes: 0 success, 1 failed computation, 2 bad input.
+"""
+
+
+class Criterion(str, Enum):
+    cond = "cond"
+    logdet = "logdet"
+
+
+class Scaling(str, Enum):
+    columns = "columns"
+    si = "si"
+
+
+def excite(
+    robot: Path = typer.Argument(..., exists=True, dir_okay=False, help="Robot file (YAML DH/MDH or URDF).", show_default=False),
+    output: Optional[Path] = typer.Option(None, "--output", "-o", help="CSV of the samples (atomically). Default: stdout."),
+    json_path: Optional[Path] = typer.Option(None, "--json", help="Also write the Fourier coefficients and the report (JSON) here."),
+    plot: Optional[Path] = typer.Option(None, "--plot", help="Also write a PNG of every joint's q(t) with its limits."),
+    harmonics: int = typer.Option(5, "--harmonics", help="Harmonics of the Fourier series."),
+    base_frequency: float = typer.Option(0.1, "--base-frequency", help="Fundamental frequency, Hz (the period is its inverse)."),
+    rate: float = typer.Option(200.0, "--rate", help="Sampling rate of the CSV, Hz."),
+    periods: int = typer.Option(1, "--periods", help="Periods written to the CSV."),
+    criterion: Criterion = typer.Option(Criterion.cond, "--criterion", help="cond (condition number) or logdet (D-optimal)."),
+    scaling: Scaling = typer.Option(Scaling.si, "--scaling", help="Criterion of the base regressor in SI units (as FIGAROH and Gautier & Khalil), or with unit-norm columns."),
+    rest: bool = typer.Option(False, "--rest", help="Start and end every period at rest (dq = ddq = 0)."),
+    margin: float = typer.Option(0.1, "--margin", help="Fraction of each position range kept free at both ends, and of each rate and effort limit."),
+    friction: str = typer.Option("", "--friction", help="Friction columns in the regressor, every joint: any of coulomb,viscous,offset."),
+    rotor_inertia: bool = typer.Option(False, "--rotor-inertia", help="A rotor inertia column Ia per joint in the regressor."),
+    box: Optional[str] = typer.Option(None, "--box", help="Cartesian box for the tool point, base frame, m: XMIN:XMAX,YMIN:YMAX,ZMIN:ZMAX (a side may be empty)."),
+    point: Optional[str] = typer.Option(None, "--point", help="The point kept in --box, X,Y,Z in the last link's frame, m (default: the file's tool point, else the link origin)."),
+    starts: int = typer.Option(4, "--starts", help="Random starts of the optimiser (seeded)."),
+    max_iterations: int = typer.Option(150, "--max-iterations", help="Iterations of SLSQP per start."),
+    seed: int = typer.Option(0, "--seed", help="Seed of the random starts (written to the JSON)."),
+    quiet: bool = typer.Option(False, "--quiet", "-q", help="No progress bar, summary or notes on stderr."),
+    mimic: MimicMode = mimic_option(),
+):
+    _excite(robot, output, json_path, plot, harmonics, base_frequency, rate, periods, criterion, scaling, rest, margin,
+            friction, rotor_inertia, box, point, starts, max_iterations, seed, quiet, mimic)
+
+
+def parse_box(text: str) -> np.ndarray:
+    """'XMIN:XMAX,YMIN:YMAX,ZMIN:ZMAX' (empty side: free) -> (3, 2) with NaN for free sides."""
+    parts = text.split(",")
+    if len(parts) != 3:
+        raise typer.BadParameter(f"expected XMIN:XMAX,YMIN:YMAX,ZMIN:ZMAX, got {text!r}", param_hint="--box")
+    out = np.full((3, 2), np.nan)
+    for c, part in enumerate(parts):
+        sides = part.split(":")
+        if len(sides) != 2:
+            raise typer.BadParameter(f"expected MIN:MAX for axis {'xyz'[c]}, got {part!r}", param_hint="--box")
+        for k, v in enumerate(sides):
+            if v.strip():
+                try:
+                    out[c, k] = float(v)
+                except ValueError:
+                    raise typer.BadParameter(f"expected a number, got {v!r}", param_hint="--box") from None
+                if not np.isfinite(out[c, k]):
+                    raise typer.BadParameter(f"expected a finite number, got {v!r}", param_hint="--box")
+        if np.isfinite(out[c]).all() and not out[c, 0] < out[c, 1]:
+            raise InputError(f"infeasible limits: --box axis {'xyz'[c]} is empty ({out[c, 0]:g} >= {out[c, 1]:g})")
+    if not np.isfinite(out).any():
+        raise typer.BadParameter("every side is free", param_hint="--box")
+    return out
+
+
+@guarded
+def _excite(robot, output, json_path, plot, harmonics, base_frequency, rate, periods, criterion, scaling, rest, margin,
+            friction, rotor_inertia, box, point, starts, max_iterations, seed, quiet, mimic=MimicMode.coupled):
+    from minparam_cli.pipeline import DeriveOptions, load_chain, require_fixed_base
+
+    if seed < 0:
+        raise InputError(f"--seed must be >= 0, got {seed}")
+    kinds = tuple(k.strip() for k in friction.split(",") if k.strip())
+    for k in kinds:
+        if k not in FRICTION_KINDS:
+            raise typer.BadParameter(f"unknown friction kind {k!r}; expected any of {','.join(FRICTION_KINDS)}", param_hint="--friction")
+    if plot is not None and Path(plot).suffix.lower() != ".png":
+        raise InputError(f"--plot {plot}: expected a .png file name")
+    for path in (output, json_path, plot):
+        if path is not None:
+            check_output_path(Path(path))
+    box_arr = parse_box(box) if box is not None else None
+    point_arr = np.array(parse_floats(point, 3, "--point")) if point is not None else None
+
+    from minparam_cli.base.qr import derive_qr
+    from minparam_cli.excite.design import ExciteOptions, chain_limits, design, validate
+
+    opts = ExciteOptions(harmonics=harmonics, base_frequency=base_frequency, rate=rate, periods=periods,
+                         criterion=Criterion(criterion).value, scaled=Scaling(scaling) == Scaling.columns, starts=starts,
+                         max_iterations=max_iterations, margin=margin, rest=rest)
+    validate(opts)
+    _, chain = load_chain(robot, DeriveOptions(friction=kinds, rotor_inertia=rotor_inertia, mimic=MimicMode(mimic).value))
+    require_fixed_base(chain, "excite")
+    if box_arr is not None and point_arr is None:
+        point_arr = np.zeros(3) if chain.tool is None else np.asarray(chain.tool, dtype=float)
+    limits = chain_limits(chain, margin, box_arr, point_arr)
+    if limits.defaulted and not quiet:
+        js = ", ".join(str(j + 1) for j in limits.defaulted)
+        print(f"minparam: note: {robot} gives no position limits for joint(s) {js}; using ±90° (revolute) or ±0.1 m "
+              "(prismatic), as simulate does", file=sys.stderr)
+    phi = None
+    if chain.phi_nominal is not None and np.isfinite(limits.effort).any():
+        phi = np.array(chain.phi_nominal, dtype=float)
+    elif np.isfinite(limits.effort).any() and not quiet:
+        print(f"minparam: note: {robot} gives effort limits but not every link's inertial values; torque limits are not enforced",
+              file=sys.stderr)
+    base = derive_qr(chain)
+    bar = Progress(opts.starts * opts.max_iterations, "excite", quiet)
+    try:
+        result = design(chain, base, opts, limits, np.random.default_rng(seed), phi=phi, progress=bar)
+    finally:
+        bar.close()
+
+    from minparam_cli.render.excite_text import csv_text, json_record, summary_text
+
+    write_output(csv_text(result), output)
+    if json_path is not None:
+        from minparam_cli.cli.simulate import json_text
+
+        effects = {"friction": list(kinds), "rotor_inertia": rotor_inertia, "columns": list(chain.layout.names)}
+        write_output(json_text(json_record(result, str(robot), chain.name, seed, effects)), Path(json_path))
+    if plot is not None:
+        from minparam_cli.render.excite_plot import render_trajectory
+
+        save_png(render_trajectory(result, chain.coordinate_types), Path(plot))
+    if not quiet:
+        sys.stderr.write(summary_text(result, chain.name, seed))
+    if not quiet and not (np.isfinite(limits.velocity).any() or np.isfinite(limits.acceleration).any()):
+        print(f"minparam: note: {robot} gives no velocity or acceleration limits; only the position ranges and the period "
+              "bound the speeds (add velocity: and acceleration: to the joints, or lower --base-frequency)", file=sys.stderr)
+
+
+def register(app: typer.Typer) -> None:
+    app.command(name="excite", help=HELP, epilog=EPILOG)(excite)

@@ -1,0 +1,1 @@
+"""Excitation trajectory design (``minparam excite``): series, criterion, constraints, optimiser."""

@@ -1,0 +1,313 @@
+"""minparam excite: the series and its derivatives, the criterion's gradient, limits on a fine grid,
+the output read back by simulate and identify, and one test per kind of bad input."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+from typer.testing import CliRunner
+
+from minparam_cli.base.qr import derive_qr
+from minparam_cli.chain import build_chain
+from minparam_cli.describe import load_description
+from minparam_cli.excite import constraints as cons
+from minparam_cli.excite.criterion import criterion_gradient, criterion_value, sensitivities
+from minparam_cli.excite.design import ExciteOptions, base_regressor, chain_limits, design
+from minparam_cli.excite.fourier import basis, from_trajectory, project_to_rest, to_trajectory
+from minparam_cli.identify.simulate import rigid_torque
+from minparam_cli.identify.trajectory import FourierTrajectory
+from minparam_cli.pipeline import DeriveOptions, load_chain
+
+runner = CliRunner()
+
+ARM = """name: limited 2R
+convention: dh
+units: {{length: m, angle: deg}}
+gravity: [0, -9.81, 0]
+joints:
+  - {{name: shoulder, type: revolute, alpha: 0, a: 1.0, d: 0, theta: 0, limits: [-90, 90], {j1}
+     inertial: {{mass: 2.0, com: [-0.5, 0, 0], inertia: [0.01, 0, 0, 0.17, 0, 0.17]}}}}
+  - {{name: elbow, type: revolute, alpha: 0, a: 0.8, d: 0, theta: 0, limits: [-120, 120], {j2}
+     inertial: {{mass: 1.5, com: [-0.4, 0, 0], inertia: [0.01, 0, 0, 0.08, 0, 0.08]}}}}
+"""
+LIMITED = ("velocity: 60, acceleration: 100, effort: 40,", "velocity: 90, acceleration: 150, effort: 15,")
+FAST = ["--starts", "2", "--max-iterations", "25", "--harmonics", "3", "--rate", "50", "-q"]
+
+
+def arm(tmp_path, j1: str = "", j2: str = "", name: str = "arm.yaml") -> str:
+    p = tmp_path / name
+    p.write_text(ARM.format(j1=j1, j2=j2))
+    return str(p)
+
+
+@pytest.fixture(scope="module")
+def app():
+    from minparam_cli.cli.app import app as real_app
+
+    return real_app
+
+
+def from_json(path) -> FourierTrajectory:
+    tr = json.loads(Path(path).read_text())["trajectory"]
+    return FourierTrajectory(tr["base_frequency"], np.array(tr["q0"]), np.array(tr["a"]), np.array(tr["b"]))
+
+
+# --- the series ------------------------------------------------------------------------------------
+
+
+def test_basis_matches_the_series_and_its_derivatives():
+    rng = np.random.default_rng(1)
+    traj = FourierTrajectory(0.2, rng.standard_normal(3), rng.standard_normal((3, 4)), rng.standard_normal((3, 4)))
+    t = np.linspace(0, 5, 101)
+    Bq, Bv, Ba = basis(t, 0.2, 4)
+    X = from_trajectory(traj)
+    q, dq, ddq = traj.evaluate(t)
+    assert np.allclose(Bq @ X.T, q) and np.allclose(Bv @ X.T, dq) and np.allclose(Ba @ X.T, ddq)
+    # the derivatives are derivatives: central differences of q and dq
+    h = 1e-5
+    qp, dqp, _ = traj.evaluate(t + h)
+    qm, dqm, _ = traj.evaluate(t - h)
+    assert np.allclose((qp - qm) / (2 * h), dq, atol=1e-6) and np.allclose((dqp - dqm) / (2 * h), ddq, atol=1e-5)
+
+
+def test_rest_projection_puts_every_period_boundary_at_rest():
+    rng = np.random.default_rng(2)
+    X = project_to_rest(rng.standard_normal((2, 1 + 2 * 5)))
+    traj = to_trajectory(X, 0.1)
+    _, dq, ddq = traj.evaluate(np.array([0.0, 10.0, 20.0]))
+    assert np.abs(dq).max() < 1e-12 and np.abs(ddq).max() < 1e-12
+
+
+# --- the criterion ---------------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("kind", ["cond", "logdet"])
+@pytest.mark.parametrize("scaled", [True, False])
+def test_criterion_gradient_matches_finite_differences(kind, scaled):
+    rng = np.random.default_rng(3)
+    W = rng.standard_normal((40, 5)) * np.array([1.0, 10.0, 0.1, 3.0, 1.0])
+    f, G = criterion_gradient(W, kind, scaled)
+    assert f == pytest.approx(criterion_value(W, kind, scaled), rel=1e-10)
+    E = rng.standard_normal(W.shape)
+    h = 1e-6
+    fd = (criterion_value(W + h * E, kind, scaled) - criterion_value(W - h * E, kind, scaled)) / (2 * h)
+    assert np.sum(G * E) == pytest.approx(fd, rel=1e-5)
+
+
+def test_gradient_with_respect_to_the_coefficients(tmp_path):
+    """Semi-analytic ∂f/∂X (regressor differences, extras in closed form) against central differences of f."""
+    _, chain = load_chain(arm(tmp_path), DeriveOptions(friction=("viscous",), rotor_inertia=True))
+    kept = derive_qr(chain).kept
+    rng = np.random.default_rng(4)
+    X = rng.standard_normal((2, 7)) * 0.5
+    Bq, Bv, Ba = basis(np.linspace(0, 10, 64, endpoint=False), 0.1, 3)
+
+    def f(X):
+        return criterion_value(base_regressor(chain, kept, Bq @ X.T, Bv @ X.T, Ba @ X.T), "cond")
+
+    s = sensitivities(chain, kept, Bq @ X.T, Bv @ X.T, Ba @ X.T, "cond", phi=chain.phi_nominal)
+    grad = s.dq.T @ Bq + s.ddq_v.T @ Bv + s.ddq_a.T @ Ba
+    E = rng.standard_normal(X.shape)
+    h = 1e-6
+    fd = (f(X + h * E) - f(X - h * E)) / (2 * h)
+    assert np.sum(grad * E) == pytest.approx(fd, rel=1e-4)
+    # the torque derivatives: τ along the same direction
+    tau = lambda X: rigid_torque(chain, Bq @ X.T, Bv @ X.T, Ba @ X.T, chain.phi_nominal)
+    J = cons.state_jacobian(s.tau_q, s.tau_v, s.tau_a, Bq, Bv, Ba)
+    fd_tau = (tau(X + h * E) - tau(X - h * E)) / (2 * h)
+    assert np.allclose(J @ E.ravel(), fd_tau.ravel(), rtol=1e-4, atol=1e-6 * np.abs(fd_tau).max())
+
+
+# --- the command -----------------------------------------------------------------------------------
+
+
+def test_every_limit_holds_on_a_fine_grid_and_the_csv_matches_the_json(tmp_path, app):
+    path = arm(tmp_path, *LIMITED)
+    out, js = tmp_path / "t.csv", tmp_path / "t.json"
+    r = runner.invoke(app, ["excite", path, "-o", str(out), "--json", str(js), "--plot", str(tmp_path / "t.png"), *FAST])
+    assert r.exit_code == 0, r.output
+    chain = build_chain(load_description(path))
+    traj = from_json(js)
+    t = np.linspace(0.0, 1.0 / traj.base_frequency, 200_001)
+    q, dq, ddq = traj.evaluate(t)
+    lo, hi = np.radians([-90, -120]), np.radians([90, 120])
+    assert np.all(q >= lo) and np.all(q <= hi)
+    assert np.all(np.abs(dq).max(axis=0) <= np.radians([60, 90]))
+    assert np.all(np.abs(ddq).max(axis=0) <= np.radians([100, 150]))
+    tau = rigid_torque(chain, q[::20], dq[::20], ddq[::20], chain.phi_nominal)
+    assert np.all(np.abs(tau).max(axis=0) <= [40, 15])
+    table = np.loadtxt(out, delimiter=",", skiprows=1)
+    header = out.read_text().splitlines()[0].split(",")
+    assert header == ["t", "q1", "q2", "dq1", "dq2", "ddq1", "ddq2"]
+    q_csv, dq_csv, ddq_csv = traj.evaluate(table[:, 0])
+    assert np.allclose(table[:, 1:3], q_csv) and np.allclose(table[:, 3:5], dq_csv) and np.allclose(table[:, 5:7], ddq_csv)
+    record = json.loads(js.read_text())
+    assert record["seed"] == 0 and record["starts"][record["best_start"] - 1]["end"] <= record["starts"][0]["start"]
+    assert (tmp_path / "t.png").stat().st_size > 0
+
+
+def test_torque_limits_that_bind_are_kept(tmp_path, app):
+    """An effort limit below what the free design would use: the output still meets it on a fine grid."""
+    path = arm(tmp_path, "effort: 22,", "effort: 6,")
+    js = tmp_path / "t.json"
+    r = runner.invoke(app, ["excite", path, "-o", str(tmp_path / "t.csv"), "--json", str(js), *FAST])
+    assert r.exit_code == 0, r.output
+    chain = build_chain(load_description(path))
+    traj = from_json(js)
+    q, dq, ddq = traj.evaluate(np.linspace(0.0, 1.0 / traj.base_frequency, 20_001))
+    tau = np.abs(rigid_torque(chain, q, dq, ddq, chain.phi_nominal)).max(axis=0)
+    assert np.all(tau <= [22, 6]) and tau[1] > 0.8 * 6  # it binds
+
+
+def test_cartesian_box_holds_on_a_fine_grid(tmp_path, app):
+    path = arm(tmp_path)
+    js = tmp_path / "t.json"
+    r = runner.invoke(app, ["excite", path, "-o", str(tmp_path / "t.csv"), "--json", str(js), "--box", ":,-0.5:,:", *FAST])
+    assert r.exit_code == 0, r.output
+    chain = build_chain(load_description(path))
+    traj = from_json(js)
+    q, _, _ = traj.evaluate(np.linspace(0.0, 1.0 / traj.base_frequency, 20_001))
+    assert cons.box_point(chain, q, np.zeros(3))[:, 1].min() >= -0.5
+    best = json.loads(js.read_text())["starts"][json.loads(js.read_text())["best_start"] - 1]
+    assert best["end"] < 0.5 * best["start"]  # the optimiser moved (an end just outside the box once fell back to the start)
+
+
+def test_rest_starts_and_ends_at_rest(tmp_path, app):
+    out = tmp_path / "t.csv"
+    r = runner.invoke(app, ["excite", arm(tmp_path), "-o", str(out), "--rest", *FAST])
+    assert r.exit_code == 0, r.output
+    table = np.loadtxt(out, delimiter=",", skiprows=1)
+    assert table[0, 0] == 0.0 and table[-1, 0] == pytest.approx(10.0)
+    assert np.abs(table[[0, -1], 3:7]).max() < 1e-9
+
+
+def test_design_lowers_the_condition_number_of_simulates_random_series(tmp_path):
+    """The start is simulate's own random draw; the design ends well below it, measured on the output
+    samples rather than the optimiser's grid (PUMA 560, no inertia needed)."""
+    _, chain = load_chain("robots/puma560.yaml", DeriveOptions())
+    res = design(chain, derive_qr(chain), ExciteOptions(starts=1, max_iterations=40, harmonics=4, rate=20),
+                 chain_limits(chain, 0.1), np.random.default_rng(0))
+    assert res.cond_output_si < 0.5 * res.starts[0].start_criterion  # the default criterion: κ in SI units
+
+
+# --- simulate -> identify ---------------------------------------------------------------------------
+
+
+def _sigmas(app, robot, data, tmp_path):
+    r = runner.invoke(app, ["identify", robot, str(data), "--no-diagnose", "--format", "json", "-q"])
+    assert r.exit_code == 0, r.output
+    params = json.loads(r.stdout)["parameters"]
+    return {k: abs(v["value"]) * v["std_percent"] / 100 for k, v in params.items()}
+
+
+def test_identify_on_an_excite_trajectory_has_smaller_sigma_than_on_a_random_one(tmp_path, app):
+    robot = arm(tmp_path)
+    js, csv = tmp_path / "x.json", tmp_path / "x.csv"
+    r = runner.invoke(app, ["excite", robot, "-o", str(csv), "--json", str(js), "--starts", "2", "--max-iterations", "40",
+                            "--harmonics", "3", "--rate", "50", "-q"])
+    assert r.exit_code == 0, r.output
+    common = ["--noise", "0.2", "--seed", "5", "--rate", "50", "--duration", "40", "--harmonics", "3", "-q"]
+    for name, extra in (("ex.csv", ["--trajectory", str(js)]), ("rnd.csv", [])):
+        r = runner.invoke(app, ["simulate", robot, *extra, *common, "-o", str(tmp_path / name)])
+        assert r.exit_code == 0, r.output
+    ex, rnd = _sigmas(app, robot, tmp_path / "ex.csv", tmp_path), _sigmas(app, robot, tmp_path / "rnd.csv", tmp_path)
+    keys = sorted(set(ex) & set(rnd))
+    assert len(keys) >= 3
+    assert np.exp(np.mean(np.log([ex[k] for k in keys]))) < np.exp(np.mean(np.log([rnd[k] for k in keys])))
+    assert max(ex[k] for k in keys) < max(rnd[k] for k in keys)
+
+
+def test_simulate_reads_the_csv_samples_as_they_are(tmp_path, app):
+    robot = arm(tmp_path)
+    csv = tmp_path / "x.csv"
+    assert runner.invoke(app, ["excite", robot, "-o", str(csv), *FAST]).exit_code == 0
+    out = tmp_path / "sim.csv"
+    r = runner.invoke(app, ["simulate", robot, "--trajectory", str(csv), "-o", str(out), "-q"])
+    assert r.exit_code == 0, r.output
+    a, b = np.loadtxt(csv, delimiter=",", skiprows=1), np.loadtxt(out, delimiter=",", skiprows=1)
+    assert np.array_equal(a, b[:, :7])
+
+
+# --- bad input: one line, exit 2 -------------------------------------------------------------------
+
+
+def _one_line_exit_2(r, needle):
+    lines = [ln for ln in r.output.splitlines() if ln.strip()]
+    assert r.exit_code == 2 and len(lines) == 1 and needle in lines[0] and "Traceback" not in r.output, r.output
+
+
+def test_zero_harmonics(tmp_path, app):
+    _one_line_exit_2(runner.invoke(app, ["excite", arm(tmp_path), "--harmonics", "0"]), "--harmonics must be at least 1")
+
+
+def test_rest_with_one_harmonic(tmp_path, app):
+    _one_line_exit_2(runner.invoke(app, ["excite", arm(tmp_path), "--harmonics", "1", "--rest"]), "--rest needs at least 2 harmonics")
+
+
+def test_infeasible_effort_limit(tmp_path, app):
+    _one_line_exit_2(runner.invoke(app, ["excite", arm(tmp_path, "effort: 1,")]), "infeasible limits: standing still, joint 1")
+
+
+def test_empty_box(tmp_path, app):
+    _one_line_exit_2(runner.invoke(app, ["excite", arm(tmp_path), "--box", "1:0,:,:"]), "infeasible limits: --box axis x is empty")
+
+
+def test_harmonic_above_nyquist(tmp_path, app):
+    _one_line_exit_2(runner.invoke(app, ["excite", arm(tmp_path), "--rate", "1"]), "must be below half the --rate")
+
+
+def test_trajectory_file_for_another_robot(tmp_path, app):
+    js = tmp_path / "x.json"
+    js.write_text(json.dumps({"trajectory": {"base_frequency": 0.1, "q0": [0, 0, 0], "a": [[1], [1], [1]], "b": [[0], [0], [0]]}}))
+    _one_line_exit_2(runner.invoke(app, ["simulate", arm(tmp_path), "--trajectory", str(js)]), "must have shapes")
+
+
+def test_missing_position_limits_use_simulates_defaults_with_a_note(tmp_path, app):
+    robot = tmp_path / "free.yaml"
+    robot.write_text(ARM.format(j1="", j2="").replace(" limits: [-90, 90],", "").replace(" limits: [-120, 120],", ""))
+    js = tmp_path / "x.json"
+    r = runner.invoke(app, ["excite", str(robot), "-o", str(tmp_path / "x.csv"), "--json", str(js), *FAST[:-1]])
+    assert r.exit_code == 0 and "gives no position limits for joint(s) 1, 2; using ±90°" in r.output
+    q, _, _ = from_json(js).evaluate(np.linspace(0, 10, 20_001))
+    assert np.abs(q).max() <= np.pi / 2
+
+
+def test_box_the_point_never_enters(tmp_path, app):
+    _one_line_exit_2(runner.invoke(app, ["excite", arm(tmp_path), "--box", "5:,:,:", "-q"]), "the --box point lies outside the box")
+
+
+def test_trajectory_csv_without_the_joint_columns(tmp_path, app):
+    bad = tmp_path / "x.csv"
+    bad.write_text("t,q1,dq1,ddq1\n0,0,0,0\n0.1,0,0,0\n")
+    _one_line_exit_2(runner.invoke(app, ["simulate", arm(tmp_path), "--trajectory", str(bad)]), "missing column(s) q2")
+
+
+def test_urdf_velocity_and_effort_limits_hold_on_a_fine_grid(tmp_path, app):
+    """UR5 URDF: <limit velocity effort> read, enforced, and met at every one of 100 001 instants."""
+    js = tmp_path / "u.json"
+    r = runner.invoke(app, ["excite", "robots/ur5.urdf", "-o", str(tmp_path / "u.csv"), "--json", str(js),
+                            "--starts", "1", "--max-iterations", "15", "--harmonics", "3", "--rate", "20", "-q"])
+    assert r.exit_code == 0, r.output
+    chain = build_chain(load_description("robots/ur5.urdf"))
+    record = json.loads(js.read_text())
+    traj = from_json(js)
+    q, dq, ddq = traj.evaluate(np.linspace(0.0, 1.0 / traj.base_frequency, 100_001))
+    vel = np.array(chain.velocity_limits, dtype=float)
+    assert np.all(np.abs(dq).max(axis=0) <= vel)
+    assert max(u["max_abs_dq"] / u["velocity_limit"] for u in record["limits"]["joints"]) > 0.85  # they bind
+    lo, hi = np.array([lim[0] for lim in chain.limits]), np.array([lim[1] for lim in chain.limits])
+    assert np.all(q >= lo) and np.all(q <= hi)
+    tau = rigid_torque(chain, q[::50], dq[::50], ddq[::50], chain.phi_nominal)
+    assert np.all(np.abs(tau).max(axis=0) <= np.array(chain.effort_limits, dtype=float))
+
+
+def test_logdet_criterion_improves_on_its_start(tmp_path, app):
+    js = tmp_path / "d.json"
+    r = runner.invoke(app, ["excite", arm(tmp_path), "-o", str(tmp_path / "d.csv"), "--json", str(js), "--criterion", "logdet", *FAST])
+    assert r.exit_code == 0, r.output
+    record = json.loads(js.read_text())
+    assert record["criterion"]["name"] == "logdet"
+    assert all(s["end"] < s["start"] for s in record["starts"])
