@@ -21,6 +21,15 @@ pytest.importorskip("pyarrow.csv")
 HEADER = "t,q1,q2,dq1,dq2,ddq1,ddq2,tau1,tau2"
 
 
+@pytest.fixture(autouse=True)
+def _small_pieces(monkeypatch):
+    """pyarrow parses a table in pieces; 256 lines (not a divisor of the 700-row chunks) puts piece
+    edges inside every table, as 16384-line pieces do in 200000-row chunks."""
+    from minparam_cli.measured import arrow_csv
+
+    monkeypatch.setattr(arrow_csv, "PIECE_ROWS", 256)
+
+
 def chunks(path, monkeypatch, reader: str, rows: int = 700):
     monkeypatch.setenv("MINPARAM_CSV_READER", reader)
     return [table.copy() for table, _ in raw_chunks(path, 2, DataOptions(chunk_rows=rows))]
@@ -143,3 +152,40 @@ def test_identify_reports_are_the_same_with_either_reader(tmp_path, monkeypatch)
         reports.append(re.sub(r'"elapsed_s": [-+0-9.eE]+', "", r.stdout))
     assert reports[0] == reports[1]
     assert json.loads(r.stdout)["effects"][0]["effect"] == "coulomb"
+
+
+def test_a_parquet_recording_gives_the_report_of_its_csv(tmp_path):
+    pd = pytest.importorskip("pandas")
+    data = tmp_path / "sim.csv"
+    r = CliRunner().invoke(app, ["simulate", "robots/planar2r.yaml", "--effects", "viscous", "--noise", "0.01", "--duration", "10",
+                                 "-o", str(data), "--quiet"])
+    assert r.exit_code == 0, r.output
+    pd.read_csv(data).to_parquet(tmp_path / "sim.parquet")
+    texts = []
+    for path in (data, tmp_path / "sim.parquet"):
+        r = CliRunner().invoke(app, ["identify", "robots/planar2r.yaml", str(path), "-f", "json", "--quiet", "--effects", "coulomb,viscous"])
+        assert r.exit_code == 0, r.output
+        texts.append(re.sub(r'"elapsed_s": [-+0-9.eE]+', "", r.stdout).replace(str(path), "DATA"))
+    assert texts[0] == texts[1]
+
+
+@pytest.mark.parametrize("case, message", [
+    ("text column", "column 'tau2' holds text, not numbers"),
+    ("no time column", "missing time column 't' (use --columns t=NAME)"),
+    ("not parquet", "cannot read Parquet"),
+])
+def test_a_broken_parquet_file_is_one_line(tmp_path, case, message):
+    pd = pytest.importorskip("pandas")
+    path = tmp_path / "d.parquet"
+    frame = pd.DataFrame({c: np.arange(50) / 10.0 for c in HEADER.split(",")})
+    if case == "text column":
+        frame["tau2"] = "x"
+    elif case == "no time column":
+        frame = frame.rename(columns={"t": "time"})
+    if case == "not parquet":
+        path.write_bytes(b"PAR1 but not really")
+    else:
+        frame.to_parquet(path)
+    r = CliRunner().invoke(app, ["identify", "robots/planar2r.yaml", str(path)])
+    assert r.exit_code == 2 and r.stderr.startswith(f"minparam: error: {path}: {message}"), r.stderr
+    assert len(r.stderr.strip().splitlines()) == 1

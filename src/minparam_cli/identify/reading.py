@@ -66,6 +66,11 @@ def raw_chunks(path: Path, n: int, opts: DataOptions) -> Iterator[tuple[np.ndarr
 def _file_chunks(path: Path, n: int, opts: DataOptions) -> Iterator[tuple[np.ndarray, dict]]:
     """raw_chunks of an .npz or CSV file, time in the file's unit."""
     src = str(path)
+    if path.suffix.lower() == ".parquet":
+        from minparam_cli.measured.parquet import parquet_chunks
+
+        yield from parquet_chunks(path, n, opts)
+        return
     require_data_file(path)
     if path.suffix.lower() == ".npz":
         with open_npz(path) as z:
@@ -292,10 +297,8 @@ def _csv_chunks(path: Path, fh, header_line: str, width: int, rows: int) -> Iter
         background = path.stat().st_size > BACKGROUND_BYTES and sys.platform.startswith("linux")
         yield from _background(path, rows) if background else _sequential(fh, rows)
         return
-    for offset, block, lines in arrow_csv.blocks(path, len(raw), rows):
-        table = arrow_csv.parse(pacsv, block, width, lines)
-        del block
-        if table is None:  # numpy from here: its chunks start where this block starts
+    for offset, table in arrow_csv.tables(pacsv, path, len(raw), rows, width):
+        if table is None:  # numpy from here: its chunks start where this table starts
             import io
 
             with io.TextIOWrapper(open(path, "rb"), encoding="utf-8", errors="strict") as rest:
@@ -304,7 +307,6 @@ def _csv_chunks(path: Path, fh, header_line: str, width: int, rows: int) -> Iter
             return
         yield table
         del table
-    yield np.empty((0, width))
 
 
 def _loadtxt(fh, rows: int) -> np.ndarray:

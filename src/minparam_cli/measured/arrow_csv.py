@@ -17,7 +17,8 @@ from typing import Iterator
 
 import numpy as np
 
-READ_BYTES = 8 * 2**20
+READ_BYTES = 2**20
+PIECE_ROWS = 16_384  # lines parsed at once: pyarrow's buffers stay a few MB
 ENV = "MINPARAM_CSV_READER"  # "numpy" forces the numpy reader (benchmarks, tests, a suspected difference)
 
 
@@ -32,37 +33,49 @@ def csv_module():
     return pacsv
 
 
-def blocks(path, offset: int, rows: int) -> Iterator[tuple[int, bytes, int]]:
-    """(byte offset, bytes, lines) of the file from ``offset`` on, ``rows`` lines (cut after a
-    newline byte) a block; the last block holds what remains.  Bytes only: nothing is decoded here."""
+def _take_lines(fb, rest: bytes, want: int) -> tuple[bytes, int, bytes]:
+    """(bytes of the next ``want`` lines, or of what remains at the end of the file; their number of
+    lines; the bytes read past them), reading from ``fb`` after ``rest``."""
+    pieces, count = [rest], rest.count(b"\n")
+    while count < want:
+        more = fb.read(READ_BYTES)
+        if not more:
+            tail = b"".join(pieces)
+            return tail, count + (bool(tail) and not tail.endswith(b"\n")), b""
+        pieces.append(more)
+        count += more.count(b"\n")
+    last = pieces[-1]
+    k = want - (count - last.count(b"\n"))  # the cut is after the k-th newline of the last piece
+    cut = int(np.flatnonzero(np.frombuffer(last, np.uint8) == 10)[k - 1]) + 1
+    return b"".join(pieces[:-1] + [last[:cut]]), want, last[cut:]
+
+
+def tables(pacsv, path, offset: int, rows: int, width: int) -> Iterator[tuple[int, np.ndarray | None]]:
+    """(byte offset, table) for the file from ``offset`` on: tables of ``rows`` lines (the last one
+    shorter), each parsed in pieces of PIECE_ROWS lines so that memory stays near one table's;
+    a table pyarrow does not read exactly is None, and ends the sequence."""
     with open(path, "rb") as fb:
         fb.seek(offset)
-        rest = b""
-        pos = offset
+        rest, pos = b"", offset
         while True:
-            pieces, count = [rest], rest.count(b"\n")
-            while count < rows:
-                more = fb.read(READ_BYTES)
-                if not more:
+            out, filled, start = np.empty((rows, width)), 0, pos
+            while filled < rows:
+                want = min(PIECE_ROWS, rows - filled)
+                piece, lines, rest = _take_lines(fb, rest, want)
+                if not piece:
                     break
-                pieces.append(more)
-                count += more.count(b"\n")
-            if count < rows:  # the end of the file
-                tail = b"".join(pieces)
-                if tail:
-                    yield pos, tail, count + (not tail.endswith(b"\n"))
+                part = parse(pacsv, piece, width, lines)
+                if part is None:
+                    yield start, None
+                    return
+                out[filled : filled + lines] = part
+                filled += lines
+                pos += len(piece)
+                if lines < want:
+                    break
+            yield start, out[:filled]
+            if filled < rows:
                 return
-            # the rows-th newline lies in the last piece: find it there
-            last = pieces[-1]
-            before = count - last.count(b"\n")
-            k = rows - before  # that newline is the k-th of the last piece
-            cut_in_last = int(np.flatnonzero(np.frombuffer(last, np.uint8) == 10)[k - 1]) + 1
-            block = b"".join(pieces[:-1] + [last[:cut_in_last]])
-            rest = last[cut_in_last:]
-            del pieces, last
-            yield pos, block, rows
-            pos += len(block)
-            del block
 
 
 def parse(pacsv, block: bytes, width: int, lines: int) -> np.ndarray | None:
@@ -85,7 +98,7 @@ def parse(pacsv, block: bytes, width: int, lines: int) -> np.ndarray | None:
         return None
     if table.num_rows != lines or table.num_columns != width:
         return None
-    cols = np.empty((width, lines))  # column by column, each a contiguous copy of the parser's pieces
+    cols = np.empty((width, lines))  # column by column, each a contiguous copy of the parser's blocks
     for j in range(width):
         col = table.column(j)
         if col.null_count:
@@ -94,5 +107,4 @@ def parse(pacsv, block: bytes, width: int, lines: int) -> np.ndarray | None:
         for piece in col.chunks:
             cols[j, s : s + len(piece)] = piece.to_numpy(zero_copy_only=True)
             s += len(piece)
-    del table
-    return np.ascontiguousarray(cols.T)  # the row-major (lines, width) table numpy's reader makes
+    return cols.T  # (lines, width); the caller copies it into its row-major table
