@@ -24,7 +24,7 @@ import time
 from pathlib import Path
 
 import numpy as np
-from common import ROOT, minparam_cmd, run_process
+from common import ROOT, minparam_cmd
 from tabulate import tabulate
 
 ELAPSED = re.compile(r'"elapsed_s": [-+0-9.eE]+')
@@ -50,6 +50,19 @@ def write_recordings(folder: Path, count: int, duration: float) -> int:
                                          "--seed", str(i), "--duration", str(duration), "-o", str(folder / f"panda{i:03d}.csv"),
                                          "--quiet"], check=True, cwd=ROOT)
     return count * int(round(duration * 200))
+
+
+def run_timed(cmd: list[str]) -> tuple[float, float]:
+    """Wall time (s) and peak RSS (MB, GNU time) of one run of ``cmd``; its stderr is shown if it fails."""
+    with tempfile.NamedTemporaryFile("r") as rss:
+        full = ["/usr/bin/time", "-f", "%M", "-o", rss.name, *cmd] if os.path.exists("/usr/bin/time") else cmd
+        t0 = time.perf_counter()
+        p = subprocess.run(full, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True, cwd=ROOT)
+        t = time.perf_counter() - t0
+        if p.returncode != 0:
+            raise SystemExit(f"command failed ({p.returncode}): {' '.join(cmd)}\n{p.stderr[-3000:]}")
+        text = rss.read().strip().splitlines()
+    return t, (float(text[-1]) / 1024 if text else float("nan"))
 
 
 def timeless(path: Path) -> str:
@@ -80,14 +93,14 @@ def main() -> None:
             ref = {}
             for name, opts in configs:
                 out = tmp / "derive.json"
-                t, peak = run_process(minparam_cmd() + ["derive", str(tmp / "robots"), "-f", "json", "-q", "-o", str(out), *opts], repeats=1)
+                t, peak = run_timed(minparam_cmd() + ["derive", str(tmp / "robots"), "-f", "json", "-q", "-o", str(out), *opts])
                 ref.setdefault("derive", timeless(out))
                 same = timeless(out) == ref["derive"]
                 rows.append(["derive", name, f"{args.robots} robots", f"{t:.1f} s", f"{args.robots / t:.1f} robots/s", f"{peak:.0f} MB",
                              "yes" if same else "NO"])
                 folder = tmp / f"models{len(rows)}"
-                t, peak = run_process(minparam_cmd() + ["identify", "robots/panda.yaml", str(tmp / "recordings"), "-f", "json", "-q",
-                                                        "-o", str(folder), *opts], repeats=1)
+                t, peak = run_timed(minparam_cmd() + ["identify", "robots/panda.yaml", str(tmp / "recordings"), "-f", "json", "-q",
+                                                        "-o", str(folder), *opts])
                 ref.setdefault("identify", timeless(folder))
                 same = timeless(folder) == ref["identify"]
                 rows.append(["identify", name, f"{args.recordings} x {samples // args.recordings:,} samples", f"{t:.1f} s",

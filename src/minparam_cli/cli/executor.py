@@ -73,13 +73,14 @@ class DaskExecutor:
                     progress(done, n)
             out = []
             for item, fut in zip(items, futures):
-                if fut.status == "finished":
+                # result(), not the status: a result lost with its worker after the task finished is
+                # computed again by the scheduler, and result() waits for it
+                try:
                     out.append(fut.result())
-                    continue
-                err = fut.exception()
-                if on_lost is None:
-                    raise err
-                out.append(on_lost(item, err))
+                except Exception as err:  # noqa: BLE001 - KilledWorker, a cancelled task, ...: that item's error
+                    if on_lost is None:
+                        raise
+                    out.append(on_lost(item, err))
             for fut in futures:
                 fut.release()
         return out
