@@ -128,8 +128,9 @@ def test_a_worker_killed_mid_batch_loses_and_duplicates_nothing(tmp_path, cluste
 def test_identify_batch_on_the_cluster_matches_jobs_1(recordings, cluster, tmp_path):
     a, b = tmp_path / "local", tmp_path / "cluster"
     fast = ("--effects", "coulomb,viscous,offset")  # a small effect library keeps the test short
-    local = run("identify", "robots/planar2r.yaml", recordings, "-o", a, "--format", "json", "--quiet", *fast)
-    remote = run("identify", "robots/planar2r.yaml", recordings, "-o", b, "--format", "json", "--quiet", *fast,
+    robot = Path("robots/planar2r.yaml").resolve()  # a cluster is given absolute paths: the local run too
+    local = run("identify", robot, recordings, "-o", a, "--format", "json", "--quiet", *fast)
+    remote = run("identify", robot, recordings, "-o", b, "--format", "json", "--quiet", *fast,
                  "--scheduler", cluster.scheduler_address)
     assert local.exit_code == remote.exit_code == 2  # the broken recording
     assert remote.stdout == local.stdout  # the summary has no wall-clock field: byte-identical
@@ -192,3 +193,11 @@ def test_scheduler_needs_a_batch_and_a_reachable_scheduler(recordings, tmp_path,
     assert r.exit_code == 2 and "--scheduler runs a batch" in r.stderr
     r = run("derive", "robots/planar2r.yaml", "robots/planar3r.yaml", "--scheduler", "tcp://127.0.0.1:9", "-q")
     assert r.exit_code == 2 and "cannot reach a Dask scheduler there" in r.stderr
+
+
+def test_relative_paths_reach_workers_that_run_elsewhere(robots, cluster, monkeypatch):
+    """The workers' working folder is not the command's: relative paths are sent as absolute ones."""
+    monkeypatch.chdir(robots)  # the workers started in the repository root, where v000.yaml is not
+    r = run("derive", "v000.yaml", "v001.yaml", "--format", "jsonl", "--samples", "30", "--scheduler", cluster.scheduler_address)
+    assert r.exit_code == 0, r.output
+    assert [json.loads(line)["source"] for line in r.stdout.splitlines()] == [str(robots / "v000.yaml"), str(robots / "v001.yaml")]

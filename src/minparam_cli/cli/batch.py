@@ -43,6 +43,13 @@ def _run_one(fn: Callable, path: Path, args: tuple) -> dict:
         return {"path": str(path), "ok": False, "status": "error", "error": f"{path}: internal error: {type(e).__name__}: {e}", "exit_code": 1, "elapsed_s": time.perf_counter() - t0}
 
 
+def absolute(path) -> Path:
+    """``path`` from this process's working folder, as a cluster's workers must be given it."""
+    import os
+
+    return Path(os.path.abspath(path))
+
+
 def _lost(item: tuple, err: BaseException) -> dict:
     """The result of an item whose task never came back from the cluster (its workers kept dying)."""
     _, path, _ = item
@@ -57,9 +64,12 @@ def run_batch(fn: Callable, files: list, args: tuple | None, jobs: int = 1, prog
     order; never raises for one file.
 
     ``jobs`` worker processes on this machine, or, with ``scheduler``, the workers of the Dask
-    cluster at that address (``executor.DaskExecutor``); the results are the same either way."""
+    cluster at that address (``executor.DaskExecutor``), given the files as absolute paths; the
+    results are the same either way for files named by absolute paths."""
     from minparam_cli.cli.executor import DaskExecutor, make_executor
 
+    if scheduler:  # workers on other machines know nothing of this process's working folder
+        files = [absolute(f) for f in files]
     items = [(fn, f, per_item[i] if per_item is not None else args) for i, f in enumerate(files)]
     executor = make_executor(jobs if len(files) > 1 else 1, scheduler)
     if isinstance(executor, DaskExecutor):

@@ -144,14 +144,14 @@ def run_identify_batch(recordings: list[Recording], load, opts, nominal_prior: b
     """Identify every recording, write the outputs, print the summary; exit code as derive's batch."""
     import typer
 
-    from minparam_cli.cli.batch import run_batch
+    from minparam_cli.cli.batch import absolute, run_batch
     from minparam_cli.cli.common import Progress, error_line, output_folder, write_output
 
     folder = output_folder(output, "--output")
     bar = Progress(len(recordings), "identify", quiet)
     try:
         results = run_batch(identify_recording, [r.data for r in recordings], None, jobs, progress=bar, scheduler=scheduler,
-                            per_item=[(r.robot, load, opts, nominal_prior) for r in recordings])
+                            per_item=[(absolute(r.robot) if scheduler else r.robot, load, opts, nominal_prior) for r in recordings])
     finally:
         bar.close()
     rows = []
