@@ -79,7 +79,7 @@ def time_unit_option():
 
 def identify(
     robot: Path = typer.Argument(..., help="Robot description (YAML DH/MDH or URDF).", show_default=False),
-    data: Path = typer.Argument(..., help="Measured data: CSV with a header row, or .npz.", show_default=False),
+    data: Path = typer.Argument(..., help="Measured data: CSV with a header row, .npz, .parquet or a ROS bag; or a folder or manifest CSV (recording,robot) of recordings: a batch, with -o FOLDER.", show_default=False),
     validate: Optional[Path] = typer.Option(None, "--validate", help="Selection data (scores the candidate effects) in a second file, instead of a block of DATA."),
     test: List[Path] = typer.Option([], "--test", help="Test data file, touched only by the final report (repeatable); instead of the last block of DATA."),
     split: str = typer.Option("0.6,0.2,0.2", "--split", help="Shares of DATA's time span for fit, selection and test, in that order (shares given as files are dropped)."),
