@@ -4,8 +4,8 @@ cluster (--scheduler, a LocalCluster of two single-threaded worker processes on 
 started once before the timed runs as a standing cluster would be).
 
 Every run is the real command as a separate process (wall time, peak RSS of the client process);
-the JSON of every configuration is checked against --jobs 1 (wall-clock fields aside) before its
-time is reported.  Robots: seeded random 2- to 6-joint DH arms; recordings: `minparam simulate` of
+the JSON of every configuration is checked against --jobs 1 (wall-clock fields aside; every path
+absolute, as a cluster is given them) before its time is reported.  Robots: seeded random 2- to 6-joint DH arms; recordings: `minparam simulate` of
 the Panda (7 joints, Coulomb + viscous, noise), --duration seconds at 200 Hz each.
 
 Run: python benchmarks/bench_fleet.py [--robots 300] [--recordings 8] [--duration 20]
@@ -99,7 +99,7 @@ def main() -> None:
                 rows.append(["derive", name, f"{args.robots} robots", f"{t:.1f} s", f"{args.robots / t:.1f} robots/s", f"{peak:.0f} MB",
                              "yes" if same else "NO"])
                 folder = tmp / f"models{len(rows)}"
-                t, peak = run_timed(minparam_cmd() + ["identify", "robots/panda.yaml", str(tmp / "recordings"), "-f", "json", "-q",
+                t, peak = run_timed(minparam_cmd() + ["identify", str(ROOT / "robots" / "panda.yaml"), str(tmp / "recordings"), "-f", "json", "-q",
                                                         "-o", str(folder), *opts])
                 ref.setdefault("identify", timeless(folder))
                 same = timeless(folder) == ref["identify"]
