@@ -12,7 +12,7 @@ dies; nothing here schedules or transports anything itself.
 from __future__ import annotations
 
 import uuid
-from typing import Callable
+from collections.abc import Callable
 
 from minparam_cli.errors import InputError
 
@@ -77,7 +77,7 @@ class DaskExecutor:
                 # computed again by the scheduler, and result() waits for it
                 try:
                     out.append(fut.result())
-                except Exception as err:  # noqa: BLE001 - KilledWorker, a cancelled task, ...: that item's error
+                except Exception as err:
                     if on_lost is None:
                         raise
                     out.append(on_lost(item, err))

@@ -12,7 +12,7 @@ nearest double, so the values agree bit for bit (tests/test_fast_reader.py).
 from __future__ import annotations
 
 import os
-from typing import Iterator
+from collections.abc import Iterator
 
 import numpy as np
 
@@ -38,13 +38,13 @@ def _options(pacsv, width: int):
     import pyarrow as pa
 
     names = [f"c{j}" for j in range(width)]
-    return dict(
-        read_options=pacsv.ReadOptions(column_names=names, use_threads=True, block_size=BLOCK_BYTES),
-        parse_options=pacsv.ParseOptions(delimiter=",", quote_char=False, double_quote=False, escape_char=False,
-                                         newlines_in_values=False, ignore_empty_lines=False),
-        convert_options=pacsv.ConvertOptions(column_types={c: pa.float64() for c in names}, null_values=[],
-                                             strings_can_be_null=False, quoted_strings_can_be_null=False, check_utf8=True),
-    )
+    return {
+        "read_options": pacsv.ReadOptions(column_names=names, use_threads=True, block_size=BLOCK_BYTES),
+        "parse_options": pacsv.ParseOptions(delimiter=",", quote_char=False, double_quote=False, escape_char=False,
+                                            newlines_in_values=False, ignore_empty_lines=False),
+        "convert_options": pacsv.ConvertOptions(column_types={c: pa.float64() for c in names}, null_values=[],
+                                                strings_can_be_null=False, quoted_strings_can_be_null=False, check_utf8=True),
+    }
 
 
 def tables(pacsv, path, offset: int, rows: int, width: int) -> Iterator[tuple[int, np.ndarray | None]]:

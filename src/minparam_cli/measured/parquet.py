@@ -4,8 +4,8 @@ dropped and counted as a CSV row with a NaN).  The same tables as ``identify.rea
 
 from __future__ import annotations
 
+from collections.abc import Iterator
 from pathlib import Path
-from typing import Iterator
 
 import numpy as np
 
