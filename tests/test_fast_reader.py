@@ -24,7 +24,7 @@ HEADER = "t,q1,q2,dq1,dq2,ddq1,ddq2,tau1,tau2"
 @pytest.fixture(autouse=True)
 def _small_blocks(monkeypatch):
     """pyarrow's streaming reader returns a batch per block; 8 kB blocks (about 60 lines here) put
-    batch edges inside every 700-row table, as 4 MB blocks do in 200000-row chunks."""
+    batch edges inside every 700-row table, as 1 MB blocks do in 200000-row chunks."""
     from minparam_cli.measured import arrow_csv
 
     monkeypatch.setattr(arrow_csv, "BLOCK_BYTES", 8192)

@@ -1,8 +1,9 @@
 """Reading a data file chunk by chunk: the used columns (t, q, [dq], [ddq], tau) as one table.
 
-CSV is parsed by pyarrow's CSV reader when it is installed (``measured.arrow_csv``,
-the [arrow] extra), block by block, and by numpy's loadtxt (about 45 MB/s) from the
-first block pyarrow does not read exactly, or throughout without pyarrow.  Without
+CSV is parsed by pyarrow's streaming CSV reader when it is installed
+(``measured.arrow_csv``, the [arrow] extra), and by numpy's loadtxt (about 45 MB/s)
+from the first chunk holding a line pyarrow does not read as numbers, or throughout
+without pyarrow.  Without
 pyarrow, a file larger than BACKGROUND_BYTES is parsed by a second process, one
 chunk ahead of the chunk being processed, so that parsing runs on the other core
 beside the regressor and the factor updates.  The chunks, their values and the
@@ -282,9 +283,9 @@ def _loads(lines: list[str], width: int) -> bool:
 
 
 def _csv_chunks(path: Path, fh, header_line: str, width: int, rows: int) -> Iterator[np.ndarray]:
-    """The file's chunks of ``rows`` rows (every column), past the header: pyarrow's parser
-    (``measured.arrow_csv``) block by block while it reads each block exactly, numpy from the first
-    block it does not (the same chunks, values and errors; ValueError on a bad row)."""
+    """The file's chunks of ``rows`` rows (every column), past the header: pyarrow's reader
+    (``measured.arrow_csv``) while it reads every line as numbers, numpy from the start of the
+    first chunk where it does not (the same chunks, values and errors; ValueError on a bad row)."""
     from minparam_cli.measured import arrow_csv
 
     pacsv = arrow_csv.csv_module()
