@@ -10,7 +10,14 @@ fit over the full parameters, on the accumulated triangular factors: its
 program does not grow with the samples); the table then adds the solver's own
 time from the report [issue 13 target: <= 5 s for the convex solve].
 
-Run: python benchmarks/bench_identify.py [--sizes 100000,300000,1000000] [--physical]
+Each size is run with identify's two CSV readers (pyarrow's, the [arrow] extra,
+and numpy's loadtxt, forced with MINPARAM_CSV_READER=numpy) [issue 20 target:
+1 M samples x 7 joints <= 6 s end to end, peak <= 300 MB], and the table of
+parse throughput compares the readers alone (in this process, MB/s of CSV).
+A CPU calibration (a fixed numpy + Python loop, in s) is printed with the
+tables: on a shared machine, times scale with it.
+
+Run: python benchmarks/bench_identify.py [--sizes 100000,300000,1000000] [--physical] [--readers pyarrow,numpy]
 """
 
 from __future__ import annotations
@@ -20,6 +27,7 @@ import json
 import os
 import sys
 import tempfile
+import time
 from pathlib import Path
 
 import numpy as np
@@ -57,28 +65,61 @@ def write_data(path: Path, samples: int, seed: int = 0) -> None:
             np.savetxt(fh, np.hstack([t[:, None], q, dq, ddq, tau]), delimiter=",", fmt="%.9g")
 
 
+def calibration() -> float:
+    """Seconds of a fixed CPU task (numpy and Python): a slower figure means a busier machine."""
+    t0 = time.perf_counter()
+    a = np.random.default_rng(0).random(5_000_000)
+    for _ in range(5):
+        (a * 2.0).sum()
+    sum(range(3_000_000))
+    return time.perf_counter() - t0
+
+
+def parse_rate(path: Path, reader: str) -> float:
+    """MB/s of the reader alone: every chunk of the 7-joint file, nothing else."""
+    from minparam_cli.identify.data import DataOptions
+    from minparam_cli.identify.reading import raw_chunks
+
+    os.environ["MINPARAM_CSV_READER"] = reader
+    t0 = time.perf_counter()
+    for _ in raw_chunks(path, 7, DataOptions()):
+        pass
+    return os.path.getsize(path) / 1e6 / (time.perf_counter() - t0)
+
+
 def main() -> None:
     ap = argparse.ArgumentParser()
     ap.add_argument("--sizes", default="100000,300000,1000000")
     ap.add_argument("--physical", action="store_true", help="also time identify --physical")
+    ap.add_argument("--readers", default="pyarrow,numpy", help="CSV readers to compare (pyarrow needs the [arrow] extra)")
     args = ap.parse_args()
-    rows = []
+    readers = [r.strip() for r in args.readers.split(",") if r.strip()]
+    rows, rates = [], []
+    before = calibration()
     with tempfile.TemporaryDirectory() as tmp:
         for n in (int(x) for x in args.sizes.split(",")):
             data = Path(tmp) / f"panda_{n}.csv"
             write_data(data, n)
             size_mb = os.path.getsize(data) / 1e6
+            rates.append([f"{n:,}", f"{size_mb:.0f} MB"] + [f"{parse_rate(data, r):.0f} MB/s" for r in readers])
             report = Path(tmp) / "report.json"
-            for extra in ([], ["--physical"]) if args.physical else ([],):
-                cmd = minparam_cmd() + ["identify", "robots/panda.yaml", str(data), "--format", "json", "--quiet",
-                                        "-o", str(report), *extra]
-                t, peak = run_process(cmd, repeats=1)
-                solve = json.loads(report.read_text())["physical"]["elapsed_s"] if extra else None
-                rows.append([f"{n:,}", f"{size_mb:.0f} MB", "physical" if extra else "least squares", f"{t:.1f} s",
-                             "-" if solve is None else f"{solve:.2f} s", f"{peak:.0f} MB"])
+            for reader in readers:
+                os.environ["MINPARAM_CSV_READER"] = reader
+                for extra in ([], ["--physical"]) if args.physical else ([],):
+                    cmd = minparam_cmd() + ["identify", "robots/panda.yaml", str(data), "--format", "json", "--quiet",
+                                            "-o", str(report), *extra]
+                    t, peak = run_process(cmd, repeats=1)
+                    solve = json.loads(report.read_text())["physical"]["elapsed_s"] if extra else None
+                    rows.append([f"{n:,}", f"{size_mb:.0f} MB", reader, "physical" if extra else "least squares", f"{t:.1f} s",
+                                 "-" if solve is None else f"{solve:.2f} s", f"{peak:.0f} MB"])
             data.unlink()
+    os.environ.pop("MINPARAM_CSV_READER", None)
+    after = calibration()
     print("minparam identify, Panda (7 joints), CSV with q, dq, ddq, tau; Coulomb + viscous hidden; diagnosis on")
-    print(tabulate(rows, headers=["samples", "file", "fit", "wall time", "convex solve", "peak RSS"], tablefmt="github"))
+    print(tabulate(rows, headers=["samples", "file", "CSV reader", "fit", "wall time", "convex solve", "peak RSS"], tablefmt="github"))
+    print("\nCSV parsing alone (identify.reading.raw_chunks, all columns to float64), MB of CSV per second")
+    print(tabulate(rates, headers=["samples", "file"] + readers, tablefmt="github"))
+    print(f"\nCPU calibration (a fixed numpy + Python task; larger on a busier machine): {before:.2f} s before, {after:.2f} s after")
 
 
 if __name__ == "__main__":

@@ -16,6 +16,13 @@ import pytest
 from conftest import ROOT
 
 
+@pytest.fixture(autouse=True)
+def _numpy_reader(monkeypatch):
+    """These tests are about numpy's reader and its second process: pyarrow's reader
+    (measured/arrow_csv.py, tested in test_fast_reader.py) is switched off unless a test asks."""
+    monkeypatch.setenv("MINPARAM_CSV_READER", "numpy")
+
+
 def _write_rows(path, t, tail=b""):
     """A two-joint CSV (t, q, dq, ddq, tau) with times ``t``, every other value 1, then ``tail``."""
     rows = np.hstack([t[:, None], np.ones((len(t), 8))])
@@ -55,8 +62,9 @@ def test_a_bad_row_is_named_by_its_file_line_in_both_readers(tmp_path, monkeypat
     path = tmp_path / "d.csv"
     _write_rows(path, t)
     _bad_copy(path, no, line)
-    for limit in (1 << 40, 0):  # sequential, then in the second process
+    for reader, limit in (("numpy", 1 << 40), ("numpy", 0), ("pyarrow", 1 << 40)):  # sequential, second process, pyarrow
         monkeypatch.setattr(reading, "BACKGROUND_BYTES", limit)
+        monkeypatch.setenv("MINPARAM_CSV_READER", reader)
         with pytest.raises(DataError) as err:
             load_all(path, 2, DataOptions(chunk_rows=700))
         assert str(err.value) == f"{path}: " + expected.format(no=no)

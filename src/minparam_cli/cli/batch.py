@@ -43,21 +43,35 @@ def _run_one(fn: Callable, path: Path, args: tuple) -> dict:
         return {"path": str(path), "ok": False, "status": "error", "error": f"{path}: internal error: {type(e).__name__}: {e}", "exit_code": 1, "elapsed_s": time.perf_counter() - t0}
 
 
-def run_batch(fn: Callable, files: list[Path], args: tuple, jobs: int, progress=None) -> list[dict]:
-    """Apply fn(path, *args) to every file; results in input order; never raises for one file."""
-    results: list[dict] = []
-    if jobs <= 1 or len(files) <= 1:
-        for i, f in enumerate(files):
-            results.append(_run_one(fn, f, args))
-            if progress:
-                progress(i + 1, len(files))
-        return results
-    from concurrent.futures import ProcessPoolExecutor
+def absolute(path) -> Path:
+    """``path`` from this process's working folder, as a cluster's workers must be given it."""
+    import os
 
-    with ProcessPoolExecutor(max_workers=jobs) as pool:
-        futures = [pool.submit(_run_one, fn, f, args) for f in files]
-        for i, fut in enumerate(futures):
-            results.append(fut.result())
-            if progress:
-                progress(i + 1, len(files))
-    return results
+    return Path(os.path.abspath(path))
+
+
+def _lost(item: tuple, err: BaseException) -> dict:
+    """The result of an item whose task never came back from the cluster (its workers kept dying)."""
+    _, path, _ = item
+    text = " ".join(str(err).split())[:200] or type(err).__name__
+    return {"path": str(path), "ok": False, "status": "error", "error": f"{path}: the cluster lost this task ({type(err).__name__}: {text})",
+            "exit_code": 1, "elapsed_s": 0.0}
+
+
+def run_batch(fn: Callable, files: list, args: tuple | None, jobs: int = 1, progress=None, scheduler: str | None = None,
+              per_item: list[tuple] | None = None) -> list[dict]:
+    """Apply fn(path, *args) to every file (fn(files[i], *per_item[i]) when given); results in input
+    order; never raises for one file.
+
+    ``jobs`` worker processes on this machine, or, with ``scheduler``, the workers of the Dask
+    cluster at that address (``executor.DaskExecutor``), given the files as absolute paths; the
+    results are the same either way for files named by absolute paths."""
+    from minparam_cli.cli.executor import DaskExecutor, make_executor
+
+    if scheduler:  # workers on other machines know nothing of this process's working folder
+        files = [absolute(f) for f in files]
+    items = [(fn, f, per_item[i] if per_item is not None else args) for i, f in enumerate(files)]
+    executor = make_executor(jobs if len(files) > 1 else 1, scheduler)
+    if isinstance(executor, DaskExecutor):
+        return executor.map(_run_one, items, progress, on_lost=_lost)
+    return executor.map(_run_one, items, progress)

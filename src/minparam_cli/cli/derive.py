@@ -10,6 +10,7 @@ import typer
 
 from minparam_cli.cli.batch import expand_paths, run_batch
 from minparam_cli.cli.common import Format, MimicMode, Progress, error_line, floating_base_option, guarded, mimic_option, parse_floats, warning_line, write_output
+from minparam_cli.cli.executor import scheduler_option
 from minparam_cli.params import FRICTION_KINDS
 
 HELP = "Base (minimal) inertial parameters of a robot: which are identifiable and how the others regroup."
@@ -19,6 +20,7 @@ Examples:
   minparam derive robots/puma560_mdh.yaml --friction coulomb,viscous --rotor-inertia --format json
   minparam derive robots/panda.yaml --method projection --format latex -o panda.tex
   minparam derive robots/ --format jsonl --jobs 2
+  minparam derive robots/ --format json --scheduler tcp://head-node:8786    (needs the [cluster] extra)
   minparam derive so100.urdf --snap-angles 1e-4
   minparam derive panda.urdf --mimic fixed
   minparam derive solo12.urdf --floating-base
@@ -50,14 +52,15 @@ def derive(
     output: Optional[Path] = typer.Option(None, "--output", "-o", help="Write to this file (atomically) instead of stdout."),
     recursive: bool = typer.Option(False, "--recursive", "-r", help="Also search sub-folders."),
     jobs: int = typer.Option(1, "--jobs", "-j", min=1, help="Parallel worker processes for many robots."),
+    scheduler: Optional[str] = scheduler_option(),
     quiet: bool = typer.Option(False, "--quiet", "-q", help="No progress bar or notes on stderr."),
 ):
-    _derive(paths, method, fmt, friction, rotor_inertia, gravity, samples, seed, symbolic, snap_angles, output, recursive, jobs, quiet, mimic, floating_base)
+    _derive(paths, method, fmt, friction, rotor_inertia, gravity, samples, seed, symbolic, snap_angles, output, recursive, jobs, quiet, mimic, floating_base, scheduler)
 
 
 @guarded
 def _derive(paths, method, fmt, friction, rotor_inertia, gravity, samples, seed, symbolic, snap_angles, output, recursive, jobs, quiet,
-            mimic=MimicMode.coupled, floating_base=False):
+            mimic=MimicMode.coupled, floating_base=False, scheduler=None):
     from minparam_cli.pipeline import DeriveOptions, derive_file
 
     method = Method(method).value
@@ -91,7 +94,7 @@ def _derive(paths, method, fmt, friction, rotor_inertia, gravity, samples, seed,
 
     bar = Progress(len(files), "derive", quiet)
     try:
-        results = run_batch(derive_file, files, (opts,), jobs, progress=bar)
+        results = run_batch(derive_file, files, (opts,), jobs, progress=bar, scheduler=scheduler)
     finally:
         bar.close()
     write_output(render_batch(results, fmt, reports=not any_folder), output)

@@ -11,6 +11,7 @@ from typing import List, Optional
 import typer
 
 from minparam_cli.cli.common import MimicMode, Progress, guarded, mimic_option, parse_floats, save_png, write_output
+from minparam_cli.cli.executor import scheduler_option
 
 HELP = (
     "Identify the base parameters from measured joint data (CSV with a header row, .npz, or a ROS bag), find what the "
@@ -29,6 +30,8 @@ Examples:
   minparam identify robots/ur5.urdf run.mcap --topic /joint_states    (needs the [ros] extra)
   minparam identify robots/panda.yaml run.csv --friction coulomb,viscous --no-diagnose --essential
   minparam identify robots/panda.yaml a.csv b.csv c.csv --friction coulomb,viscous --consistency --plot figs/
+  minparam identify robots/panda.yaml fleet/ -o models/ --jobs 2       (every recording in fleet/)
+  minparam identify robots/panda.yaml fleet.csv -o models/ --scheduler tcp://head:8786   (manifest: recording,robot)
 
 \b
 Data: columns t, q1..qn, dq1..dqn, optional ddq1..ddqn, tau1..taun (rad, m, N·m, N).
@@ -84,7 +87,7 @@ def time_unit_option():
 
 def identify(
     robot: Path = typer.Argument(..., help="Robot description (YAML DH/MDH or URDF).", show_default=False),
-    data: List[Path] = typer.Argument(..., help="Measured data: CSV with a header row, or .npz (several recordings with --consistency).", show_default=False),
+    data: List[Path] = typer.Argument(..., help="Measured data: CSV with a header row, .npz, .parquet or a ROS bag (several recordings with --consistency); or one folder or manifest CSV (recording,robot) of recordings: a batch, with -o FOLDER.", show_default=False),
     validate: Optional[Path] = typer.Option(None, "--validate", help="Selection data (scores the candidate effects) in a second file, instead of a block of DATA."),
     test: List[Path] = typer.Option([], "--test", help="Test data file, touched only by the final report (repeatable); instead of the last block of DATA."),
     split: str = typer.Option("0.6,0.2,0.2", "--split", help="Shares of DATA's time span for fit, selection and test, in that order (shares given as files are dropped)."),
@@ -123,6 +126,8 @@ def identify(
     export_yaml: Optional[Path] = typer.Option(None, "--export-yaml", help="With --physical, for a YAML (DH/MDH) robot: write its YAML with the identified inertials."),
     mimic: MimicMode = mimic_option(),
     quiet: bool = typer.Option(False, "--quiet", "-q", help="No progress bar."),
+    jobs: int = typer.Option(1, "--jobs", "-j", min=1, help="Batch (DATA a folder or manifest of recordings): parallel worker processes."),
+    scheduler: Optional[str] = scheduler_option(),
 ):
     _identify(**locals())
 
@@ -137,7 +142,7 @@ def _split(text: str) -> tuple[float, float, float]:
 @guarded
 def _identify(robot, data, validate, test, split, columns, time_unit, topic, cutoff, force_filter, rate, decimate, trim_still, still_speed,
               friction, rotor_inertia, coulomb_smoothing, gravity, effects, no_diagnose, min_gain, physical, prior,
-              prior_weight, sigma, block_length, replicates, consistency, essential, essential_bound, ols, fmt, output, plot, seed, save_model, export_urdf, export_yaml, mimic, quiet):
+              prior_weight, sigma, block_length, replicates, consistency, essential, essential_bound, ols, fmt, output, plot, seed, save_model, export_urdf, export_yaml, mimic, quiet, jobs=1, scheduler=None):
     from minparam_cli.identify.data import DataOptions
     from minparam_cli.identify.diagnose import DiagnosisOptions
     from minparam_cli.identify.effects import EFFECT_IDS
@@ -208,6 +213,14 @@ def _identify(robot, data, validate, test, split, columns, time_unit, topic, cut
         uncertainty=_uncertainty(sigma, block_length, replicates, seed),
         essential=_essential(essential, essential_bound),
     )
+    if len(data) == 1:
+        from minparam_cli.cli.identify_batch import maybe_batch
+        from minparam_cli.identify.model import LoadSettings
+
+        load = LoadSettings(friction=kinds, rotor_inertia=rotor_inertia, gravity=g, coulomb_smoothing=coulomb_smoothing, mimic=MimicMode(mimic).value)
+        single = {"validate": validate, "test": test, "plot": plot, "save_model": save_model, "export_urdf": export_urdf, "export_yaml": export_yaml}
+        if maybe_batch(robot, data[0], opts, load, physical and prior == Prior.nominal, single, fmt == Fmt.json, output, jobs, scheduler, quiet):
+            return  # a folder or a manifest of recordings: cli/identify_batch.py
     if consistency or len(data) > 1:
         from minparam_cli.cli.identify_consistency import run_consistency
 

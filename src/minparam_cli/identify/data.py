@@ -192,6 +192,10 @@ def _file_time_span(path: Path, name: str, opts: DataOptions) -> tuple[float, fl
     from minparam_cli.identify.reading import _short, open_npz, require_data_file
     from minparam_cli.measured.columns import time_index
 
+    if path.suffix.lower() == ".parquet":
+        from minparam_cli.measured.parquet import parquet_time_span
+
+        return parquet_time_span(path, name)
     require_data_file(path)
     if path.suffix.lower() == ".npz":
         with open_npz(path) as z:

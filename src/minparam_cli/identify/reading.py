@@ -1,10 +1,13 @@
 """Reading a data file chunk by chunk: the used columns (t, q, [dq], [ddq], tau) as one table.
 
-CSV is parsed by numpy's loadtxt (about 45 MB/s).  A file larger than
-BACKGROUND_BYTES is parsed by a second process, one chunk ahead of the chunk
-being processed, so that parsing runs on the other core beside the
-regressor and the factor updates.  The chunks, their values and the error
-messages are the same either way.
+CSV is parsed by pyarrow's streaming CSV reader when it is installed
+(``measured.arrow_csv``, the [arrow] extra), and by numpy's loadtxt (about 45 MB/s)
+from the first chunk holding a line pyarrow does not read as numbers, or throughout
+without pyarrow.  Without
+pyarrow, a file larger than BACKGROUND_BYTES is parsed by a second process, one
+chunk ahead of the chunk being processed, so that parsing runs on the other core
+beside the regressor and the factor updates.  The chunks, their values and the
+error messages are the same every way.
 """
 
 from __future__ import annotations
@@ -72,6 +75,11 @@ def raw_chunks(path: Path, n: int, opts: DataOptions) -> Iterator[tuple[np.ndarr
 def _file_chunks(path: Path, n: int, opts: DataOptions) -> Iterator[tuple[np.ndarray, dict]]:
     """raw_chunks of an .npz or CSV file, time in the file's unit."""
     src = str(path)
+    if path.suffix.lower() == ".parquet":
+        from minparam_cli.measured.parquet import parquet_chunks
+
+        yield from parquet_chunks(path, n, opts)
+        return
     require_data_file(path)
     if path.suffix.lower() == ".npz":
         with open_npz(path) as z:
@@ -103,8 +111,7 @@ def _file_chunks(path: Path, n: int, opts: DataOptions) -> Iterator[tuple[np.nda
         idx = column_indices(header, n, opts.columns, src)
         layout = _layout({k: ix is not None for k, ix in idx.items()}, n)
         used = [c for k in KEYS if idx[k] is not None for c in idx[k]]
-        background = path.stat().st_size > BACKGROUND_BYTES and sys.platform.startswith("linux")
-        chunks = _background(path, opts.chunk_rows) if background else _sequential(fh, opts.chunk_rows)
+        chunks = _csv_chunks(path, fh, header_line, len(header), opts.chunk_rows)
         line_no = 1
         try:
             while True:
@@ -287,6 +294,34 @@ def _loads(lines: list[str], width: int) -> bool:
         except ValueError:
             return False
     return table.size == 0 or table.shape[1] == width
+
+
+def _csv_chunks(path: Path, fh, header_line: str, width: int, rows: int) -> Iterator[np.ndarray]:
+    """The file's chunks of ``rows`` rows (every column), past the header: pyarrow's reader
+    (``measured.arrow_csv``) while it reads every line as numbers, numpy from the start of the
+    first chunk where it does not (the same chunks, values and errors; ValueError on a bad row)."""
+    from minparam_cli.measured import arrow_csv
+
+    pacsv = arrow_csv.csv_module()
+    raw = _header_bytes(path) if pacsv is not None else b""
+    try:
+        same = raw.endswith(b"\n") and raw.decode("utf-8").replace("\r\n", "\n") == header_line
+    except UnicodeDecodeError:
+        same = False
+    if pacsv is None or not same:  # no pyarrow, or a header line that is not \n-terminated as the reader's
+        background = path.stat().st_size > BACKGROUND_BYTES and sys.platform.startswith("linux")
+        yield from _background(path, rows) if background else _sequential(fh, rows)
+        return
+    for offset, table in arrow_csv.tables(pacsv, path, len(raw), rows, width):
+        if table is None:  # numpy from here: its chunks start where this table starts
+            import io
+
+            with io.TextIOWrapper(open(path, "rb"), encoding="utf-8", errors="strict") as rest:
+                rest.buffer.seek(offset)
+                yield from _sequential(rest, rows)
+            return
+        yield table
+        del table
 
 
 def _loadtxt(fh, rows: int) -> np.ndarray:

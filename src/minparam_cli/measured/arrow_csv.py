@@ -1,0 +1,114 @@
+"""The fast CSV path of ``identify``: pyarrow's C++ CSV parser (optional extra ``minparam[arrow]``).
+
+numpy's loadtxt parses about 45 MB/s; pyarrow's streaming reader several times that.  It is only a
+faster way to the same numbers: its rows fill tables of exactly ``rows`` lines (the chunks numpy's
+reader makes), and a line pyarrow does not read as the header's width of numbers (a comment, a
+blank line, quotes, an empty cell, a word where a number belongs, bytes that are not UTF-8) makes
+``identify.reading`` read the table it falls in, and the rest of the file, with numpy, whose values
+and one-line error messages are then the ones reported.  Both parsers round decimal text to the
+nearest double, so the values agree bit for bit (tests/test_fast_reader.py).
+"""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Iterator
+
+import numpy as np
+
+READ_BYTES = 2**20
+BLOCK_BYTES = 2**20  # pyarrow's streaming block: 1 MB keeps its read-ahead buffers small (4 MB: +120 MB peak)
+ENV = "MINPARAM_CSV_READER"  # "numpy" forces the numpy reader (benchmarks, tests, a suspected difference)
+
+
+def csv_module():
+    """pyarrow.csv, or None when pyarrow is not installed or the numpy reader is asked for."""
+    if os.environ.get(ENV, "").strip().lower() == "numpy":
+        return None
+    try:
+        import pyarrow.csv as pacsv
+    except ImportError:
+        return None
+    return pacsv
+
+
+def _options(pacsv, width: int):
+    """pyarrow's options for a table of ``width`` numbers a line: no quotes, no nulls, no empty
+    lines (each of those is an error here, so that numpy's reader decides)."""
+    import pyarrow as pa
+
+    names = [f"c{j}" for j in range(width)]
+    return {
+        "read_options": pacsv.ReadOptions(column_names=names, use_threads=True, block_size=BLOCK_BYTES),
+        "parse_options": pacsv.ParseOptions(delimiter=",", quote_char=False, double_quote=False, escape_char=False,
+                                            newlines_in_values=False, ignore_empty_lines=False),
+        "convert_options": pacsv.ConvertOptions(column_types={c: pa.float64() for c in names}, null_values=[],
+                                                strings_can_be_null=False, quoted_strings_can_be_null=False, check_utf8=True),
+    }
+
+
+def tables(pacsv, path, offset: int, rows: int, width: int) -> Iterator[tuple[int, np.ndarray | None]]:
+    """(byte offset, table) for the file from ``offset`` on: tables of ``rows`` lines (the last one
+    shorter), from pyarrow's streaming reader (its C++ tokenizer cuts the lines; a few MB of the
+    file in memory at a time).  When pyarrow refuses a line, the table it falls in is None, at the
+    byte offset where that table starts, and the sequence ends."""
+    import pyarrow as pa
+
+    f = pa.OSFile(str(path), "r")
+    done = 0  # lines in the tables yielded
+    try:
+        f.seek(offset)
+        try:
+            reader = pacsv.open_csv(f, **_options(pacsv, width))
+        except (pa.ArrowException, ValueError):
+            yield offset, None
+            return
+        out, filled = np.empty((rows, width)), 0
+        while True:
+            try:
+                batch = reader.read_next_batch()
+            except StopIteration:
+                break
+            except (pa.ArrowException, ValueError):
+                yield after_lines(path, offset, done), None
+                return
+            if batch.num_columns != width or any(batch.column(j).null_count for j in range(width)):
+                yield after_lines(path, offset, done), None
+                return
+            k, n = 0, batch.num_rows
+            while k < n:
+                take = min(rows - filled, n - k)
+                for j in range(width):  # straight into the row-major table: one copy
+                    out[filled : filled + take, j] = batch.column(j).to_numpy(zero_copy_only=True)[k : k + take]
+                filled, k = filled + take, k + take
+                if filled == rows:
+                    yield -1, out
+                    done += rows
+                    out, filled = np.empty((rows, width)), 0
+        yield -1, out[:filled]
+    finally:
+        f.close()
+
+
+def after_lines(path, offset: int, lines: int) -> int:
+    """Byte offset after ``lines`` lines from ``offset``, a line ending at \\n, \\r\\n or a lone \\r (as
+    numpy's text reader and pyarrow's count them).  Only where pyarrow hands over to numpy."""
+    import re
+
+    if lines == 0:
+        return offset
+    ends = re.compile(rb"\r\n|\r|\n")
+    with open(path, "rb") as fb:
+        fb.seek(offset)
+        pos, carry = offset, b""
+        while True:
+            data = fb.read(READ_BYTES)
+            if not data:
+                return pos + len(carry)
+            buf = carry + data
+            scan = buf[:-1] if buf.endswith(b"\r") else buf  # a \r at the end may be half of \r\n
+            for m in ends.finditer(scan):
+                lines -= 1
+                if lines == 0:
+                    return pos + m.end()
+            pos, carry = pos + len(scan), buf[len(scan):]
