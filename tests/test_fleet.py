@@ -120,7 +120,8 @@ def test_a_worker_killed_mid_batch_loses_and_duplicates_nothing(tmp_path, cluste
     assert runs.count("v007.yaml") == 2  # started on the killed worker, run again on a live one
     assert [r["path"] for r in remote] == [str(f) for f in files]
     assert all(r["ok"] for r in remote)
-    strip = lambda rs: [{**r["result"], "elapsed_s": 0} for r in rs]
+    def strip(rs):
+        return [{**r["result"], "elapsed_s": 0} for r in rs]
     assert strip(remote) == strip(local)
     assert done == list(range(1, len(files) + 1))  # the bar counted each item once
 
