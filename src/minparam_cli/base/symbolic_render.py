@@ -33,21 +33,39 @@ def symbol_latex(name: str) -> str:
     return r"\mathrm{" + name.replace("_", r"\_") + "}"
 
 
-def coefficient_expr(fit, symbols):
-    """The sympy polynomial of one fitted coefficient."""
+def _half_angle_candidates(e, t, th):
+    """e(t), t = tan(th/2), rewritten with cos th and sin th: the shortest of a few exact forms."""
     import sympy as sp
 
-    total = sp.Integer(0)
-    for mono, frac in fit.terms:
-        term = sp.Rational(frac.numerator, frac.denominator)
-        for k, e in zip(fit.length_vars, mono.length_exps):
-            term *= sp.Symbol(symbols[k].name) ** e
-        for k, code in zip(fit.angle_vars, mono.angle_codes):
-            th = sp.Symbol(symbols[k].name)
-            c, s = sp.cos(th), sp.sin(th)
-            term *= (sp.Integer(1), c, s, c * c, c * s)[code]
-        total += term
-    return sp.expand(total)
+    c, s = sp.Dummy("c"), sp.Dummy("s")
+    circle = s**2 + c**2 - 1
+    out = []
+    for sub in (s / (1 + c), (1 - c) / s):
+        num, den = sp.fraction(sp.together(e.subs(t, sub)))
+        num, den = sp.rem(sp.expand(num), circle, s), sp.rem(sp.expand(den), circle, s)
+        out.append(sp.cancel(num / den))
+        d1 = sp.expand(den).coeff(s, 1)
+        if d1 != 0:  # clear sin from the denominator with its conjugate
+            d0 = sp.expand(den).coeff(s, 0)
+            n2 = sp.rem(sp.expand(num * (d0 - d1 * s)), circle, s)
+            d2 = sp.expand(d0**2 - d1**2 * (1 - c**2))
+            out.append(sp.cancel(n2 / d2))
+    out = [sp.factor(x) for x in out] + out
+    best = min(out, key=lambda x: (len(str(x)), str(x)))
+    return best.subs({c: sp.cos(th), s: sp.sin(th)})
+
+
+def field_to_sympy(value, fs):
+    """An element of Q(symbols) (``symbolic_frames.Arith``) as a sympy expression in the geometry
+    symbols: half-angle tangents t_<angle> turned back into cos/sin of the angle."""
+    import sympy as sp
+
+    e = value.as_expr()
+    for a in fs.angles:
+        t = sp.Symbol(f"t_{a}")
+        if e.has(t):
+            e = _half_angle_candidates(e, t, sp.Symbol(a))
+    return e
 
 
 def _compact(expr):
@@ -71,18 +89,19 @@ def base_parameter_expressions(result) -> list[dict]:
 
     from minparam_cli.render.text import latex_name
 
-    generic, fits, symbols = result["generic"], result["fits"], result["symbols"]
+    generic, coefficients, symbols = result["generic"], result["coefficients"], result["symbols"]
     names = generic.standard_names
     dependent = generic.dependent
     latex_symbols = {sp.Symbol(s.name): symbol_latex(s.name) for s in symbols}
+    latex_symbols.update({sp.Symbol(k): symbol_latex(k) for k in result.get("gravity", {})})
     out = []
     for i, bname in enumerate(generic.base_names):
         groups: dict = {}
         for jj, col in enumerate(dependent):
-            fit = fits.get((i, jj))
-            if fit is None or not fit.terms:
+            coef = coefficients.get((i, jj))
+            if coef is None or coef == 0:
                 continue
-            groups.setdefault(coefficient_expr(fit, symbols), []).append(names[col])
+            groups.setdefault(coef, []).append(names[col])
         head = names[generic.kept[i]]
         plain, text, tex = [head], [head], [latex_name(head)]
         for coef, params in groups.items():
@@ -120,6 +139,14 @@ def latex_block(items: list[dict], comment: str) -> str:
     return "\n".join(lines) + "\n"
 
 
+def refused_fields(report: dict, reason: str, elapsed_s: float) -> dict:
+    """A copy of ``report`` saying why there is no symbolic set (the numeric set stays)."""
+    report = dict(report)
+    report["symbolic_verification"] = {"passed": False, "refused": reason, "elapsed_s": round(elapsed_s, 6)}
+    report["symbolic_notes"] = [f"no symbolic set: {reason}"]
+    return report
+
+
 def symbolic_fields(report: dict, result: dict) -> dict:
     """A copy of ``report`` with the symbolic fields of ``result`` added."""
     report = dict(report)
@@ -128,7 +155,9 @@ def symbolic_fields(report: dict, result: dict) -> dict:
     notes = []
     for name, v in result["adjusted"].items():
         notes.append(f"{name} is given as {v[0]!r} rad, taken as exactly {v[1]:d} deg (a right angle, not a symbol)")
-    report["symbols"] = {s.name: s.value for s in result["symbols"]}
+    report["symbols"] = {s.name: s.value for s in result["symbols"]} | dict(result.get("gravity", {}))
+    for name in result.get("shifts", ()):
+        notes.append(f"{name} only shifts its joint's coordinate: the regrouping does not depend on it")
     report["generic_n_base"] = generic.n_base
     ver["elapsed_s"] = round(result["elapsed_s"], 6)
     report["symbolic_verification"] = ver
