@@ -129,6 +129,19 @@ def _float_values(fs, rng) -> dict:
     return out
 
 
+def _rational_values(fs, rng) -> dict:
+    """Random rational values: lengths and gravity terms p/q, angles by their half-angle tangent."""
+    from fractions import Fraction
+
+    def r(lo, hi):
+        return Fraction(int(rng.integers(lo, hi)), int(rng.integers(1, 17)))
+
+    out = {name: r(-40, 41) or Fraction(1, 3) for name in fs.lengths}
+    out.update({name: r(-40, 41) for name in fs.angles})
+    out.update({name: r(50, 200) for name, _, _ in fs.gravity})
+    return out
+
+
 def exact_coefficients(desc, chain, symbols, pins, generic: BaseSet, rng):
     """{(base row, index into generic.dependent): field element} and the field's symbols."""
     from minparam_cli.base.symbolic_exact import exact_relations, numeric_relations, regrouping, stage1
@@ -140,7 +153,8 @@ def exact_coefficients(desc, chain, symbols, pins, generic: BaseSet, rng):
     cols = stage1(desc, chain, ar, transforms)
     far = Arith(fs, pins, _float_values(fs, rng))
     _, relations = numeric_relations(desc, chain, cols, far, joint_transforms(desc, far), rng)
-    forms = exact_relations(desc, chain, cols, ar, transforms, relations, rng)
+    rat = Arith(fs, pins, _rational_values(fs, rng), rational=True)
+    forms = exact_relations(desc, chain, cols, ar, transforms, relations, rng, rat, joint_transforms(desc, rat))
     coef = regrouping(forms, generic.kept, generic.dependent, generic.unidentifiable, ar, desc.source)
     stats = {"grouped_columns": len(cols), "relations": len(relations),
              "largest_relation": max((len(v) for v in relations.values()), default=0)}

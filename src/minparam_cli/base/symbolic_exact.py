@@ -121,15 +121,22 @@ def stage1(desc, chain, ar: Arith, transforms) -> list[Column]:
     return cols
 
 
-def column_values(desc, cols, ar: Arith, transforms, state) -> list:
-    """w_k at one state (None for 'free' columns)."""
+def _link_of(c: Column) -> int:
+    return c.where[1] if c.where[0] != "free" else -1
+
+
+def column_values(desc, cols, ar: Arith, transforms, state, only=None) -> list:
+    """w_k at one state (None for 'free' columns and for columns not in ``only``)."""
     cq, sq, q, qd = state
-    e = energy_coefficients(desc, transforms, ar, cq, sq, q, qd)
+    upto = None if only is None else max((_link_of(cols[k]) for k in only), default=-1)
+    e = energy_coefficients(desc, transforms, ar, cq, sq, q, qd, upto)
     out = []
     half = ar.const(Fraction(1, 2))
-    for c in cols:
+    for k, c in enumerate(cols):
         w = c.where
-        if w[0] == "link":
+        if only is not None and k not in only:
+            out.append(None)
+        elif w[0] == "link":
             out.append(e[w[1]][w[2]])
         elif w[0] == "rotor":
             out.append(half * qd[w[1]] * qd[w[1]])
@@ -221,22 +228,41 @@ def solve_dense(rows: list[list], rhs: list, zero):
     return [A[i][m] for i in range(m)]
 
 
-def exact_relations(desc, chain, cols, ar: Arith, transforms, relations, rng):
-    """Stage 2: exact c for every numeric relation; the forms moved onto the independent ones."""
-    states: list[list] = []
+def exact_relations(desc, chain, cols, ar: Arith, transforms, relations, rng, rat: Arith, rat_transforms):
+    """Stage 2: exact c for every numeric relation; the forms moved onto the independent ones.
 
-    def values(i):
+    ``rat``: the rational arithmetic at a random rational geometry, where vanishing columns are
+    checked (exactly, in Fractions)."""
+    states: list = []  # rational states, shared by every relation
+
+    def state(i):
         while len(states) <= i:
-            states.append(column_values(desc, cols, ar, transforms, rational_state(chain.n, rng, ar)))
+            states.append(rational_state(chain.n, rng, ar))
         return states[i]
 
+    cache: dict = {}
+
+    def values(i, only):
+        key = (i, max(_link_of(cols[k]) for k in only))
+        if key not in cache:
+            cache[key] = column_values(desc, cols, ar, transforms, state(i), only=set(k for k in range(len(cols)) if _link_of(cols[k]) <= key[1]))
+        return cache[key]
+
     forms = {k: dict(c.form) for k, c in enumerate(cols)}
+    zero_cols = [d for d, support in relations.items() if not support]
+    if zero_cols:
+        rs = [rational_state(chain.n, rng, rat) for _ in range(2)]
+        v1, v0 = (column_values(desc, cols, rat, rat_transforms, s, only=set(zero_cols)) for s in rs)
+        for d in zero_cols:
+            if v1[d] - v0[d]:
+                raise ComputationError(f"{desc.source}: column {cols[d].label} vanishes at a random geometry but not exactly")
     for d, support in relations.items():
         if support:
             need = len(support) + 2
             rows, rhs = [], []
+            only = set(support) | {d}
             for i in range(1, need):
-                v, v0 = values(i), values(0)
+                v, v0 = values(i, only), values(0, only)
                 rows.append([v[k] - v0[k] for k in support])
                 rhs.append(v[d] - v0[d])
             coef = solve_dense(rows, rhs, ar.zero)
@@ -247,10 +273,6 @@ def exact_relations(desc, chain, cols, ar: Arith, transforms, relations, rng):
             for k, c in zip(support, coef):
                 if c:
                     _axpy(forms[k], c, forms[d])
-        else:
-            v, v0 = values(1), values(0)
-            if v[d] - v0[d]:
-                raise ComputationError(f"{desc.source}: column {cols[d].label} vanishes at a random geometry but not exactly")
         forms.pop(d)
     return forms
 

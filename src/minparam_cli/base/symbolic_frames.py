@@ -101,9 +101,16 @@ def refuse_unsupported(desc, chain) -> None:
 class Arith:
     """Numbers of one computation: field elements (exact) or floats, and the geometry in them."""
 
-    def __init__(self, fs: FieldSymbols, pins: dict, values: dict | None = None):
+    def __init__(self, fs: FieldSymbols, pins: dict, values: dict | None = None, rational: bool = False):
+        """values None: the field Q(symbols); else floats (angles in rad) or, with ``rational``,
+        Fractions (angles given by their half-angle tangent t)."""
         self.fs, self.pins = fs, pins
-        if values is None:  # exact: the rational function field
+        self.rational = rational
+        if rational:
+            self.F, self.gen = None, values
+            self.one, self.zero = Fraction(1), Fraction(0)
+            self.exact = False
+        elif values is None:  # exact: the rational function field
             from sympy import QQ
             from sympy.polys.fields import field
 
@@ -118,6 +125,8 @@ class Arith:
             self.exact = False
 
     def const(self, x):
+        if self.rational:
+            return Fraction(x)
         if self.exact:
             from sympy import QQ
 
@@ -142,6 +151,8 @@ class Arith:
             den = self.one + t * t
             return (self.one - t * t) / den, (t + t) / den
         v = self.gen[gv.symbol]
+        if self.rational:
+            return (1 - v * v) / (1 + v * v), 2 * v / (1 + v * v)
         return math.cos(v), math.sin(v)
 
     def gravity(self):
@@ -155,7 +166,7 @@ class Arith:
 
 
 def matmul(a, b, zero):
-    return [[sum((a[i][k] * b[k][j] for k in range(len(b))), zero) for j in range(len(b[0]))] for i in range(len(a))]
+    return [[sum((a[i][k] * b[k][j] for k in range(len(b)) if a[i][k] and b[k][j]), zero) for j in range(len(b[0]))] for i in range(len(a))]
 
 
 def transpose(a):
@@ -163,7 +174,7 @@ def transpose(a):
 
 
 def matvec(a, v, zero):
-    return [sum((a[i][k] * v[k] for k in range(len(v))), zero) for i in range(len(a))]
+    return [sum((a[i][k] * v[k] for k in range(len(v)) if a[i][k] and v[k]), zero) for i in range(len(a))]
 
 
 def cross(a, b):
@@ -258,12 +269,13 @@ def transfer_matrix(T, ar: Arith):
 # --- the Lagrangian's coefficient functions at one state ----------------------
 
 
-def energy_coefficients(desc, transforms, ar: Arith, cq, sq, q, qd):
+def energy_coefficients(desc, transforms, ar: Arith, cq, sq, q, qd, upto: int | None = None):
     """Per joint j, the 10 functions e with L_j = e · φ'_j for link j's parameters φ'_j in its
     joint frame J'_j = F_parent · P_j · Motion_z(q_j) (see ``joint_transforms``).
 
     cq, sq: cos and sin of each revolute joint's q (any numbers of the arithmetic with
-    cq² + sq² = 1); q: each prismatic joint's q; qd: every joint's rate."""
+    cq² + sq² = 1); q: each prismatic joint's q; qd: every joint's rate.  ``upto``: only the
+    joints up to this index (a link's energy depends on its ancestors only)."""
     zero, one = ar.zero, ar.one
     g0 = ar.gravity()
     n = len(desc.joints)
@@ -271,6 +283,8 @@ def energy_coefficients(desc, transforms, ar: Arith, cq, sq, q, qd):
     out = []
     half = ar.const(Fraction(1, 2))
     for j, jr in enumerate(desc.joints):
+        if upto is not None and j > upto:
+            break
         P, A = transforms[j]
         if jr.parent < 0:
             R0 = [[one, zero, zero], [zero, one, zero], [zero, zero, one]]

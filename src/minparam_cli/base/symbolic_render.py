@@ -19,7 +19,7 @@ import re
 GREEK = {
     "alpha", "beta", "gamma", "delta", "epsilon", "theta", "phi", "psi", "rho", "sigma", "tau", "omega", "eta", "mu", "nu", "xi", "zeta", "kappa", "lambda", "chi",
 }
-SUPERSCRIPTS = str.maketrans("0123456789", "⁰¹²³⁴⁵⁶⁷⁸⁹")
+SUPERSCRIPTS = str.maketrans("0123456789-", "⁰¹²³⁴⁵⁶⁷⁸⁹⁻")
 
 
 def symbol_latex(name: str) -> str:
@@ -33,26 +33,28 @@ def symbol_latex(name: str) -> str:
     return r"\mathrm{" + name.replace("_", r"\_") + "}"
 
 
-def _half_angle_candidates(e, t, th):
-    """e(t), t = tan(th/2), rewritten with cos th and sin th: the shortest of a few exact forms."""
+def _half_angle_basis(k: int, j: int, c, s):
+    """t^j / (1 + t²)^k with t = tan(θ/2), as a polynomial in c = cos θ, s = sin θ (j <= 2k):
+    sin^j(θ/2) cos^(2k−j)(θ/2), paired into sin²(θ/2) = (1 − c)/2, cos²(θ/2) = (1 + c)/2 and
+    sin(θ/2) cos(θ/2) = s/2."""
+    if j % 2 == 0:
+        return ((1 - c) / 2) ** (j // 2) * ((1 + c) / 2) ** (k - j // 2)
+    return (s / 2) * ((1 - c) / 2) ** ((j - 1) // 2) * ((1 + c) / 2) ** ((2 * k - j - 1) // 2)
+
+
+def _untangent(num, den, t, th):
+    """num/den (polynomials in t = tan(θ/2)) as a quotient of polynomials in cos θ, sin θ: both
+    divided by (1 + t²)^k, 2k >= their degree in t (exact: no simplification is needed)."""
     import sympy as sp
 
-    c, s = sp.Dummy("c"), sp.Dummy("s")
-    circle = s**2 + c**2 - 1
-    out = []
-    for sub in (s / (1 + c), (1 - c) / s):
-        num, den = sp.fraction(sp.together(e.subs(t, sub)))
-        num, den = sp.rem(sp.expand(num), circle, s), sp.rem(sp.expand(den), circle, s)
-        out.append(sp.cancel(num / den))
-        d1 = sp.expand(den).coeff(s, 1)
-        if d1 != 0:  # clear sin from the denominator with its conjugate
-            d0 = sp.expand(den).coeff(s, 0)
-            n2 = sp.rem(sp.expand(num * (d0 - d1 * s)), circle, s)
-            d2 = sp.expand(d0**2 - d1**2 * (1 - c**2))
-            out.append(sp.cancel(n2 / d2))
-    out = [sp.factor(x) for x in out] + out
-    best = min(out, key=lambda x: (len(str(x)), str(x)))
-    return best.subs({c: sp.cos(th), s: sp.sin(th)})
+    c, s = sp.cos(th), sp.sin(th)
+    pn, pd = sp.Poly(num, t), sp.Poly(den, t)
+    k = -(-max(pn.degree(), pd.degree()) // 2)
+
+    def conv(p):
+        return sp.expand(sum(coef * _half_angle_basis(k, m[0], c, s) for m, coef in p.terms()))
+
+    return conv(pn), conv(pd)
 
 
 def field_to_sympy(value, fs):
@@ -60,25 +62,25 @@ def field_to_sympy(value, fs):
     symbols: half-angle tangents t_<angle> turned back into cos/sin of the angle."""
     import sympy as sp
 
-    e = value.as_expr()
+    num, den = value.numer.as_expr(), value.denom.as_expr()
+    touched = False
     for a in fs.angles:
         t = sp.Symbol(f"t_{a}")
-        if e.has(t):
-            e = _half_angle_candidates(e, t, sp.Symbol(a))
-    return e
+        if num.has(t) or den.has(t):
+            num, den = _untangent(num, den, t, sp.Symbol(a))
+            touched = True
+    return sp.cancel(num / den) if touched else num / den
 
 
 def _compact(expr):
     import sympy as sp
 
     candidates = [sp.factor(expr), expr]  # ties go to the factored form
-    if expr.has(sp.sin, sp.cos):
-        t = sp.trigsimp(expr)
-        candidates += [sp.factor(t), t]
     return min(candidates, key=lambda e: len(str(e)))
 
 
 def _text(s: str) -> str:
+    s = re.sub(r"\*\*\((-\d+)\)", lambda m: m.group(1).translate(SUPERSCRIPTS), s)
     s = re.sub(r"\*\*(\d+)", lambda m: m.group(1).translate(SUPERSCRIPTS), s)
     return s.replace("*", "·")
 
