@@ -9,9 +9,8 @@ rational function field Q(symbols) (``GeometryField``), where it is exact.
 Symbols of the field (docs/methods/symbolic.md):
 
 * a length (a, d, URDF x/y/z) that is not zero: its own symbol;
-* an angle that is not a multiple of 90°: the half-angle tangent ``t`` with
-  cos = (1 − t²)/(1 + t²), sin = 2t/(1 + t²), so that cos² + sin² = 1 holds in
-  the field itself (no side relation, exact zero test);
+* an angle that is not a multiple of 90°: two symbols, its sine and cosine, with
+  sin² + cos² = 1 kept by a normal form (``symbolic_poly``: exact zero test);
 * gravity: ``g`` (its magnitude) when the file's gravity is along a base axis,
   else one symbol per nonzero component;
 * the offset of a joint's own coordinate (θ of a revolute DH/MDH joint, d of a
@@ -37,7 +36,7 @@ class FieldSymbols:
     """The names of the exact computation: geometry symbols, gravity symbols, shift symbols."""
 
     lengths: tuple[str, ...]
-    angles: tuple[str, ...]  # each enters through t_<name> = tan(angle / 2)
+    angles: tuple[str, ...]  # each enters through sin_<name>, cos_<name>
     gravity: tuple[tuple[str, int, int], ...]  # (symbol, base axis 0..2, sign)
     gravity_values: dict
     shifts: tuple[str, ...]  # symbols that only shift a joint coordinate (taken as 0)
@@ -110,13 +109,13 @@ class Arith:
             self.F, self.gen = None, values
             self.one, self.zero = Fraction(1), Fraction(0)
             self.exact = False
-        elif values is None:  # exact: the rational function field
-            from sympy import QQ
-            from sympy.polys.fields import field
+        elif values is None:  # exact: fractions over Q[lengths, sin/cos of angles, gravity]
+            from minparam_cli.base.symbolic_poly import ExactContext
 
-            names = list(fs.lengths) + [f"t_{a}" for a in fs.angles] + [g for g, _, _ in fs.gravity]
-            self.F, *gens = field(",".join(names), QQ) if names else (field("_unused", QQ)[0],)
-            self.gen = dict(zip(names, gens))
+            pairs = [(f"sin_{a}", f"cos_{a}") for a in fs.angles]
+            names = list(fs.lengths) + [x for p in pairs for x in p] + [g for g, _, _ in fs.gravity]
+            self.F = ExactContext(names, pairs)
+            self.gen = {k: self.F.var(k) for k in names}
             self.one, self.zero = self.F.one, self.F.zero
             self.exact = True
         else:
@@ -128,10 +127,7 @@ class Arith:
         if self.rational:
             return Fraction(x)
         if self.exact:
-            from sympy import QQ
-
-            x = Fraction(x) if not isinstance(x, Fraction) else x
-            return self.F(QQ(x.numerator, x.denominator))
+            return self.F.const(x)
         return float(x)
 
     def length(self, gv):
@@ -147,9 +143,7 @@ class Arith:
             c, s = [(1, 0), (0, 1), (-1, 0), (0, -1)][k]
             return self.const(c), self.const(s)
         if self.exact:
-            t = self.gen[f"t_{gv.symbol}"]
-            den = self.one + t * t
-            return (self.one - t * t) / den, (t + t) / den
+            return self.gen[f"cos_{gv.symbol}"], self.gen[f"sin_{gv.symbol}"]
         v = self.gen[gv.symbol]
         if self.rational:
             return (1 - v * v) / (1 + v * v), 2 * v / (1 + v * v)

@@ -33,43 +33,75 @@ def symbol_latex(name: str) -> str:
     return r"\mathrm{" + name.replace("_", r"\_") + "}"
 
 
-def _half_angle_basis(k: int, j: int, c, s):
-    """t^j / (1 + t²)^k with t = tan(θ/2), as a polynomial in c = cos θ, s = sin θ (j <= 2k):
-    sin^j(θ/2) cos^(2k−j)(θ/2), paired into sin²(θ/2) = (1 − c)/2, cos²(θ/2) = (1 + c)/2 and
-    sin(θ/2) cos(θ/2) = s/2."""
-    if j % 2 == 0:
-        return ((1 - c) / 2) ** (j // 2) * ((1 + c) / 2) ** (k - j // 2)
-    return (s / 2) * ((1 - c) / 2) ** ((j - 1) // 2) * ((1 + c) / 2) ** ((2 * k - j - 1) // 2)
+def _swapped(ctx):
+    """The context's ring with each cos before its sin (normal form: cos of degree <= 1)."""
+    from sympy.polys.rings import ring
+
+    R2 = getattr(ctx, "_swapped", None)
+    if R2 is None:
+        names = []
+        for g in ctx.R.gens:
+            nm = str(g)
+            if nm.startswith("cos_"):
+                names.insert(len(names) - 1, nm)  # before its sin
+            else:
+                names.append(nm)
+        R2 = ring(",".join(names), ctx.QQ)[0]
+        ctx._swapped = R2
+    return R2
 
 
-def _untangent(num, den, t, th):
-    """num/den (polynomials in t = tan(θ/2)) as a quotient of polynomials in cos θ, sin θ: both
-    divided by (1 + t²)^k, 2k >= their degree in t (exact: no simplification is needed)."""
-    import sympy as sp
-
-    c, s = sp.cos(th), sp.sin(th)
-    pn, pd = sp.Poly(num, t), sp.Poly(den, t)
-    k = -(-max(pn.degree(), pd.degree()) // 2)
-
-    def conv(p):
-        return sp.expand(sum(coef * _half_angle_basis(k, m[0], c, s) for m, coef in p.terms()))
-
-    return conv(pn), conv(pd)
+def _cancel_by_division(n, factors):
+    """n / prod(f^e) with every factor that divides n exactly removed."""
+    out = []
+    for f, e in factors:
+        while e:
+            q, r = n.div([f])
+            if r:
+                break
+            n, e = q[0], e - 1
+        if e:
+            out.append((f, e))
+    return n, out
 
 
 def field_to_sympy(value, fs):
-    """An element of Q(symbols) (``symbolic_frames.Arith``) as a sympy expression in the geometry
-    symbols: half-angle tangents t_<angle> turned back into cos/sin of the angle."""
+    """An exact number (``symbolic_poly.Frac``) as a sympy expression in the geometry symbols,
+    sin_<angle>/cos_<angle> printed as sin(angle)/cos(angle).  The normal form with sin² or the
+    one with cos² eliminated (numerator and each denominator factor), whichever is shorter
+    after cancelling factors by exact division."""
     import sympy as sp
 
-    num, den = value.numer.as_expr(), value.denom.as_expr()
-    touched = False
-    for a in fs.angles:
-        t = sp.Symbol(f"t_{a}")
-        if num.has(t) or den.has(t):
-            num, den = _untangent(num, den, t, sp.Symbol(a))
-            touched = True
-    return sp.cancel(num / den) if touched else num / den
+    value = value.cancelled()
+    ctx = value.ctx
+    facs = [(ctx.factors[k], e) for k, e in value.d.items()]
+
+    def target(R):
+        out = []
+        for g in R.gens:
+            nm = str(g)
+            if nm.startswith(("sin_", "cos_")) and nm[4:] in fs.angles:
+                out.append((sp.sin if nm[:3] == "sin" else sp.cos)(sp.Symbol(nm[4:])))
+            else:
+                out.append(sp.Symbol(nm))
+        return out
+
+    def expr(n, fl, R):
+        syms = target(R)
+        den = sp.Integer(1)
+        for f, e in fl:
+            den *= f.as_expr(*syms) ** e
+        return n.as_expr(*syms) / den
+
+    cands = [expr(value.n, facs, ctx.R)]
+    if fs.angles:
+        R2 = _swapped(ctx)
+        g2 = {str(g): g for g in R2.gens}
+        circle = [g2[f"sin_{a}"] ** 2 + g2[f"cos_{a}"] ** 2 - 1 for a in fs.angles]
+        n2 = value.n.set_ring(R2).rem(circle)
+        f2 = [(f.set_ring(R2).rem(circle), e) for f, e in facs]
+        cands.append(expr(*_cancel_by_division(n2, f2), R2))
+    return min(cands, key=lambda x: (len(str(x)), str(x)))
 
 
 def _compact(expr):
