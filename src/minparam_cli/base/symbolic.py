@@ -228,10 +228,10 @@ def symbolic_base(desc, chain, base: BaseSet, seed: int = SYMBOLIC_SEED) -> dict
         "verification": {
             "method": "exact",
             "fresh_points": FRESH_POINTS,
-            "max_rel_error_fresh": err_fresh,
-            "max_rel_error_file": err_file,
+            "max_rel_error_fresh": float(err_fresh),
+            "max_rel_error_file": None if err_file is None else float(err_file),
             "tolerance": VERIFY_RTOL,
-            "passed": err_fresh <= VERIFY_RTOL and (err_file is None or err_file <= VERIFY_RTOL),
+            "passed": bool(err_fresh <= VERIFY_RTOL and (err_file is None or err_file <= VERIFY_RTOL)),
             "seed": seed,
             "exact_s": round(t_exact, 6),
             **stats,
