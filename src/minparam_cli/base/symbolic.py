@@ -161,9 +161,21 @@ def exact_coefficients(desc, chain, symbols, pins, generic: BaseSet, rng):
     return coef, fs, stats
 
 
-def verify(exprs, symbols, gravity_values, beta_of, X) -> float:
-    """Largest relative error of the printed expressions against numeric β at points X
-    (gravity at the file's value); an entry the exact set lacks counts as error 1."""
+def _generator_values(symbols, gravity_values, x) -> dict:
+    out = dict(gravity_values)
+    for s, v in zip(symbols, x):
+        if s.is_angle:
+            out[f"sin_{s.name}"], out[f"cos_{s.name}"] = np.sin(v), np.cos(v)
+        else:
+            out[s.name] = v
+    return out
+
+
+def verify(exprs, exact, symbols, gravity_values, beta_of, X) -> float:
+    """Largest error of the printed expressions against numeric β at points X (gravity at the
+    file's value), relative to the size of the exact coefficient's terms there (so that a
+    coefficient that happens to vanish at a point is measured against its parts); an entry the
+    exact set lacks counts as error 1."""
     import sympy as sp
 
     names = [sp.Symbol(s.name) for s in symbols]
@@ -174,9 +186,11 @@ def verify(exprs, symbols, gravity_values, beta_of, X) -> float:
     for x in X:
         B = beta_of(x)
         vals = f(*x)
+        gv = _generator_values(symbols, gravity_values, x)
         for k, v in zip(keys, vals):
             num = B[k]
-            worst = max(worst, abs(float(v) - num) / (max(abs(float(v)), abs(num)) + 1e-300))
+            size = max(abs(float(v)), abs(num), exact[k].size(gv))
+            worst = max(worst, abs(float(v) - num) / (size + 1e-300))
         nz = np.abs(B) > 1e-9 * (1.0 + np.abs(B).max())
         for idx in zip(*np.nonzero(nz)):
             if tuple(int(i) for i in idx) not in exprs:
@@ -204,13 +218,13 @@ def symbolic_base(desc, chain, base: BaseSet, seed: int = SYMBOLIC_SEED) -> dict
     t_exact = time.perf_counter() - t0
     sampler = BetaSampler(desc, chain, symbols, pins, kept, dependent, seed)
     fresh = np.array([random_geometry(symbols, rng) for _ in range(FRESH_POINTS)]).reshape(FRESH_POINTS, len(symbols))
-    err_fresh = verify(exprs, symbols, fs.gravity_values, sampler, fresh)
+    err_fresh = verify(exprs, coef, symbols, fs.gravity_values, sampler, fresh)
     x_file = np.array([s.value for s in symbols])
     special = base.n_base != generic.n_base or tuple(base.kept) != tuple(kept)
     err_file = None
     if not special:
         Kf = base.K[:, list(dependent)]
-        err_file = verify(exprs, symbols, fs.gravity_values, lambda x: Kf, x_file[None, :])
+        err_file = verify(exprs, coef, symbols, fs.gravity_values, lambda x: Kf, x_file[None, :])
     gravity = {k: v for k, v in fs.gravity_values.items()}
     return {
         "symbols": symbols,

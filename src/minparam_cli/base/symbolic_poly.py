@@ -162,3 +162,20 @@ class Frac:
             f = self.ctx.factors[k]
             den *= float(f(*x) if R.ngens > 1 else f(x[0])) ** e
         return num / den
+
+    def size(self, values: dict) -> float:
+        """Σ|terms of N| / |D| at {generator name: float}: the scale rounding is measured against."""
+        R = self.ctx.R
+        x = [abs(values[str(g)]) for g in R.gens]
+        tot = 0.0
+        for mon, c in self.n.terms():
+            t = abs(float(c))
+            for xi, e in zip(x, mon):
+                if e:
+                    t *= xi**e
+            tot += t
+        den = 1.0
+        for k, e in self.d.items():
+            f = self.ctx.factors[k]
+            den *= abs(float(f(*[values[str(g)] for g in R.gens]) if R.ngens > 1 else f(values[str(R.gens[0])]))) ** e
+        return tot / den
