@@ -190,8 +190,10 @@ def symbolic_fields(report: dict, result: dict) -> dict:
     for name, v in result["adjusted"].items():
         notes.append(f"{name} is given as {v[0]!r} rad, taken as exactly {v[1]:d} deg (a right angle, not a symbol)")
     report["symbols"] = {s.name: s.value for s in result["symbols"]} | dict(result.get("gravity", {}))
-    for name in result.get("shifts", ()):
-        notes.append(f"{name} only shifts its joint's coordinate: the regrouping does not depend on it")
+    shifts = list(result.get("shifts", ()))
+    if shifts:
+        notes.append(f"{', '.join(shifts)} only shift{'s' if len(shifts) == 1 else ''} a joint's coordinate: "
+                     "the regrouping does not depend on them")
     report["generic_n_base"] = generic.n_base
     ver["elapsed_s"] = round(result["elapsed_s"], 6)
     report["symbolic_verification"] = ver
