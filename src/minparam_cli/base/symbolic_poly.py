@@ -152,30 +152,22 @@ class Frac:
                 del d[k]
         return Frac(self.ctx, n, d)
 
-    def evaluate(self, values: dict) -> float:
-        """Float value at {generator name: float}."""
-        R = self.ctx.R
-        x = [values[str(g)] for g in R.gens]
-        num = float(self.n(*x)) if R.ngens > 1 else float(self.n(x[0]))
-        den = 1.0
-        for k, e in self.d.items():
-            f = self.ctx.factors[k]
-            den *= float(f(*x) if R.ngens > 1 else f(x[0])) ** e
-        return num / den
-
     def size(self, values: dict) -> float:
         """Σ|terms of N| / |D| at {generator name: float}: the scale rounding is measured against."""
-        R = self.ctx.R
-        x = [abs(values[str(g)]) for g in R.gens]
-        tot = 0.0
-        for mon, c in self.n.terms():
-            t = abs(float(c))
-            for xi, e in zip(x, mon):
-                if e:
-                    t *= xi**e
-            tot += t
+        x = [values[str(g)] for g in self.ctx.R.gens]
         den = 1.0
         for k, e in self.d.items():
-            f = self.ctx.factors[k]
-            den *= abs(float(f(*[values[str(g)] for g in R.gens]) if R.ngens > 1 else f(values[str(R.gens[0])]))) ** e
-        return tot / den
+            den *= abs(_float_eval(self.ctx.factors[k], x, False)) ** e
+        return _float_eval(self.n, x, True) / den
+
+
+def _float_eval(p, x, absolute: bool) -> float:
+    """A polynomial's value (or the sum of its terms' absolute values) at floats x."""
+    tot = 0.0
+    for mon, c in p.terms():
+        t = float(c)
+        for xi, e in zip(x, mon):
+            if e:
+                t *= xi**e
+        tot += abs(t) if absolute else t
+    return tot
