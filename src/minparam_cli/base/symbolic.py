@@ -238,6 +238,7 @@ def symbolic_base(desc, chain, base: BaseSet, seed: int = SYMBOLIC_SEED) -> dict
         },
         "generic": generic,
         "coefficients": exprs,
+        "exact": coef,
         "special": special,
         "verification": {
             "method": "exact",

@@ -104,10 +104,26 @@ def field_to_sympy(value, fs):
     return min(cands, key=lambda x: (len(str(x)), str(x)))
 
 
+def _pythagoras(expr):
+    """(sin x − 1)(sin x + 1) → −cos²x and (cos x − 1)(cos x + 1) → −sin²x, as factor() leaves them."""
+    import sympy as sp
+
+    for f in expr.atoms(sp.sin, sp.cos):
+        x = f.args[0]
+        other = sp.cos(x) if isinstance(f, sp.sin) else sp.sin(x)
+        expr = expr.subs((f - 1) * (f + 1), -other**2)
+    return expr
+
+
 def _compact(expr):
     import sympy as sp
 
-    candidates = [sp.factor(expr), expr]  # ties go to the factored form
+    if len(str(expr)) > 3000:  # factoring long expressions costs seconds and rarely shortens them
+        return expr
+    f = sp.factor(expr)
+    candidates = [f, expr]  # ties go to the factored form
+    if expr.has(sp.sin, sp.cos):
+        candidates.insert(0, _pythagoras(f))
     return min(candidates, key=lambda e: len(str(e)))
 
 
@@ -124,6 +140,7 @@ def base_parameter_expressions(result) -> list[dict]:
     from minparam_cli.render.text import latex_name
 
     generic, coefficients, symbols = result["generic"], result["coefficients"], result["symbols"]
+    exact = result.get("exact", {})
     names = generic.standard_names
     dependent = generic.dependent
     latex_symbols = {sp.Symbol(s.name): symbol_latex(s.name) for s in symbols}
@@ -135,10 +152,16 @@ def base_parameter_expressions(result) -> list[dict]:
             coef = coefficients.get((i, jj))
             if coef is None or coef == 0:
                 continue
-            groups.setdefault(coef, []).append(names[col])
+            value = exact.get((i, jj))
+            for key, (val, params) in groups.items():  # equal coefficients share a bracket (exact test)
+                if (value is not None and val is not None and not (value - val)) or key == coef:
+                    params.append(names[col])
+                    break
+            else:
+                groups[coef] = (value, [names[col]])
         head = names[generic.kept[i]]
         plain, text, tex = [head], [head], [latex_name(head)]
-        for coef, params in groups.items():
+        for coef, (_, params) in groups.items():
             c = _compact(coef)
             neg = c.could_extract_minus_sign()
             c = -c if neg else c
@@ -192,8 +215,10 @@ def symbolic_fields(report: dict, result: dict) -> dict:
     report["symbols"] = {s.name: s.value for s in result["symbols"]} | dict(result.get("gravity", {}))
     shifts = list(result.get("shifts", ()))
     if shifts:
-        notes.append(f"{', '.join(shifts)} only shift{'s' if len(shifts) == 1 else ''} a joint's coordinate: "
-                     "the regrouping does not depend on them")
+        if len(shifts) == 1:
+            notes.append(f"{shifts[0]} only shifts its joint's coordinate: the regrouping does not depend on it")
+        else:
+            notes.append(f"{', '.join(shifts)} only shift their joints' coordinates: the regrouping does not depend on them")
     report["generic_n_base"] = generic.n_base
     ver["elapsed_s"] = round(result["elapsed_s"], 6)
     report["symbolic_verification"] = ver
