@@ -35,6 +35,7 @@ CASES = [  # (file, extra CLI args, dof class for the target)
     ("robots/ur5.urdf", [], 6),
     ("robots/iiwa14.urdf", [], 7),
     ("robots/universal15_glazunov.yaml", ["--friction", "offset", "--rotor-inertia"], 6),
+    (f"{DATA}/skew4r_dh.yaml", [], 4),
     (f"{DATA}/skew6r_dh.yaml", [], 6),
     (f"{DATA}/skew_rrpr_mdh.yaml", ["--friction", "offset"], 4),
     (f"{DATA}/ppr_gantry.yaml", ["--friction", "offset", "--rotor-inertia"], 3),
