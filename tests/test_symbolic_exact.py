@@ -140,7 +140,7 @@ def test_skewed_dh_twists(tmp_path):
 
 
 def test_skewed_mdh_twist_before_prismatic(tmp_path):
-    report, coef, worst, worst_beta = compare_with_numeric(_file(tmp_path, SKEW_MDH_PRISMATIC), DeriveOptions(symbolic=True))
+    _report, coef, worst, worst_beta = compare_with_numeric(_file(tmp_path, SKEW_MDH_PRISMATIC), DeriveOptions(symbolic=True))
     assert worst <= RTOL and worst_beta <= BETA_RTOL, (worst, worst_beta)
     names = {str(s) for c in coef.values() for s in c.free_symbols}
     assert {"alpha3", "theta3"} <= names  # theta of a prismatic joint is geometry, not a shift
@@ -159,21 +159,21 @@ def test_prismatic_along_gravity_with_offset_needs_one_over_g():
 
 def test_two_consecutive_prismatic_joints(tmp_path):
     opts = DeriveOptions(symbolic=True, friction=("offset",), rotor_inertia=True)
-    report, coef, worst, worst_beta = compare_with_numeric(_file(tmp_path, TWO_PRISMATIC), opts)
+    report, _coef, worst, worst_beta = compare_with_numeric(_file(tmp_path, TWO_PRISMATIC), opts)
     assert worst <= RTOL and worst_beta <= BETA_RTOL, (worst, worst_beta)
     assert report["n_base"] == 8
 
 
 def test_seven_joint_arm_with_theta_offsets_and_parallel_axes(tmp_path):
     opts = DeriveOptions(symbolic=True, friction=("viscous", "offset"), rotor_inertia=True)
-    report, coef, worst, worst_beta = compare_with_numeric(_file(tmp_path, ARM7), opts)
+    report, _coef, worst, worst_beta = compare_with_numeric(_file(tmp_path, ARM7), opts)
     assert worst <= RTOL and worst_beta <= BETA_RTOL, (worst, worst_beta)
     assert not any(f"theta{k}" in b["symbolic"] for b in report["base_parameters"] for k in (1, 2, 4, 6))
     assert any("only shift" in n for n in report["symbolic_notes"])
 
 
 def test_panda(tmp_path):
-    report, coef, worst, worst_beta = compare_with_numeric("robots/panda.yaml", DeriveOptions(symbolic=True))
+    report, _coef, worst, worst_beta = compare_with_numeric("robots/panda.yaml", DeriveOptions(symbolic=True))
     assert worst <= RTOL and worst_beta <= BETA_RTOL, (worst, worst_beta)
     assert report["n_base"] == 43
 

@@ -24,7 +24,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from minparam_cli.base.qr import base_from_regressor, chain_scales, sample_rng, stacked_regressor
+from minparam_cli.base.qr import (
+    base_from_regressor,
+    chain_scales,
+    sample_rng,
+    stacked_regressor,
+)
 from minparam_cli.base.result import BaseSet
 from minparam_cli.chain import build_chain
 from minparam_cli.errors import ComputationError
@@ -144,7 +149,12 @@ def _rational_values(fs, rng) -> dict:
 
 def exact_coefficients(desc, chain, symbols, pins, generic: BaseSet, rng):
     """{(base row, index into generic.dependent): field element} and the field's symbols."""
-    from minparam_cli.base.symbolic_exact import exact_relations, numeric_relations, regrouping, stage1
+    from minparam_cli.base.symbolic_exact import (
+        exact_relations,
+        numeric_relations,
+        regrouping,
+        stage1,
+    )
     from minparam_cli.base.symbolic_frames import Arith, field_symbols, joint_transforms
 
     fs = field_symbols(desc, symbols)

@@ -34,7 +34,21 @@ from fractions import Fraction
 
 import numpy as np
 
-from minparam_cli.base.symbolic_frames import MX, MY, MZ, XX, XY, XZ, YY, YZ, ZZ, M, Arith, energy_coefficients, joint_transforms, transfer_matrix
+from minparam_cli.base.symbolic_frames import (
+    MX,
+    MY,
+    MZ,
+    XX,
+    XY,
+    XZ,
+    YY,
+    YZ,
+    ZZ,
+    Arith,
+    M,
+    energy_coefficients,
+    transfer_matrix,
+)
 from minparam_cli.chain import PRISMATIC
 from minparam_cli.errors import ComputationError
 from minparam_cli.params import N_LINK_PARAMS
@@ -245,7 +259,7 @@ def exact_relations(desc, chain, cols, ar: Arith, transforms, relations, rng, ra
     def values(i, only):
         key = (i, max(_link_of(cols[k]) for k in only))
         if key not in cache:
-            cache[key] = column_values(desc, cols, ar, transforms, state(i), only=set(k for k in range(len(cols)) if _link_of(cols[k]) <= key[1]))
+            cache[key] = column_values(desc, cols, ar, transforms, state(i), only={k for k in range(len(cols)) if _link_of(cols[k]) <= key[1]})
         return cache[key]
 
     forms = {k: dict(c.form) for k, c in enumerate(cols)}

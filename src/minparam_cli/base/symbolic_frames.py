@@ -223,7 +223,7 @@ class _RecordsOnly:
 class _AxisInt:
     def __init__(self, jr):
         self._jr = jr
-        self.axis = tuple(int(round(float(c))) for c in jr.axis)
+        self.axis = tuple(round(float(c)) for c in jr.axis)
 
     def __getattr__(self, name):
         return getattr(self._jr, name)

@@ -35,11 +35,11 @@ class ExactContext:
     def reduce(self, p):
         return p.rem(self.circle) if self.circle and p else p
 
-    def const(self, x) -> "Frac":
+    def const(self, x) -> Frac:
         x = Fraction(x)
         return Frac(self, self.R(self.QQ(x.numerator, x.denominator)), {})
 
-    def var(self, name: str) -> "Frac":
+    def var(self, name: str) -> Frac:
         return Frac(self, self.gen[name], {})
 
     def factor_id(self, f) -> int:
@@ -58,12 +58,12 @@ class ExactContext:
 
 
 class Frac:
-    __slots__ = ("ctx", "n", "d")
+    __slots__ = ("ctx", "d", "n")
 
     def __init__(self, ctx: ExactContext, n, d: dict):
         self.ctx, self.n, self.d = ctx, n, d
 
-    def _coerce(self, o) -> "Frac":
+    def _coerce(self, o) -> Frac:
         return o if isinstance(o, Frac) else self.ctx.const(o)
 
     def __bool__(self):
@@ -138,7 +138,7 @@ class Frac:
     def __rtruediv__(self, o):
         return self._coerce(o) / self
 
-    def cancelled(self) -> "Frac":
+    def cancelled(self) -> Frac:
         """The same value with every denominator factor that divides the numerator removed."""
         n, d = self.n, dict(self.d)
         for k in list(d):

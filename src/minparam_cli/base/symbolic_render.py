@@ -1,6 +1,6 @@
 """Symbolic regrouping coefficients as sympy expressions and report fields.
 
-Turns the fits of ``base/symbolic.py`` into, per base parameter,
+Turns the exact coefficients of ``base/symbolic.py`` into, per base parameter,
 
 * ``symbolic``: a string ``sympy.sympify`` parses back, e.g.
   ``XX2 - YY2 - a3**2*(M3 + M4 + M5 + M6)``;
