@@ -19,6 +19,7 @@ import re
 GREEK = {
     "alpha", "beta", "gamma", "delta", "epsilon", "theta", "phi", "psi", "rho", "sigma", "tau", "omega", "eta", "mu", "nu", "xi", "zeta", "kappa", "lambda", "chi",
 }
+FACTOR_TERMS = 24  # numerators with more terms are only split into content and primitive part
 SUPERSCRIPTS = str.maketrans("0123456789-", "⁰¹²³⁴⁵⁶⁷⁸⁹⁻")
 
 
@@ -87,44 +88,59 @@ def field_to_sympy(value, fs):
         return out
 
     def expr(n, fl, R):
+        """Expanded and factored forms of n / prod(f^e) (full factorisation of small numerators,
+        numeric and monomial content of large ones: sympy's factoring costs seconds there)."""
         syms = target(R)
         den = sp.Integer(1)
         for f, e in fl:
             den *= f.as_expr(*syms) ** e
-        return n.as_expr(*syms) / den
+        den = _pythagoras(den)
+        out = [n.as_expr(*syms) / den]
+        if not n.is_ground:
+            if len(n.terms()) <= FACTOR_TERMS:  # in the symbols present only (sympy's ring has all)
+                num = sp.factor(out[0] * den)
+            else:
+                coeff, prim = n.primitive()
+                mon = [min(m[i] for m, _ in prim.terms()) for i in range(R.ngens)]
+                nf = [(R({tuple(mon): 1}), 1), (prim.exquo(R({tuple(mon): 1})), 1)] if any(mon) else [(prim, 1)]
+                num = sp.Rational(coeff.numerator, coeff.denominator)
+                for f, e in nf:
+                    num *= f.as_expr(*syms) ** e
+            out.append(_pythagoras(num / den))
+        return out
 
-    cands = [expr(value.n, facs, ctx.R)]
+    cands = expr(value.n, facs, ctx.R)
     if fs.angles:
         R2 = _swapped(ctx)
         g2 = {str(g): g for g in R2.gens}
         circle = [g2[f"sin_{a}"] ** 2 + g2[f"cos_{a}"] ** 2 - 1 for a in fs.angles]
         n2 = value.n.set_ring(R2).rem(circle)
         f2 = [(f.set_ring(R2).rem(circle), e) for f, e in facs]
-        cands.append(expr(*_cancel_by_division(n2, f2), R2))
+        cands += expr(*_cancel_by_division(n2, f2), R2)
     return min(cands, key=lambda x: (len(str(x)), str(x)))
 
 
 def _pythagoras(expr):
-    """(sin x − 1)(sin x + 1) → −cos²x and (cos x − 1)(cos x + 1) → −sin²x, as factor() leaves them."""
+    """(sin x − 1)(sin x + 1) → −cos²x and (cos x − 1)(cos x + 1) → −sin²x among the factors of a
+    product (as factor() leaves them); a structural pass over the top-level factors."""
     import sympy as sp
 
+    if not expr.is_Mul:
+        return expr
+    factors = list(expr.args)
     for f in expr.atoms(sp.sin, sp.cos):
-        x = f.args[0]
-        other = sp.cos(x) if isinstance(f, sp.sin) else sp.sin(x)
-        expr = expr.subs((f - 1) * (f + 1), -other**2)
-    return expr
+        lo, hi = f - 1, f + 1
+        if lo in factors and hi in factors:
+            factors.remove(lo)
+            factors.remove(hi)
+            other = sp.cos(f.args[0]) if isinstance(f, sp.sin) else sp.sin(f.args[0])
+            factors.append(-other**2)
+    return sp.Mul(*factors)
 
 
 def _compact(expr):
-    import sympy as sp
-
-    if len(str(expr)) > 3000:  # factoring long expressions costs seconds and rarely shortens them
-        return expr
-    f = sp.factor(expr)
-    candidates = [f, expr]  # ties go to the factored form
-    if expr.has(sp.sin, sp.cos):
-        candidates.insert(0, _pythagoras(f))
-    return min(candidates, key=lambda e: len(str(e)))
+    """The printed form is chosen in ``field_to_sympy`` (expanded or factored, whichever is shorter)."""
+    return expr
 
 
 def _text(s: str) -> str:
