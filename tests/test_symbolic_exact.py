@@ -137,6 +137,12 @@ def test_skewed_dh_twists(tmp_path):
     a1 = sp.Symbol("alpha1")
     assert sp.simplify(c - 2 * sp.cos(a1) / sp.sin(a1)) == 0  # 2·cot(alpha1), exactly
     assert not any("theta2" in b["symbolic"] for b in report["base_parameters"])  # a shift of q2
+    assert not any("tan" in b["symbolic"] or "cot" in b["symbolic"] for b in report["base_parameters"])  # sin/cos quotients
+    from matplotlib.mathtext import MathTextParser
+
+    parser = MathTextParser("agg")
+    for b in report["base_parameters"]:
+        parser.parse(f"${b['symbolic_latex']}$")
 
 
 def test_skewed_mdh_twist_before_prismatic(tmp_path):
