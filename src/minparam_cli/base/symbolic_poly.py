@@ -27,13 +27,42 @@ class ExactContext:
         self.R, self.QQ = R, QQ
         self.gen = dict(zip(names, gens))
         self.circle = [self.gen[s] ** 2 + self.gen[c] ** 2 - 1 for s, c in angle_pairs]
+        self.sin_index = [names.index(s) for s, _ in angle_pairs]
+        self.cos_index = [names.index(c) for _, c in angle_pairs]
         self.factors: list = []
         self.index: dict = {}
         self.one = Frac(self, R.one, {})
         self.zero = Frac(self, R.zero, {})
 
     def reduce(self, p):
-        return p.rem(self.circle) if self.circle and p else p
+        """Normal form modulo sin² + cos² − 1 (a no-op when no sin appears squared)."""
+        if not self.circle or not p:
+            return p
+        degs = p.degrees()
+        if all(degs[i] < 2 for i in self.sin_index):
+            return p
+        # s^k -> s^(k mod 2)·(1 − c²)^(k div 2), term by term (the same as division by the basis)
+        from math import comb
+
+        terms = dict(p.items())
+        for si, ci in zip(self.sin_index, self.cos_index):
+            if degs[si] < 2:
+                continue
+            out: dict = {}
+            for mon, coef in terms.items():
+                k = mon[si]
+                if k < 2:
+                    out[mon] = out.get(mon, 0) + coef
+                    continue
+                h = k // 2
+                for j in range(h + 1):
+                    m = list(mon)
+                    m[si] = k % 2
+                    m[ci] += 2 * j
+                    m = tuple(m)
+                    out[m] = out.get(m, 0) + coef * comb(h, j) * (-1) ** j
+            terms = {m: c for m, c in out.items() if c}
+        return self.R.from_dict(terms) if terms else self.R.zero
 
     def const(self, x) -> Frac:
         x = Fraction(x)
