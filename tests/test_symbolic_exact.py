@@ -218,3 +218,24 @@ def test_file_values_reproduce_the_reported_numeric_terms():
         for t, want in b["terms"].items():
             got = float(coef[b["name"], t].subs(subs))
             assert got == pytest.approx(want, rel=1e-12, abs=1e-14), (b["name"], t)
+
+
+def test_exact_numbers_normal_form_and_zero_test():
+    # the term-wise normal form equals division by the basis {sin² + cos² − 1}; a value that is
+    # zero on the circle (sin² + cos² − 1, built by arithmetic) tests as zero, exactly
+    import random
+
+    from minparam_cli.base.symbolic_poly import ExactContext
+
+    ctx = ExactContext(["a", "sin_x", "cos_x", "sin_y", "cos_y"], [("sin_x", "cos_x"), ("sin_y", "cos_y")])
+    a, s, c, t, d = ctx.R.gens
+    rnd = random.Random(18)
+    for _ in range(40):
+        p = sum(rnd.randint(-3, 3) * a ** rnd.randint(0, 2) * s ** rnd.randint(0, 4) * c ** rnd.randint(0, 3)
+                * t ** rnd.randint(0, 3) * d ** rnd.randint(0, 2) for _ in range(6))
+        assert ctx.reduce(p) == p.rem(ctx.circle)
+    S, C, A = ctx.var("sin_x"), ctx.var("cos_x"), ctx.var("a")
+    assert not (S * S + C * C - 1)
+    q = (A * S + C) / (S * S * C + C)  # = (a s + c) / (c (s² + 1)) with s² = 1 − c²: (a s + c)/(c (2 − c²))
+    assert not (q * (C * (2 - C * C)) - (A * S + C))
+    assert not (q * 0) and not (q - q) and q
