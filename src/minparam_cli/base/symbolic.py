@@ -138,11 +138,12 @@ def _rational_values(fs, rng) -> dict:
     """Random rational values: lengths and gravity terms p/q, angles by their half-angle tangent."""
     from fractions import Fraction
 
-    def r(lo, hi):
-        return Fraction(int(rng.integers(lo, hi)), int(rng.integers(1, 17)))
+    def r(lo, hi):  # wide enough that a special value (0, a right angle, a = ±d) is a rare draw
+        x = Fraction(int(rng.integers(lo, hi)), int(rng.integers(1, 98)))
+        return x if x not in (0, 1, -1) else Fraction(37, 41)
 
-    out = {name: r(-40, 41) or Fraction(1, 3) for name in fs.lengths}
-    out.update({name: r(-40, 41) for name in fs.angles})
+    out = {name: r(-400, 401) for name in fs.lengths}
+    out.update({name: r(-400, 401) for name in fs.angles})
     out.update({name: r(50, 200) for name, _, _ in fs.gravity})
     return out
 
