@@ -1,49 +1,95 @@
-"""Benchmark of `minparam derive --symbolic` (issue target: Panda <= 5 s in process).
+"""Benchmark of `minparam derive --symbolic` against the numeric route (issue 18, point 5).
 
-Times the symbolic stage alone (``symbolic_base`` + the sympy rendering) for
-every shipped robot, after the numeric base set, and prints a table with the
-number of β evaluations (chain rebuilds + regressor + least squares) it used.
+Targets: Panda (MDH) symbolic <= 5 s whole process; any 6-DOF arm <= 10 s; a robot the
+route cannot handle fails (prints the numeric set and the reason) in <= 2 s of symbolic work.
 
-Run: python benchmarks/bench_symbolic.py
+For each robot: whole-process wall time of ``derive`` with and without ``--symbolic`` (run in
+turn, median of --repeats), the child's CPU time (user + sys: on a shared, loaded machine the
+wall time includes waiting for a core), peak RSS, and the symbolic stage's own time from the
+report (exact part / with the verification at fresh geometries).  Robots from robots/ and
+benchmarks/data/symbolic/ (skewed twists, prismatic joints, offsets, a refused oblique axis).
+
+Run: python benchmarks/bench_symbolic.py [--repeats 3]
 """
 
 from __future__ import annotations
 
+import argparse
+import json
+import os
+import resource
+import subprocess
 import sys
+import time
 
-from common import ROOT, best_of
+from common import ROOT
 from tabulate import tabulate
 
-sys.path.insert(0, str(ROOT / "src"))
+DATA = "benchmarks/data/symbolic"
+CASES = [  # (file, extra CLI args, dof class for the target)
+    ("robots/panda.yaml", [], "panda"),
+    ("robots/puma560.yaml", [], 6),
+    ("robots/puma560_mdh.yaml", [], 6),
+    ("robots/stanford.yaml", [], 6),
+    ("robots/tx40.yaml", [], 6),
+    ("robots/ur5.urdf", [], 6),
+    ("robots/iiwa14.urdf", [], 7),
+    ("robots/universal15_glazunov.yaml", ["--friction", "offset", "--rotor-inertia"], 6),
+    (f"{DATA}/skew4r_dh.yaml", [], 4),
+    (f"{DATA}/skew6r_dh.yaml", [], 6),
+    (f"{DATA}/skew_rrpr_mdh.yaml", ["--friction", "offset"], 4),
+    (f"{DATA}/ppr_gantry.yaml", ["--friction", "offset", "--rotor-inertia"], 3),
+    (f"{DATA}/arm7_offsets_parallel.yaml", ["--friction", "viscous,offset", "--rotor-inertia"], 7),
+    (f"{DATA}/oblique_axis.urdf", [], "refused"),
+]
+TARGETS = {"panda": 5.0, 6: 10.0}
 
-from minparam_cli.base.qr import derive_qr  # noqa: E402
-from minparam_cli.base.symbolic import add_symbolic  # noqa: E402
-from minparam_cli.chain import build_chain  # noqa: E402
-from minparam_cli.describe import load_description  # noqa: E402
-from minparam_cli.render.report import base_report  # noqa: E402
 
-ROBOTS = ["planar2r.yaml", "planar3r.yaml", "scara.yaml", "stanford.yaml", "puma560.yaml", "puma560_mdh.yaml", "ur5.yaml", "ur5.urdf", "iiwa14.urdf", "panda.yaml"]
-TARGET_S = {"panda.yaml": 5.0}
+def timed(cmd: list[str]) -> tuple[float, float, float, str]:
+    """Wall time, child CPU time, peak RSS (MB, from ru_maxrss of the children) and stdout."""
+    before = resource.getrusage(resource.RUSAGE_CHILDREN)
+    t0 = time.perf_counter()
+    p = subprocess.run(cmd, cwd=ROOT, capture_output=True, text=True, check=False, env={**os.environ, "PYTHONPATH": str(ROOT / "src")})
+    wall = time.perf_counter() - t0
+    after = resource.getrusage(resource.RUSAGE_CHILDREN)
+    if p.returncode != 0:
+        raise SystemExit(f"command failed ({p.returncode}): {' '.join(cmd)}\n{p.stderr}")
+    cpu = (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
+    return wall, cpu, after.ru_maxrss / 1024, p.stdout
 
 
 def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--repeats", type=int, default=3)
+    args = ap.parse_args()
     rows = []
-    for name in ROBOTS:
-        desc = load_description(ROOT / "robots" / name)
-        chain = build_chain(desc)
-        base = derive_qr(chain)
-        report = base_report(chain, base, 0.0)
-        out = {}
-
-        def run():
-            out["r"] = add_symbolic(report, desc, chain, base)
-
-        t = best_of(run, repeats=3)
-        v = out["r"]["symbolic_verification"]
-        target = TARGET_S.get(name)
-        rows.append((name, chain.n, len(out["r"]["symbols"]), base.n_base, v["beta_evaluations"], f"{v['max_rel_error_fresh']:.1e}",
-                     f"{t:.2f}", "" if target is None else ("ok" if t <= target else "FAIL") + f" (<= {target:g} s)"))
-    print(tabulate(rows, headers=["robot", "dof", "symbols", "base", "β evals", "max rel err", "time s (median of 3)", "target"]))
+    for path, extra, klass in CASES:
+        base_cmd = [sys.executable, "-m", "minparam_cli", "derive", path, *extra, "--format", "json"]
+        sym, num = [], []
+        for _ in range(args.repeats):
+            sym.append(timed(base_cmd + ["--symbolic"]))
+            num.append(timed(base_cmd))
+        med = lambda xs, k: sorted(x[k] for x in xs)[len(xs) // 2]
+        report = json.loads(sym[-1][3])
+        v = report.get("symbolic_verification", {})
+        stage = v.get("elapsed_s", float("nan"))
+        if "refused" in v:
+            status = "refused: " + v["refused"][:60]
+            target = 2.0
+            ok = stage <= target
+        else:
+            status = f"exact, {report['n_base']} base, verified {v.get('max_rel_error_fresh', float('nan')):.1e}"
+            target = TARGETS.get(klass)
+            ok = None if target is None else med(sym, 0) <= target
+        rows.append((path.split("/")[-1], klass if klass != "panda" else 7, f"{med(sym, 0):.2f}", f"{med(sym, 1):.2f}",
+                     f"{med(num, 0):.2f}", f"{med(num, 1):.2f}", f"{med(sym, 0) / med(num, 0):.1f}",
+                     f"{v.get('exact_s', float('nan')):.2f}" if "exact_s" in v else "-", f"{stage:.2f}",
+                     f"{max(x[2] for x in sym):.0f}", status,
+                     "" if target is None else ("ok" if ok else "FAIL") + f" (<= {target:g} s{' stage' if klass == 'refused' else ''})"))
+    load = os.getloadavg()[0]
+    print(f"median of {args.repeats} whole-process runs, symbolic and numeric in turn; load average {load:.1f} on {os.cpu_count()} cores")
+    print(tabulate(rows, headers=["robot", "dof", "symbolic wall s", "symbolic cpu s", "numeric wall s", "numeric cpu s",
+                                  "wall ratio", "exact s", "stage s", "peak MB", "result", "target"]))
 
 
 if __name__ == "__main__":

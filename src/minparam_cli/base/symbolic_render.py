@@ -1,6 +1,6 @@
 """Symbolic regrouping coefficients as sympy expressions and report fields.
 
-Turns the fits of ``base/symbolic.py`` into, per base parameter,
+Turns the exact coefficients of ``base/symbolic.py`` into, per base parameter,
 
 * ``symbolic``: a string ``sympy.sympify`` parses back, e.g.
   ``XX2 - YY2 - a3**2*(M3 + M4 + M5 + M6)``;
@@ -19,7 +19,8 @@ import re
 GREEK = {
     "alpha", "beta", "gamma", "delta", "epsilon", "theta", "phi", "psi", "rho", "sigma", "tau", "omega", "eta", "mu", "nu", "xi", "zeta", "kappa", "lambda", "chi",
 }
-SUPERSCRIPTS = str.maketrans("0123456789", "⁰¹²³⁴⁵⁶⁷⁸⁹")
+FACTOR_TERMS = 24  # numerators with more terms are only split into content and primitive part
+SUPERSCRIPTS = str.maketrans("0123456789-", "⁰¹²³⁴⁵⁶⁷⁸⁹⁻")
 
 
 def symbol_latex(name: str) -> str:
@@ -33,34 +34,117 @@ def symbol_latex(name: str) -> str:
     return r"\mathrm{" + name.replace("_", r"\_") + "}"
 
 
-def coefficient_expr(fit, symbols):
-    """The sympy polynomial of one fitted coefficient."""
+def _swapped(ctx):
+    """The context's ring with each cos before its sin (normal form: cos of degree <= 1)."""
+    from sympy.polys.rings import ring
+
+    R2 = getattr(ctx, "_swapped", None)
+    if R2 is None:
+        names = []
+        for g in ctx.R.gens:
+            nm = str(g)
+            if nm.startswith("cos_"):
+                names.insert(len(names) - 1, nm)  # before its sin
+            else:
+                names.append(nm)
+        R2 = ring(",".join(names), ctx.QQ)[0]
+        ctx._swapped = R2
+    return R2
+
+
+def _cancel_by_division(n, factors):
+    """n / prod(f^e) with every factor that divides n exactly removed."""
+    out = []
+    for f, e in factors:
+        while e:
+            q, r = n.div([f])
+            if r:
+                break
+            n, e = q[0], e - 1
+        if e:
+            out.append((f, e))
+    return n, out
+
+
+def field_to_sympy(value, fs):
+    """An exact number (``symbolic_poly.Frac``) as a sympy expression in the geometry symbols,
+    sin_<angle>/cos_<angle> printed as sin(angle)/cos(angle).  The normal form with sin² or the
+    one with cos² eliminated (numerator and each denominator factor), whichever is shorter
+    after cancelling factors by exact division."""
     import sympy as sp
 
-    total = sp.Integer(0)
-    for mono, frac in fit.terms:
-        term = sp.Rational(frac.numerator, frac.denominator)
-        for k, e in zip(fit.length_vars, mono.length_exps):
-            term *= sp.Symbol(symbols[k].name) ** e
-        for k, code in zip(fit.angle_vars, mono.angle_codes):
-            th = sp.Symbol(symbols[k].name)
-            c, s = sp.cos(th), sp.sin(th)
-            term *= (sp.Integer(1), c, s, c * c, c * s)[code]
-        total += term
-    return sp.expand(total)
+    value = value.cancelled()
+    ctx = value.ctx
+    facs = [(ctx.factors[k], e) for k, e in value.d.items()]
+
+    def target(R):
+        out = []
+        for g in R.gens:
+            nm = str(g)
+            if nm.startswith(("sin_", "cos_")) and nm[4:] in fs.angles:
+                out.append((sp.sin if nm[:3] == "sin" else sp.cos)(sp.Symbol(nm[4:])))
+            else:
+                out.append(sp.Symbol(nm))
+        return out
+
+    def expr(n, fl, R):
+        """Expanded and factored forms of n / prod(f^e) (full factorisation of small numerators,
+        numeric and monomial content of large ones: sympy's factoring costs seconds there)."""
+        syms = target(R)
+        den = sp.Integer(1)
+        for f, e in fl:
+            den *= f.as_expr(*syms) ** e
+        den = _pythagoras(den)
+        out = [n.as_expr(*syms) / den]
+        if not n.is_ground:
+            if len(n.terms()) <= FACTOR_TERMS:  # in the symbols present only (sympy's ring has all)
+                num = sp.factor(out[0] * den)
+            else:
+                coeff, prim = n.primitive()
+                mon = [min(m[i] for m, _ in prim.terms()) for i in range(R.ngens)]
+                nf = [(R({tuple(mon): 1}), 1), (prim.exquo(R({tuple(mon): 1})), 1)] if any(mon) else [(prim, 1)]
+                num = sp.Rational(coeff.numerator, coeff.denominator)
+                for f, e in nf:
+                    num *= f.as_expr(*syms) ** e
+            out.append(_pythagoras(num / den))
+        return out
+
+    cands = expr(value.n, facs, ctx.R)
+    if fs.angles:
+        R2 = _swapped(ctx)
+        g2 = {str(g): g for g in R2.gens}
+        circle = [g2[f"sin_{a}"] ** 2 + g2[f"cos_{a}"] ** 2 - 1 for a in fs.angles]
+        n2 = value.n.set_ring(R2).rem(circle)
+        f2 = [(f.set_ring(R2).rem(circle), e) for f, e in facs]
+        cands += expr(*_cancel_by_division(n2, f2), R2)
+    return min(cands, key=lambda x: (len(str(x)), str(x)))
+
+
+def _pythagoras(expr):
+    """(sin x − 1)(sin x + 1) → −cos²x and (cos x − 1)(cos x + 1) → −sin²x among the factors of a
+    product (as factor() leaves them); a structural pass over the top-level factors."""
+    import sympy as sp
+
+    if not expr.is_Mul:
+        return expr
+    factors = list(expr.args)
+    for f in expr.atoms(sp.sin, sp.cos):
+        lo, hi = f - 1, f + 1
+        if lo in factors and hi in factors:
+            factors.remove(lo)
+            factors.remove(hi)
+            other = sp.cos(f.args[0]) if isinstance(f, sp.sin) else sp.sin(f.args[0])
+            factors.append(-other**2)
+    return sp.Mul(*factors)
 
 
 def _compact(expr):
-    import sympy as sp
-
-    candidates = [sp.factor(expr), expr]  # ties go to the factored form
-    if expr.has(sp.sin, sp.cos):
-        t = sp.trigsimp(expr)
-        candidates += [sp.factor(t), t]
-    return min(candidates, key=lambda e: len(str(e)))
+    """The printed form is chosen in ``field_to_sympy`` (expanded or factored, whichever is shorter)."""
+    return expr
 
 
 def _text(s: str) -> str:
+    s = re.sub(r"\*\*\((-\d+)\)", lambda m: m.group(1).translate(SUPERSCRIPTS), s)
     s = re.sub(r"\*\*(\d+)", lambda m: m.group(1).translate(SUPERSCRIPTS), s)
     return s.replace("*", "·")
 
@@ -71,21 +155,29 @@ def base_parameter_expressions(result) -> list[dict]:
 
     from minparam_cli.render.text import latex_name
 
-    generic, fits, symbols = result["generic"], result["fits"], result["symbols"]
+    generic, coefficients, symbols = result["generic"], result["coefficients"], result["symbols"]
+    exact = result.get("exact", {})
     names = generic.standard_names
     dependent = generic.dependent
     latex_symbols = {sp.Symbol(s.name): symbol_latex(s.name) for s in symbols}
+    latex_symbols.update({sp.Symbol(k): symbol_latex(k) for k in result.get("gravity", {})})
     out = []
     for i, bname in enumerate(generic.base_names):
         groups: dict = {}
         for jj, col in enumerate(dependent):
-            fit = fits.get((i, jj))
-            if fit is None or not fit.terms:
+            coef = coefficients.get((i, jj))
+            if coef is None or coef == 0:
                 continue
-            groups.setdefault(coefficient_expr(fit, symbols), []).append(names[col])
+            value = exact.get((i, jj))
+            for key, (val, params) in groups.items():  # equal coefficients share a bracket (exact test)
+                if (value is not None and val is not None and not (value - val)) or key == coef:
+                    params.append(names[col])
+                    break
+            else:
+                groups[coef] = (value, [names[col]])
         head = names[generic.kept[i]]
         plain, text, tex = [head], [head], [latex_name(head)]
-        for coef, params in groups.items():
+        for coef, (_, params) in groups.items():
             c = _compact(coef)
             neg = c.could_extract_minus_sign()
             c = -c if neg else c
@@ -120,6 +212,14 @@ def latex_block(items: list[dict], comment: str) -> str:
     return "\n".join(lines) + "\n"
 
 
+def refused_fields(report: dict, reason: str, elapsed_s: float) -> dict:
+    """A copy of ``report`` saying why there is no symbolic set (the numeric set stays)."""
+    report = dict(report)
+    report["symbolic_verification"] = {"passed": False, "refused": reason, "elapsed_s": round(elapsed_s, 6)}
+    report["symbolic_notes"] = [f"no symbolic set: {reason}"]
+    return report
+
+
 def symbolic_fields(report: dict, result: dict) -> dict:
     """A copy of ``report`` with the symbolic fields of ``result`` added."""
     report = dict(report)
@@ -128,7 +228,13 @@ def symbolic_fields(report: dict, result: dict) -> dict:
     notes = []
     for name, v in result["adjusted"].items():
         notes.append(f"{name} is given as {v[0]!r} rad, taken as exactly {v[1]:d} deg (a right angle, not a symbol)")
-    report["symbols"] = {s.name: s.value for s in result["symbols"]}
+    report["symbols"] = {s.name: s.value for s in result["symbols"]} | dict(result.get("gravity", {}))
+    shifts = list(result.get("shifts", ()))
+    if shifts:
+        if len(shifts) == 1:
+            notes.append(f"{shifts[0]} only shifts its joint's coordinate: the regrouping does not depend on it")
+        else:
+            notes.append(f"{', '.join(shifts)} only shift their joints' coordinates: the regrouping does not depend on them")
     report["generic_n_base"] = generic.n_base
     ver["elapsed_s"] = round(result["elapsed_s"], 6)
     report["symbolic_verification"] = ver

@@ -1,0 +1,241 @@
+"""Exact symbolic regrouping (issue 18): robots the fitted ansatz refused, compared with the numeric
+QR route at random geometries (and random gravity) to 1e-12 relative."""
+
+from __future__ import annotations
+
+from dataclasses import replace
+
+import numpy as np
+import pytest
+import sympy as sp
+
+from minparam_cli.base.qr import derive_qr, sample_rng, stacked_regressor
+from minparam_cli.base.symbolic import geometry_symbols
+from minparam_cli.chain import build_chain
+from minparam_cli.pipeline import DeriveOptions, derive_file, load_chain
+
+RTOL = 1e-12  # the identity W_dep = W_kept·β at the numeric regressor (rounding: ~1e-15)
+BETA_RTOL = 1e-9  # against the QR route's β (its own accuracy at skewed geometries: ~1e-11)
+
+SKEW_DH = """\
+name: skew DH 4R (twists 60, -45, 30 deg)
+convention: dh
+units: {length: m, angle: deg}
+gravity: [0, 0, -9.81]
+joints:
+  - {name: j1, type: revolute, alpha: 60, a: 0.1, d: 0.3, theta: 0}
+  - {name: j2, type: revolute, alpha: -45, a: 0.4, d: 0.05, theta: 10}
+  - {name: j3, type: revolute, alpha: 30, a: 0.3, d: -0.1, theta: 0}
+  - {name: j4, type: revolute, alpha: 90, a: 0.1, d: 0.2, theta: 0}
+"""
+
+SKEW_MDH_PRISMATIC = """\
+name: skew MDH RRPR (skewed twist before a prismatic joint)
+convention: mdh
+units: {length: m, angle: deg}
+gravity: [0, 0, -9.81]
+joints:
+  - {name: j1, type: revolute, alpha: 0, a: 0, d: 0.3, theta: 0}
+  - {name: j2, type: revolute, alpha: 60, a: 0.2, d: 0.1, theta: 0}
+  - {name: j3, type: prismatic, alpha: -45, a: 0.3, d: 0, theta: 30}
+  - {name: j4, type: revolute, alpha: 90, a: 0.1, d: 0.2, theta: 0}
+"""
+
+TWO_PRISMATIC = """\
+name: two consecutive prismatic joints (first slide vertical)
+convention: dh
+units: {length: m, angle: deg}
+gravity: [0, 0, -9.81]
+joints:
+  - {name: lift, type: prismatic, alpha: -90, a: 0.1, d: 0, theta: 0}
+  - {name: reach, type: prismatic, alpha: 90, a: 0.05, d: 0, theta: 90}
+  - {name: wrist, type: revolute, alpha: 0, a: 0.2, d: 0.1, theta: 0}
+"""
+
+ARM7 = """\
+name: 7R arm with theta offsets and parallel axes 2-3-4
+convention: mdh
+units: {length: m, angle: deg}
+gravity: [0, 0, -9.80665]
+joints:
+  - {name: j1, type: revolute, alpha: 0, a: 0, d: 0.333, theta: 15}
+  - {name: j2, type: revolute, alpha: -90, a: 0, d: 0.05, theta: -20}
+  - {name: j3, type: revolute, alpha: 0, a: 0.4, d: 0, theta: 0}
+  - {name: j4, type: revolute, alpha: 0, a: 0.35, d: 0.1, theta: 35}
+  - {name: j5, type: revolute, alpha: -90, a: 0.0825, d: 0.384, theta: 0}
+  - {name: j6, type: revolute, alpha: 90, a: 0, d: 0, theta: 10}
+  - {name: j7, type: revolute, alpha: 90, a: 0.088, d: 0.1, theta: 0}
+"""
+
+
+def _file(tmp_path, text):
+    p = tmp_path / "robot.yaml"
+    p.write_text(text)
+    return p
+
+
+def symbolic_coefficients(report) -> dict[tuple[str, str], sp.Expr]:
+    """{(base name, standard name): coefficient} from the 'symbolic' strings (linear: d/dparam)."""
+    out = {}
+    for b in report["base_parameters"]:
+        e = sp.sympify(b["symbolic"])
+        for t in report["standard_parameters"]:
+            P = sp.Symbol(t)
+            if e.has(P):
+                out[b["name"], t] = sp.diff(e, P)
+    return out
+
+
+def compare_with_numeric(path, opts, n_geometries=2, seed=18):
+    """At random geometries and random gravity magnitudes: (1) the numeric QR route keeps the same
+    parameters; (2) the symbolic β, evaluated there, annihilates the numeric regressor:
+    W_dep − W_kept·β = 0 to rounding, relative to the columns' sizes; (3) it equals the QR
+    route's β to that route's own accuracy.  Returns (report, coefficients, worst of (2), worst of (3))."""
+    report = derive_file(path, opts)
+    assert report["symbolic_verification"]["passed"], report.get("symbolic_notes")
+    assert "symbolic_generic" not in report
+    coef = symbolic_coefficients(report)
+    desc, chain = load_chain(path, opts)
+    symbols, pins = geometry_symbols(desc)
+    g_file = float(np.linalg.norm(chain.gravity))
+    names = list(report["standard_parameters"])
+    keys = list(coef)
+    f = sp.lambdify([sp.Symbol(s.name) for s in symbols] + [sp.Symbol("g")], [coef[k] for k in keys], "math")
+    rng = np.random.default_rng(seed)
+    worst_identity = worst_beta = 0.0
+    for _ in range(n_geometries):
+        values = {s.name: (rng.uniform(-np.pi, np.pi) if s.is_angle else rng.uniform(0.3, 1.5) * rng.choice([-1, 1])) for s in symbols}
+        g = rng.uniform(3.0, 20.0)
+        other = build_chain(desc, values={**pins, **values}, extras=chain.layout.extras)
+        other = replace(other, gravity=chain.gravity * (g / g_file))
+        num = derive_qr(other, seed=int(rng.integers(1 << 30)))
+        assert list(num.base_names) == [b["name"] for b in report["base_parameters"]]
+        got = dict(zip(keys, (float(v) for v in f(*[values[s.name] for s in symbols], g))))
+        W = stacked_regressor(other, 60, sample_rng(int(rng.integers(1 << 30))))
+        norms = np.linalg.norm(W, axis=0)
+        for i, name in enumerate(num.base_names):
+            terms = num.terms(i)
+            for t in set(terms) | {t for (bn, t) in coef if bn == name}:
+                want, have = terms.get(t, 0.0), got.get((name, t), 0.0)
+                worst_beta = max(worst_beta, abs(have - want) / max(abs(have), abs(want)))
+        kept = [names[k] for k in num.kept]
+        for d in num.dependent:
+            beta = np.array([got.get((bn, names[d]), 0.0) for bn in num.base_names])
+            r = W[:, d] - W[:, list(num.kept)] @ beta
+            scale = norms[d] + np.abs(beta) @ norms[list(num.kept)]
+            worst_identity = max(worst_identity, float(np.linalg.norm(r) / scale))
+        assert kept
+    return report, coef, worst_identity, worst_beta
+
+
+def test_skewed_dh_twists(tmp_path):
+    # alpha = 60, -45, 30 deg: coefficients such as cot(alpha1) and 1/sin²(alpha2), which the
+    # trigonometric-polynomial ansatz could not represent
+    report, coef, worst, worst_beta = compare_with_numeric(_file(tmp_path, SKEW_DH), DeriveOptions(symbolic=True))
+    assert worst <= RTOL and worst_beta <= BETA_RTOL, (worst, worst_beta)
+    c = coef["YYR1", "YZ1"]
+    a1 = sp.Symbol("alpha1")
+    assert sp.simplify(c - 2 * sp.cos(a1) / sp.sin(a1)) == 0  # 2·cot(alpha1), exactly
+    assert not any("theta2" in b["symbolic"] for b in report["base_parameters"])  # a shift of q2
+    assert not any("tan" in b["symbolic"] or "cot" in b["symbolic"] for b in report["base_parameters"])  # sin/cos quotients
+    from matplotlib.mathtext import MathTextParser
+
+    parser = MathTextParser("agg")
+    for b in report["base_parameters"]:
+        parser.parse(f"${b['symbolic_latex']}$")
+
+
+def test_skewed_mdh_twist_before_prismatic(tmp_path):
+    _report, coef, worst, worst_beta = compare_with_numeric(_file(tmp_path, SKEW_MDH_PRISMATIC), DeriveOptions(symbolic=True))
+    assert worst <= RTOL and worst_beta <= BETA_RTOL, (worst, worst_beta)
+    names = {str(s) for c in coef.values() for s in c.free_symbols}
+    assert {"alpha3", "theta3"} <= names  # theta of a prismatic joint is geometry, not a shift
+
+
+def test_prismatic_along_gravity_with_offset_needs_one_over_g():
+    opts = DeriveOptions(symbolic=True, friction=("offset",), rotor_inertia=True)
+    report, coef, worst, worst_beta = compare_with_numeric("robots/universal15_glazunov.yaml", opts)
+    assert worst <= RTOL and worst_beta <= BETA_RTOL, (worst, worst_beta)
+    g = sp.Symbol("g")
+    assert report["symbols"]["g"] == pytest.approx(9.81)
+    # slide 1 is vertical: its offset and the weight of everything it carries are one column
+    assert sp.simplify(coef["MR1", "OFF1"] - 1 / g) == 0
+    assert sp.simplify(coef["IaR1", "OFF1"] + 1 / g) == 0
+
+
+def test_two_consecutive_prismatic_joints(tmp_path):
+    opts = DeriveOptions(symbolic=True, friction=("offset",), rotor_inertia=True)
+    report, _coef, worst, worst_beta = compare_with_numeric(_file(tmp_path, TWO_PRISMATIC), opts)
+    assert worst <= RTOL and worst_beta <= BETA_RTOL, (worst, worst_beta)
+    assert report["n_base"] == 8
+
+
+def test_seven_joint_arm_with_theta_offsets_and_parallel_axes(tmp_path):
+    opts = DeriveOptions(symbolic=True, friction=("viscous", "offset"), rotor_inertia=True)
+    report, _coef, worst, worst_beta = compare_with_numeric(_file(tmp_path, ARM7), opts)
+    assert worst <= RTOL and worst_beta <= BETA_RTOL, (worst, worst_beta)
+    assert not any(f"theta{k}" in b["symbolic"] for b in report["base_parameters"] for k in (1, 2, 4, 6))
+    assert any("only shift" in n for n in report["symbolic_notes"])
+
+
+def test_panda(tmp_path):
+    report, _coef, worst, worst_beta = compare_with_numeric("robots/panda.yaml", DeriveOptions(symbolic=True))
+    assert worst <= RTOL and worst_beta <= BETA_RTOL, (worst, worst_beta)
+    assert report["n_base"] == 43
+
+
+URDF_OBLIQUE = """<robot name="oblique">
+  <link name="base"/>
+  <link name="l1"><inertial><mass value="1"/><inertia ixx="0.1" ixy="0" ixz="0" iyy="0.1" iyz="0" izz="0.1"/></inertial></link>
+  <link name="l2"><inertial><mass value="1"/><inertia ixx="0.1" ixy="0" ixz="0" iyy="0.1" iyz="0" izz="0.1"/></inertial></link>
+  <joint name="j1" type="revolute"><parent link="base"/><child link="l1"/><axis xyz="0 0 1"/>
+    <limit lower="-3" upper="3" effort="1" velocity="1"/></joint>
+  <joint name="j2" type="revolute"><parent link="l1"/><child link="l2"/><origin xyz="0.3 0 0.2"/><axis xyz="0.6 0.8 0"/>
+    <limit lower="-3" upper="3" effort="1" velocity="1"/></joint>
+</robot>
+"""
+
+
+def test_oblique_urdf_axis_is_refused_with_a_reason(tmp_path):
+    p = tmp_path / "oblique.urdf"
+    p.write_text(URDF_OBLIQUE)
+    r = derive_file(p, DeriveOptions(symbolic=True))
+    assert r["n_base"] > 0 and "base_parameters" in r  # the numeric set stays
+    assert r["symbolic_verification"]["passed"] is False
+    (note,) = r["symbolic_notes"]
+    assert note.startswith("no symbolic set:") and "j2" in note and "(0.6, 0.8, 0.0)" in note
+    assert not any("symbolic" in b for b in r["base_parameters"])
+
+
+def test_file_values_reproduce_the_reported_numeric_terms():
+    # The exact coefficients are rational functions; at the file's values they must reproduce the
+    # numeric β of derive itself (already in the report) to rounding.
+    r = derive_file("robots/stanford.yaml", DeriveOptions(symbolic=True))
+    coef = symbolic_coefficients(r)
+    subs = {sp.Symbol(k): v for k, v in r["symbols"].items()}
+    for b in r["base_parameters"]:
+        assert {t for (bn, t) in coef if bn == b["name"]} == set(b["terms"]), b["name"]
+        for t, want in b["terms"].items():
+            got = float(coef[b["name"], t].subs(subs))
+            assert got == pytest.approx(want, rel=1e-12, abs=1e-14), (b["name"], t)
+
+
+def test_exact_numbers_normal_form_and_zero_test():
+    # the term-wise normal form equals division by the basis {sin² + cos² − 1}; a value that is
+    # zero on the circle (sin² + cos² − 1, built by arithmetic) tests as zero, exactly
+    import random
+
+    from minparam_cli.base.symbolic_poly import ExactContext
+
+    ctx = ExactContext(["a", "sin_x", "cos_x", "sin_y", "cos_y"], [("sin_x", "cos_x"), ("sin_y", "cos_y")])
+    a, s, c, t, d = ctx.R.gens
+    rnd = random.Random(18)
+    for _ in range(40):
+        p = sum(rnd.randint(-3, 3) * a ** rnd.randint(0, 2) * s ** rnd.randint(0, 4) * c ** rnd.randint(0, 3)
+                * t ** rnd.randint(0, 3) * d ** rnd.randint(0, 2) for _ in range(6))
+        assert ctx.reduce(p) == p.rem(ctx.circle)
+    S, C, A = ctx.var("sin_x"), ctx.var("cos_x"), ctx.var("a")
+    assert not (S * S + C * C - 1)
+    q = (A * S + C) / (S * S * C + C)  # = (a s + c) / (c (s² + 1)) with s² = 1 − c²: (a s + c)/(c (2 − c²))
+    assert not (q * (C * (2 - C * C)) - (A * S + C))
+    assert not (q * 0) and not (q - q) and q
