@@ -26,9 +26,10 @@ def cli_json(*args, jsonl: bool = False):
 
 
 def untimed(x):
-    """The report without its wall-clock fields (elapsed_s), the only values two runs may not share."""
+    """The report without its wall-clock fields (elapsed_s; the symbolic route's exact_s), the only values
+    two runs may not share."""
     if isinstance(x, dict):
-        return {k: untimed(v) for k, v in x.items() if k != "elapsed_s"}
+        return {k: untimed(v) for k, v in x.items() if k not in ("elapsed_s", "exact_s")}
     if isinstance(x, list):
         return [untimed(v) for v in x]
     return x
