@@ -59,6 +59,11 @@ def _columns(text: str) -> dict[str, str]:
         raise typer.BadParameter(str(e), param_hint="--columns") from None
 
 
+class Side(str, Enum):
+    joint = "joint"
+    motor = "motor"
+
+
 class TimeUnit(str, Enum):
     s = "s"
     ms = "ms"
@@ -108,6 +113,8 @@ def identify(
     export_urdf: Optional[Path] = typer.Option(None, "--export-urdf", help="With --physical: write the robot as URDF with the identified masses, centres of mass and inertias."),
     export_yaml: Optional[Path] = typer.Option(None, "--export-yaml", help="With --physical, for a YAML (DH/MDH) robot: write its YAML with the identified inertials."),
     mimic: MimicMode = mimic_option(),
+    side: Side = typer.Option(Side.joint, "--side", help="Which side of the gears the q and tau columns were measured on: joint, or motor (converted with the robot's transmission: q = N⁻¹θ + zero, τ = Nᵀτ_m)."),
+    current: bool = typer.Option(False, "--current", help="With --side motor: the tau columns are motor currents, scaled by the transmission's drive_gains (without them the torque unit is arbitrary)."),
     quiet: bool = typer.Option(False, "--quiet", "-q", help="No progress bar."),
 ):
     _identify(**locals())
@@ -123,7 +130,7 @@ def _split(text: str) -> tuple[float, float, float]:
 @guarded
 def _identify(robot, data, validate, test, split, columns, time_unit, topic, cutoff, force_filter, rate, decimate, trim_still, still_speed,
               friction, rotor_inertia, coulomb_smoothing, gravity, effects, no_diagnose, min_gain, physical, prior,
-              prior_weight, ols, fmt, output, plot, seed, save_model, export_urdf, export_yaml, mimic, quiet):
+              prior_weight, ols, fmt, output, plot, seed, save_model, export_urdf, export_yaml, mimic, side, current, quiet):
     from minparam_cli.identify.data import DataOptions
     from minparam_cli.identify.diagnose import DiagnosisOptions
     from minparam_cli.identify.effects import EFFECT_IDS
@@ -178,11 +185,14 @@ def _identify(robot, data, validate, test, split, columns, time_unit, topic, cut
         if nominal_problems(chain):
             raise InputError("--prior nominal: " + nominal_problems_text(str(robot), nominal_problems(chain)))
     chain = chain.with_coulomb_smoothing(coulomb_smoothing)
+    from minparam_cli.dynamics.transmission import motor_side_spec
+
+    motor_side, scale_note = motor_side_spec(chain, Side(side).value, current)
     opts = IdentifyOptions(
         data=DataOptions(columns=_columns(columns), cutoff_hz=cutoff, force_filter=force_filter,
                          decimate=decimate, step_s=(1.0 / rate if rate else None),
                          trim_still_s=trim_still, still_speed=still_speed, time_unit=TimeUnit(time_unit).value,
-                         topic=topic, joint_names=coordinate_names(chain)),
+                         topic=topic, joint_names=coordinate_names(chain), motor_side=motor_side),
         split=shares,
         validate=str(validate) if validate else None,
         tests=tuple(str(t) for t in test),
@@ -206,6 +216,8 @@ def _identify(robot, data, validate, test, split, columns, time_unit, topic, cut
         if len(art.models) == 1:
             save_png(residual_vs_velocity(art.hold, art.models[0], art.models[0], f"{chain.name}: rigid-body residual (selection data)"), plot / "residual_vs_velocity_step0.png")
         save_png(measured_vs_predicted(art.hold, art.models[-1], f"{chain.name}: selection-data torque"), plot / "measured_vs_predicted.png")
+    if scale_note:
+        report.setdefault("flags", []).append(scale_note)
     if save_model is not None or export_urdf is not None or export_yaml is not None:
         from minparam_cli.cli.model_files import write_identify_outputs
         from minparam_cli.identify.model import LoadSettings

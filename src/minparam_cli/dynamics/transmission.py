@@ -91,3 +91,25 @@ def motor_torque(tau, N: np.ndarray, gains=None) -> np.ndarray:
     """τ_m = N⁻ᵀ τ_joint (divided by the gains g: the current signal), the inverse of ``joint_torque``."""
     t = np.linalg.solve(N.T, np.asarray(tau, dtype=float).T).T
     return t if gains is None else t / np.asarray(gains, dtype=float)
+
+
+ARBITRARY_UNIT = ("the torque columns are currents and no drive gains are declared: the torque unit is arbitrary and "
+                  "every parameter is identified up to one common scale")
+
+
+def motor_side_spec(chain, side: str, current: bool) -> tuple[tuple | None, str | None]:
+    """What ``identify --side/--current`` asks of the data reader: (N rows, zero, gains) or None
+    for joint-side data, and a note for the report when the torque unit is arbitrary."""
+    from minparam_cli.errors import InputError
+
+    if side == "joint":
+        if current:
+            raise InputError("--current needs --side motor: currents are motor-side signals")
+        return None, None
+    tr = chain.transmission
+    if tr is None:
+        raise InputError(f"--side motor needs a transmission in {chain.source} (YAML 'transmission:' or a URDF's "
+                         "ROBOT.transmission.yaml): the gear ratios that turn motor signals into joint ones")
+    gains = tr.drive_gains if current else None
+    note = ARBITRARY_UNIT if current and gains is None else None
+    return (tr.matrix, tr.zero, gains), note
