@@ -111,7 +111,7 @@ def parse_transmission(v: Any, types: tuple[str, ...], angle_unit: str, length_s
     if isinstance(friction, str):
         friction = [s.strip() for s in friction.split(",") if s.strip()]
     for f in _list(friction, src, f"{where}.motor_friction"):
-        if f not in MOTOR_FRICTION_KINDS:
+        if not isinstance(f, str) or f not in MOTOR_FRICTION_KINDS:
             raise DescriptionError(f"unknown motor friction {short_repr(f)}; expected any of {list(MOTOR_FRICTION_KINDS)}", src,
                                    f"{where}.motor_friction")
         kinds.append(MOTOR_FRICTION_KINDS[f])
