@@ -74,14 +74,18 @@ def simulate(
     coulomb_smoothing: float = typer.Option(0.0, "--coulomb-smoothing", help="Smooth Coulomb friction: tanh(dq/V) for sign(dq) in the injected friction effects, V in rad/s (m/s); 0: sign."),
     quiet: bool = typer.Option(False, "--quiet", "-q", help="No summary or notes on stderr."),
     mimic: MimicMode = mimic_option(),
+    side: str = typer.Option("joint", "--side", help="joint, or motor: write motor angles, rates and torques through the robot's transmission (θ = N(q − zero), τ_m = N⁻ᵀτ)."),
+    current: bool = typer.Option(False, "--current", help="With --side motor: write currents τ_m / g with the transmission's drive_gains."),
+    motor_params: str = typer.Option("", "--motor-params", help="Values of the robot's motor-side parameters to inject, e.g. Fcm6=0.06,Fvm6=6e-4,Iam6=1e-5 (motor-side units)."),
 ):
     _simulate(robot, trajectory, effects, strength, noise, noise_q, seed, duration, rate, harmonics, base_frequency,
-              random_inertia, no_ddq, output, truth, quiet, coulomb_smoothing, mimic)
+              random_inertia, no_ddq, output, truth, quiet, coulomb_smoothing, mimic, side, current, motor_params)
 
 
 @guarded
 def _simulate(robot, trajectory, effects, strength, noise, noise_q, seed, duration, rate, harmonics, base_frequency,
-              random_inertia, no_ddq, output, truth, quiet, coulomb_smoothing=0.0, mimic=MimicMode.coupled):
+              random_inertia, no_ddq, output, truth, quiet, coulomb_smoothing=0.0, mimic=MimicMode.coupled, side="joint",
+              current=False, motor_params=""):
     from minparam_cli.chain import build_chain
     from minparam_cli.describe import load_description
     from minparam_cli.identify.simulate import SimulationOptions, parse_effects, simulate as run, truth_record, validate_options
@@ -99,6 +103,9 @@ def _simulate(robot, trajectory, effects, strength, noise, noise_q, seed, durati
 
     chain = build_chain(load_description(robot, mimic=MimicMode(mimic).value))
     require_fixed_base(chain, "simulate")
+    from minparam_cli.identify.motor_side import parse_motor_params
+
+    motor_values, gains = parse_motor_params(motor_params, chain), _side_gains(chain, side, current)
     try:
         specs = parse_effects(effects, chain.dof)
     except InputError as e:
@@ -114,6 +121,11 @@ def _simulate(robot, trajectory, effects, strength, noise, noise_q, seed, durati
               "parameters (as with --random-inertia)", file=sys.stderr)
 
     sim = run(chain, opts, np.random.default_rng(seed))
+    if motor_values or side == "motor":  # motor parameters and motor-side signals: identify/motor_side.py
+        from minparam_cli.identify.motor_side import to_motor_side, with_motor_params
+
+        sim = with_motor_params(sim, chain.with_coulomb_smoothing(coulomb_smoothing), motor_values)
+        sim = to_motor_side(sim, chain, gains) if side == "motor" else sim
     include_ddq = not no_ddq
     if data_format == "npz":
         write_npz(data_arrays(sim, include_ddq), Path(output))
@@ -121,12 +133,29 @@ def _simulate(robot, trajectory, effects, strength, noise, noise_q, seed, durati
         write_output(csv_text(sim, include_ddq), output)
     if truth is not None:
         record = truth_record(sim, str(robot), seed, chain.name, include_ddq)
+        if motor_values or side == "motor":
+            record["motor_side"] = {"side": side, "current": current, "drive_gains": list(gains) if gains else None,
+                                    "motor_parameters": motor_values}
         write_output(json_text(record), Path(truth))
     if not quiet:
         sys.stderr.write(summary_text(sim, chain.name, seed, output, truth))
     for j in sim.limits.over_effort if sim.limits is not None else ():
         warning_line(f"joint {j + 1}: max |tau| {sim.limits.max_abs_tau[j]:.4g} exceeds its effort limit "
                      f"{sim.limits.effort[j]:g} (reported, not enforced: a slower motion lowers only its inertial part)")
+
+
+def _side_gains(chain, side: str, current: bool):
+    """The drive gains --current divides by (None for torques); one-line refusals."""
+    if side not in ("joint", "motor"):
+        raise InputError(f"--side: expected joint or motor, got {side!r}")
+    if current and side != "motor":
+        raise InputError("--current needs --side motor: currents are motor-side signals")
+    if not current:
+        return None
+    tr = chain.transmission
+    if tr is None or tr.drive_gains is None:
+        raise InputError(f"--current needs drive_gains in the transmission of {chain.source}")
+    return tr.drive_gains
 
 
 def register(app: typer.Typer) -> None:
