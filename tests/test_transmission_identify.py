@@ -42,7 +42,7 @@ def tx40_variant(tmp_path, name, motor_columns=True, gains=None):
 
 
 def simulate(tmp_path, robot, out, *extra):
-    args = ["simulate", robot, "--effects", "coulomb,viscous", "--noise", "0.01", "--duration", "30", "--seed", "1", "-q",
+    args = ["simulate", robot, "--effects", "coulomb,viscous", "--noise", "0.01", "--duration", "12", "--seed", "1", "-q",
             "-o", tmp_path / out, "--motor-params", ",".join(f"{k}={v}" for k, v in TRUE_MOTOR.items()), *extra]
     ok(*args)
     return tmp_path / out
