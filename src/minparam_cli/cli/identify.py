@@ -115,6 +115,10 @@ def identify(
     mimic: MimicMode = mimic_option(),
     side: Side = typer.Option(Side.joint, "--side", help="Which side of the gears the q and tau columns were measured on: joint, or motor (converted with the robot's transmission: q = N⁻¹θ + zero, τ = Nᵀτ_m)."),
     current: bool = typer.Option(False, "--current", help="With --side motor: the tau columns are motor currents, scaled by the transmission's drive_gains (without them the torque unit is arbitrary)."),
+    payload_data: Optional[Path] = typer.Option(None, "--payload-data", help="A second recording with a known payload on the last link: identify the payload (and, with --current and no drive_gains, the drive gains) from the difference."),
+    payload_mass: Optional[float] = typer.Option(None, "--payload-mass", help="With --payload-data: the payload's mass, kg."),
+    payload_com: Optional[str] = typer.Option(None, "--payload-com", help="With --payload-data: the payload's centre of mass X,Y,Z in the last link's frame, m (else identified)."),
+    payload_inertia: Optional[str] = typer.Option(None, "--payload-inertia", help="With --payload-com: its inertia about the centre of mass IXX,IXY,IXZ,IYY,IYZ,IZZ, kg·m² (else identified)."),
     quiet: bool = typer.Option(False, "--quiet", "-q", help="No progress bar."),
 ):
     _identify(**locals())
@@ -130,7 +134,7 @@ def _split(text: str) -> tuple[float, float, float]:
 @guarded
 def _identify(robot, data, validate, test, split, columns, time_unit, topic, cutoff, force_filter, rate, decimate, trim_still, still_speed,
               friction, rotor_inertia, coulomb_smoothing, gravity, effects, no_diagnose, min_gain, physical, prior,
-              prior_weight, ols, fmt, output, plot, seed, save_model, export_urdf, export_yaml, mimic, side, current, quiet):
+              prior_weight, ols, fmt, output, plot, seed, save_model, export_urdf, export_yaml, mimic, side, current, payload_data, payload_mass, payload_com, payload_inertia, quiet):
     from minparam_cli.identify.data import DataOptions
     from minparam_cli.identify.diagnose import DiagnosisOptions
     from minparam_cli.identify.effects import EFFECT_IDS
@@ -188,6 +192,7 @@ def _identify(robot, data, validate, test, split, columns, time_unit, topic, cut
     from minparam_cli.dynamics.transmission import motor_side_spec
 
     motor_side, scale_note = motor_side_spec(chain, Side(side).value, current)
+    payload = _payload_spec(payload_data, payload_mass, payload_com, payload_inertia)
     opts = IdentifyOptions(
         data=DataOptions(columns=_columns(columns), cutoff_hz=cutoff, force_filter=force_filter,
                          decimate=decimate, step_s=(1.0 / rate if rate else None),
@@ -216,6 +221,12 @@ def _identify(robot, data, validate, test, split, columns, time_unit, topic, cut
         if len(art.models) == 1:
             save_png(residual_vs_velocity(art.hold, art.models[0], art.models[0], f"{chain.name}: rigid-body residual (selection data)"), plot / "residual_vs_velocity_step0.png")
         save_png(measured_vs_predicted(art.hold, art.models[-1], f"{chain.name}: selection-data torque"), plot / "measured_vs_predicted.png")
+    if payload is not None:  # identify/payload.py: a second recording with a known payload
+        from minparam_cli.identify.payload import payload_report
+
+        gains_unknown = scale_note is not None
+        report["payload"] = payload_report(art.design, data, payload_data, opts.data, payload, gains_unknown)
+        scale_note = None if gains_unknown else scale_note  # the known mass fixed the scale
     if scale_note:
         report.setdefault("flags", []).append(scale_note)
     if save_model is not None or export_urdf is not None or export_yaml is not None:
@@ -231,7 +242,27 @@ def _identify(robot, data, validate, test, split, columns, time_unit, topic, cut
         from minparam_cli.render.identify_text import render_identify
 
         text = render_identify(report)
+        if "payload" in report:
+            from minparam_cli.render.payload_text import render_payload
+
+            text = text.rstrip("\n") + "\n\n" + render_payload(report["payload"])
     write_output(text, output)
+
+
+def _payload_spec(payload_data, mass, com, inertia):
+    """The known payload (None without --payload-data); one-line refusals of incomplete options."""
+    from minparam_cli.errors import InputError
+
+    if payload_data is None:
+        if any(v is not None for v in (mass, com, inertia)):
+            raise InputError("--payload-mass, --payload-com and --payload-inertia need --payload-data")
+        return None
+    from minparam_cli.identify.payload import PayloadSpec, check_spec
+
+    spec = PayloadSpec(None if mass is None else float(mass), parse_floats(com, 3, "--payload-com") if com is not None else None,
+                       parse_floats(inertia, 6, "--payload-inertia") if inertia is not None else None)
+    check_spec(spec)
+    return spec
 
 
 def _check_exports(robot: Path, physical: bool, export_urdf, export_yaml) -> None:

@@ -77,15 +77,19 @@ def simulate(
     side: str = typer.Option("joint", "--side", help="joint, or motor: write motor angles, rates and torques through the robot's transmission (θ = N(q − zero), τ_m = N⁻ᵀτ)."),
     current: bool = typer.Option(False, "--current", help="With --side motor: write currents τ_m / g with the transmission's drive_gains."),
     motor_params: str = typer.Option("", "--motor-params", help="Values of the robot's motor-side parameters to inject, e.g. Fcm6=0.06,Fvm6=6e-4,Iam6=1e-5 (motor-side units)."),
+    payload_mass: Optional[float] = typer.Option(None, "--payload-mass", help="A payload on the last link: its mass, kg."),
+    payload_com: Optional[str] = typer.Option(None, "--payload-com", help="Its centre of mass X,Y,Z in the last link's frame, m (default 0,0,0)."),
+    payload_inertia: Optional[str] = typer.Option(None, "--payload-inertia", help="Its inertia about the centre of mass IXX,IXY,IXZ,IYY,IYZ,IZZ, kg·m² (default 0)."),
 ):
     _simulate(robot, trajectory, effects, strength, noise, noise_q, seed, duration, rate, harmonics, base_frequency,
-              random_inertia, no_ddq, output, truth, quiet, coulomb_smoothing, mimic, side, current, motor_params)
+              random_inertia, no_ddq, output, truth, quiet, coulomb_smoothing, mimic, side, current, motor_params,
+              payload_mass, payload_com, payload_inertia)
 
 
 @guarded
 def _simulate(robot, trajectory, effects, strength, noise, noise_q, seed, duration, rate, harmonics, base_frequency,
               random_inertia, no_ddq, output, truth, quiet, coulomb_smoothing=0.0, mimic=MimicMode.coupled, side="joint",
-              current=False, motor_params=""):
+              current=False, motor_params="", payload_mass=None, payload_com=None, payload_inertia=None):
     from minparam_cli.chain import build_chain
     from minparam_cli.describe import load_description
     from minparam_cli.identify.simulate import SimulationOptions, parse_effects, simulate as run, truth_record, validate_options
@@ -106,6 +110,7 @@ def _simulate(robot, trajectory, effects, strength, noise, noise_q, seed, durati
     from minparam_cli.identify.motor_side import parse_motor_params
 
     motor_values, gains = parse_motor_params(motor_params, chain), _side_gains(chain, side, current)
+    payload = _payload(payload_mass, payload_com, payload_inertia)
     try:
         specs = parse_effects(effects, chain.dof)
     except InputError as e:
@@ -121,6 +126,10 @@ def _simulate(robot, trajectory, effects, strength, noise, noise_q, seed, durati
               "parameters (as with --random-inertia)", file=sys.stderr)
 
     sim = run(chain, opts, np.random.default_rng(seed))
+    if payload is not None:  # identify/payload.py: the payload's torque Y_n φ_L
+        from minparam_cli.identify.payload import with_payload
+
+        sim = with_payload(sim, chain, payload)
     if motor_values or side == "motor":  # motor parameters and motor-side signals: identify/motor_side.py
         from minparam_cli.identify.motor_side import to_motor_side, with_motor_params
 
@@ -133,6 +142,9 @@ def _simulate(robot, trajectory, effects, strength, noise, noise_q, seed, durati
         write_output(csv_text(sim, include_ddq), output)
     if truth is not None:
         record = truth_record(sim, str(robot), seed, chain.name, include_ddq)
+        if payload is not None:
+            record["payload"] = {"mass": payload.mass, "com": list(payload.com), "inertia": list(payload.inertia),
+                                 "standard_parameters": payload.known()}
         if motor_values or side == "motor":
             record["motor_side"] = {"side": side, "current": current, "drive_gains": list(gains) if gains else None,
                                     "motor_parameters": motor_values}
@@ -142,6 +154,22 @@ def _simulate(robot, trajectory, effects, strength, noise, noise_q, seed, durati
     for j in sim.limits.over_effort if sim.limits is not None else ():
         warning_line(f"joint {j + 1}: max |tau| {sim.limits.max_abs_tau[j]:.4g} exceeds its effort limit "
                      f"{sim.limits.effort[j]:g} (reported, not enforced: a slower motion lowers only its inertial part)")
+
+
+def _payload(mass, com, inertia):
+    """The simulated payload (None without --payload-mass)."""
+    from minparam_cli.cli.common import parse_floats
+
+    if mass is None:
+        if com is not None or inertia is not None:
+            raise InputError("--payload-com and --payload-inertia need --payload-mass")
+        return None
+    from minparam_cli.identify.payload import PayloadSpec, check_spec
+
+    spec = PayloadSpec(float(mass), parse_floats(com, 3, "--payload-com") if com else (0.0, 0.0, 0.0),
+                       parse_floats(inertia, 6, "--payload-inertia") if inertia else (0.0,) * 6)
+    check_spec(spec)
+    return spec
 
 
 def _side_gains(chain, side: str, current: bool):
