@@ -375,7 +375,8 @@ def simulate(chain: Chain, options: SimulationOptions, rng: np.random.Generator)
         phi, source = np.array(chain.phi_nominal, dtype=float), "description"
 
     tau_rigid = rigid_torque(chain, q, dq, ddq, phi)
-    signals = Signals(t=t, q=q, dq=dq, ddq=ddq, tau_model=tau_rigid, coulomb_smoothing=options.coulomb_smoothing)
+    motor = None if chain.transmission is None else np.asarray(chain.transmission.matrix, dtype=float)  # coupled-motor effects
+    signals = Signals(t=t, q=q, dq=dq, ddq=ddq, tau_model=tau_rigid, coulomb_smoothing=options.coulomb_smoothing, motor=motor)
     rms_rigid = _rms(tau_rigid)
     tau_effects = np.zeros_like(tau_rigid)
     injected = []
