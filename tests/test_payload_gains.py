@@ -7,11 +7,10 @@ import json
 
 import pytest
 import yaml
+from conftest import ROBOTS
 from typer.testing import CliRunner
 
 from minparam_cli.cli.app import app
-
-from conftest import ROBOTS
 
 GAINS = [0.8, 0.9, 1.1, 0.7, 1.3, 0.6]
 MASS, COM, INERTIA = 2.8, (0.02, -0.01, 0.05), (0.01, 0.0, 0.0, 0.012, 0.0, 0.008)

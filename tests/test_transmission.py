@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from conftest import ROBOTS
 from typer.testing import CliRunner
 
 from minparam_cli.base.qr import derive_qr
@@ -17,10 +18,13 @@ from minparam_cli.cli.app import app
 from minparam_cli.describe import load_description
 from minparam_cli.describe.yaml_dh import description_from_mapping
 from minparam_cli.dynamics.regressor import regressor
-from minparam_cli.dynamics.transmission import joint_from_motor, joint_torque, motor_from_joint, motor_torque
+from minparam_cli.dynamics.transmission import (
+    joint_from_motor,
+    joint_torque,
+    motor_from_joint,
+    motor_torque,
+)
 from minparam_cli.errors import DescriptionError
-
-from conftest import ROBOTS
 
 TX40_N = np.diag([32.0, 32.0, 45.0, -48.0, 45.0, 32.0])
 TX40_N[5, 4] = 32.0

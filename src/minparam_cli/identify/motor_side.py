@@ -11,7 +11,12 @@ from dataclasses import replace
 
 import numpy as np
 
-from minparam_cli.dynamics.transmission import motor_column, motor_from_joint, motor_matrix, motor_torque
+from minparam_cli.dynamics.transmission import (
+    motor_column,
+    motor_from_joint,
+    motor_matrix,
+    motor_torque,
+)
 from minparam_cli.errors import InputError
 from minparam_cli.params import MOTOR_KINDS
 

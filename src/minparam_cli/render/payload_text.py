@@ -4,8 +4,9 @@ from __future__ import annotations
 
 
 def render_payload(p: dict) -> str:
-    lines = [f"payload (about the origin of {p['frame']}; files {', '.join(p['files'])}; "
-             f"{p['samples'][0]} + {p['samples'][1]} samples, ‖r‖/‖τ‖ {100 * p['relative_error']:.3g} %)"]
+    head = (f"payload (about the origin of {p['frame']}; files {', '.join(p['files'])}; "
+            f"{p['samples'][0]} + {p['samples'][1]} samples, ‖r‖/‖τ‖ {100 * p['relative_error']:.3g} %)")
+    lines = [head]
     lines.append("  given        " + (", ".join(f"{k} = {v:.6g}" for k, v in p["known"].items()) or "nothing"))
     for k, e in p["parameters"].items():
         lines.append(f"  {k:<12} {e['value']:.6g}  (σ {e['std']:.3g}, {e['std_percent']:.3g} %)")
