@@ -82,6 +82,18 @@ def test_motor_side_equals_joint_side(motor_data):
         assert a[k]["value"] == pytest.approx(b[k]["value"], rel=1e-6, abs=1e-9), k
 
 
+def test_saved_model_evaluates_motor_side_data(tmp_path, motor_data):
+    """--save-model records the conversion: evaluate reads the motor-side file as identify did."""
+    _, motor_csv, _ = motor_data
+    model = tmp_path / "m.json"
+    r = identify(ROBOTS / "tx40.yaml", motor_csv, "--side", "motor", "--no-diagnose", "--save-model", model)
+    saved = json.loads(model.read_text())
+    assert saved["data"]["motor_side"]["matrix"][5][4] == 32
+    e = json.loads(ok("evaluate", model, motor_csv, "-f", "json").output)
+    assert e["pooled"]["relative_error"] < 0.01, e["pooled"]
+    assert r["test"]["final"]["relative_error"] < 0.01
+
+
 def test_diagnosis_finds_coupled_motor_friction(tmp_path, motor_data):
     """Without declared motor columns, the diagnosis adds the coupled motor's viscous friction on joints 5 and 6."""
     _, motor_csv, _ = motor_data
@@ -106,7 +118,6 @@ def test_currents_with_declared_gains(tmp_path, motor_data):
 @pytest.mark.parametrize("args,needle", [
     (("identify", ROBOTS / "puma560.yaml", "DATA", "--side", "motor"), "needs a transmission"),
     (("identify", ROBOTS / "tx40.yaml", "DATA", "--current"), "--current needs --side motor"),
-    (("identify", ROBOTS / "tx40.yaml", "DATA", "--side", "motor", "--save-model", "OUT"), "not supported yet"),
     (("simulate", ROBOTS / "tx40.yaml", "--side", "motor", "--current", "-o", "OUT"), "needs drive_gains"),
     (("simulate", ROBOTS / "tx40.yaml", "--motor-params", "Fcm5=1", "-o", "OUT"), "not a motor-side parameter"),
     (("simulate", ROBOTS / "tx40.yaml", "--motor-params", "Fcm6=abc", "-o", "OUT"), "not a finite number"),

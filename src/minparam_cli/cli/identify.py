@@ -192,11 +192,6 @@ def _identify(robot, data, validate, test, split, columns, time_unit, topic, cut
     from minparam_cli.dynamics.transmission import motor_side_spec
 
     motor_side, scale_note = motor_side_spec(chain, Side(side).value, current)
-    if motor_side is not None and save_model is not None:
-        from minparam_cli.errors import UnsupportedError
-
-        raise UnsupportedError("--save-model with --side motor is not supported yet (the saved data settings do not record "
-                               "the side, so 'evaluate' would read motor signals as joint ones)")
     payload = _payload_spec(payload_data, payload_mass, payload_com, payload_inertia)
     opts = IdentifyOptions(
         data=DataOptions(columns=_columns(columns), cutoff_hz=cutoff, force_filter=force_filter,
