@@ -176,3 +176,15 @@ def test_bad_transmission_is_one_line_exit_2(tmp_path, block, needle):
         assert len(lines) == 1 and needle in lines[0] and "Traceback" not in r.output, r.output
         if command == "derive":
             assert len(r.output.strip().splitlines()) == 1, r.output
+
+
+def test_check_reports_the_transmission():
+    import json
+
+    r = CliRunner().invoke(app, ["check", str(ROBOTS / "tx40.yaml"), "--json"])
+    assert r.exit_code == 0, r.output
+    tr = json.loads(r.output)["transmission"]
+    assert tr["motors"] == 6 and tr["coupled_motors"] == [6] and tr["drive_gains"] is False
+    assert tr["condition_number"] == pytest.approx(np.linalg.cond(TX40_N))
+    r = CliRunner().invoke(app, ["check", str(ROBOTS / "puma560.yaml"), "--json"])
+    assert json.loads(r.output)["transmission"] is None
