@@ -59,6 +59,9 @@ def test_gains_from_currents_and_a_known_payload_mass(recordings):
         e = p["drive_gains"][f"motor {k + 1}"]
         assert e["value"] == pytest.approx(g, rel=0.02)
         assert 0 < e["std"] < 0.02 * g
+        # the currents are fitted, not used as regressors: no errors-in-variables bias beyond σ
+        assert abs(e["value"] - g) < 5 * e["std"], (k, e, g)
+    assert p["method"].startswith("Gauss–Newton")
     for name, value in zip(("MX", "MY", "MZ"), COM):
         assert p["parameters"][name]["value"] == pytest.approx(MASS * value, rel=0.03, abs=1e-3)
     assert not any("arbitrary" in f for f in r["flags"])  # the known mass fixed the scale

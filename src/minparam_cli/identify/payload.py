@@ -132,8 +132,24 @@ def fit_payload(design, unloaded, loaded, spec: PayloadSpec, gains_unknown: bool
                                "(the payload does not move those joints enough)")
     x, std, r = _wls(A[:, :, keep], b)
     tau = np.concatenate([unloaded.tau, loaded.tau])
-    if gains_unknown:  # the measured torques in the identified unit: C g
-        g = x[[keep.index(i) for i in range(p + len(unknown), A.shape[2])]]
+    method = "weighted least squares"
+    if gains_unknown:  # the currents sit in the regressor: refine on the currents themselves (no errors-in-variables bias)
+        from minparam_cli.dynamics.transmission import motor_matrix
+
+        lin = [keep.index(i) for i in keep if i < p + len(unknown)]
+        gi = [keep.index(i) for i in range(p + len(unknown), A.shape[2])]
+        Ninv = np.linalg.inv(motor_matrix(chain))
+        F = A[:, :, keep][:, :, lin]
+        f0 = np.concatenate([np.zeros_like(unloaded.tau), YL @ phi_k])
+        c = tau @ Ninv  # the currents (torques read with unit gains, back on the motor side)
+        refined = _refine_gains(F, f0, c, Ninv, x[lin], x[gi])
+        if refined is not None:
+            x = np.empty(len(keep))
+            x[lin], x[gi], std = refined[0], refined[1], np.empty(len(keep))
+            std[lin], std[gi] = refined[2], refined[3]
+            r = (F @ x[lin] + f0) - (c * x[gi]) @ Motor_to_joint(Ninv)
+            method = "Gauss–Newton on the motor currents (errors in the currents only), started from weighted least squares"
+        g = x[gi]
         tau = np.concatenate([gain_columns(chain, unloaded), gain_columns(chain, loaded)]) @ g
     rel = float(np.linalg.norm(r) / np.linalg.norm(tau)) if np.linalg.norm(tau) > 0 else float("nan")
     sigma_j = np.sqrt(np.mean(r**2, axis=0))
@@ -142,7 +158,7 @@ def fit_payload(design, unloaded, loaded, spec: PayloadSpec, gains_unknown: bool
     def entry(value, s):
         return {"value": float(value), "std": float(s), "std_percent": float(100 * s / abs(value)) if value != 0 else float("inf")}
 
-    out = {"known": {k: float(v) for k, v in known.items()}, "frame": f"link {chain.n} ({chain.link_names[-1]})",
+    out = {"method": method, "known": {k: float(v) for k, v in known.items()}, "frame": f"link {chain.n} ({chain.link_names[-1]})",
            "parameters": {}, "not_identifiable": [k[:-1] for k in dropped_payload],
            "samples": [len(unloaded), len(loaded)], "relative_error": rel, "sigma_per_joint": sigma_j.tolist()}
     for k in unknown:
@@ -155,6 +171,72 @@ def fit_payload(design, unloaded, loaded, spec: PayloadSpec, gains_unknown: bool
         out["drive_gains"] = {f"motor {k + 1}": entry(*full[f"g{k + 1}"]) for k in range(n)}
         out["base_parameters"] = {name: entry(*full[name]) for name in design.names if name in full}
     return out
+
+
+def Motor_to_joint(Ninv: np.ndarray) -> np.ndarray:
+    """Rows of motor torques times this are joint torques (τ = Nᵀτ_m, i.e. τ_row = τ_m,row · N)."""
+    return np.linalg.inv(Ninv)
+
+
+REFINE_ITERATIONS = 50
+REFINE_RTOL = 1e-10
+
+
+def _refine_gains(F, f0, c, Ninv, x0, g0):
+    """Drive gains and model by minimising Σ_k w_k ‖c_k − h_k m_k‖² over the motor currents c (the
+    measured signal), m = N⁻ᵀ(F x + f0) the model's motor torques, h_k = 1/g_k: the noise sits in
+    c, not in the regressor, so the estimate is not attenuated as least squares with C in the
+    regressor is (errors in variables). Gauss–Newton from the least-squares values, w_k = 1/σ_k²
+    of their current residuals; σ from the Jacobian at the optimum. None when it does not
+    converge (the least-squares values stay)."""
+    if np.any(g0 <= 0):
+        return None
+    G = np.einsum("sjp,jk->skp", F, Ninv)  # motor torque of each column: (S, n, P)
+    m0 = f0 @ Ninv
+    S, n, P = G.shape
+    z = np.concatenate([x0, 1.0 / g0])
+    w = None
+
+    def residual(z):
+        m = G @ z[:P] + m0
+        return c - z[P:] * m, m
+
+    res, m = residual(z)
+    w = 1.0 / np.maximum(np.mean(res**2, axis=0), np.finfo(float).tiny)
+    sw = np.sqrt(w)
+    cost = float(np.sum(w * res**2))
+    J = np.zeros((S * n, P + n))
+    for _ in range(REFINE_ITERATIONS):
+        J[:, :P] = -(G * (sw * z[P:])[None, :, None]).reshape(-1, P)
+        J[:, P:] = 0.0
+        for k in range(n):
+            J[k::n, P + k] = -sw[k] * m[:, k]
+        step = np.linalg.lstsq(J, -(sw * res).reshape(-1), rcond=None)[0]
+        t = 1.0
+        while t > 1e-6:
+            z_new = z + t * step
+            res_new, m_new = residual(z_new)
+            cost_new = float(np.sum(w * res_new**2))
+            if cost_new <= cost:
+                break
+            t /= 2
+        else:
+            break
+        z, res, m, converged = z_new, res_new, m_new, cost - cost_new <= REFINE_RTOL * cost
+        cost = cost_new
+        if converged:
+            break
+    else:
+        return None
+    h = z[P:]
+    if np.any(h <= 0):
+        return None
+    J[:, :P] = -(G * (sw * h)[None, :, None]).reshape(-1, P)
+    for k in range(n):
+        J[k::n, P + k] = -sw[k] * m[:, k]
+    s2 = cost / max(S * n - P - n, 1)
+    sd = np.sqrt(np.maximum(np.diag(s2 * np.linalg.pinv(J.T @ J)), 0.0))
+    return z[:P], 1.0 / h, sd[:P], sd[P:] / h**2
 
 
 def _independent(M: np.ndarray) -> list[int]:
