@@ -147,7 +147,7 @@ def fit_payload(design, unloaded, loaded, spec: PayloadSpec, gains_unknown: bool
             x = np.empty(len(keep))
             x[lin], x[gi], std = refined[0], refined[1], np.empty(len(keep))
             std[lin], std[gi] = refined[2], refined[3]
-            r = (F @ x[lin] + f0) - (c * x[gi]) @ Motor_to_joint(Ninv)
+            r = (F @ x[lin] + f0) - (c * x[gi]) @ _motor_to_joint(Ninv)
             method = "Gauss–Newton on the motor currents (errors in the currents only), started from weighted least squares"
         g = x[gi]
         tau = np.concatenate([gain_columns(chain, unloaded), gain_columns(chain, loaded)]) @ g
@@ -173,7 +173,7 @@ def fit_payload(design, unloaded, loaded, spec: PayloadSpec, gains_unknown: bool
     return out
 
 
-def Motor_to_joint(Ninv: np.ndarray) -> np.ndarray:
+def _motor_to_joint(Ninv: np.ndarray) -> np.ndarray:
     """Rows of motor torques times this are joint torques (τ = Nᵀτ_m, i.e. τ_row = τ_m,row · N)."""
     return np.linalg.inv(Ninv)
 
