@@ -184,7 +184,8 @@ def test_effect_spec_parsing():
     assert 0.05 in STRIBECK_GRID and 12.0 in COGGING_GRID
     assert parse_effects("", 3) == ()
     assert set(EFFECTS) == {"coulomb", "viscous", "offset", "rotor_inertia", "stribeck", "asymmetric_coulomb",
-                            "spring", "cogging", "load_coulomb", "gain", "drift"}
+                            "spring", "cogging", "load_coulomb", "gain", "drift",
+                            "motor_coulomb", "motor_viscous", "motor_inertia"}  # coupled motors (issue 16)
 
 
 @pytest.mark.parametrize(

@@ -29,8 +29,8 @@ from fractions import Fraction
 
 import numpy as np
 
-from minparam_cli.describe.records import GeomValue, RobotDescription
-from minparam_cli.params import ParamLayout
+from minparam_cli.describe.records import GeomValue, RobotDescription, Transmission
+from minparam_cli.params import EXTRA_ORDER, ParamLayout
 
 REVOLUTE, PRISMATIC = "revolute", "prismatic"
 
@@ -87,6 +87,8 @@ class Chain:
     coupling: Coupling | None = None
     # the first six joints are the virtual joints of a floating base (base wrench equations)
     floating_base: bool = False
+    # motors and gears (theta_m = N (q - zero)): the motor-side columns of dynamics/transmission.py
+    transmission: Transmission | None = None
 
     @property
     def n(self) -> int:
@@ -326,6 +328,13 @@ def build_chain(
     post = np.array([np.array(p, dtype=float) for _, _, p in mats])
     if extras is None:
         extras = tuple(j.extras for j in desc.joints)
+    tr = desc.transmission
+    if tr is not None:  # the motor-side columns of the declared transmission, numbered by motor
+        from minparam_cli.errors import UnsupportedError
+
+        if any(j.mimic is not None or j.virtual for j in desc.joints):
+            raise UnsupportedError("a transmission together with mimic joints or a floating base is not supported", desc.source)
+        extras = tuple(tuple(k for k in EXTRA_ORDER if k in set(e) | set(tr.motor_extras[i])) for i, e in enumerate(extras))
     phi = None
     bodies = [j for j in desc.joints if not j.massless]
     if all(j.inertial is not None for j in bodies):
@@ -359,6 +368,7 @@ def build_chain(
         tool=None if desc.tool is None else np.asarray(desc.tool, dtype=float),
         length_scale=float(max(lengths)) if lengths else 1.0,
         exact_source=None if values else desc,
+        transmission=tr,
     )
 
 

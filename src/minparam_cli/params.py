@@ -9,6 +9,11 @@ followed, when enabled, by the per-joint extras in this order:
 
     Iaj (rotor inertia, Ia*qdd_j)  Fcj (Fc*sign qd_j)  Fvj (Fv*qd_j)  OFFj (constant torque)
 
+and, with a declared transmission (theta_m = N q), the motor-side extras of motor k, numbered
+like the joint of the same row of N (docs/methods/transmission.md):
+
+    Iamk (Nᵀe_k (N qdd)_k)  Fcmk (Nᵀe_k sign (N qd)_k)  Fvmk (Nᵀe_k (N qd)_k)
+
 Columns are ordered link by link (all 10 inertial parameters of link 1, then
 link 2, ...), then the extras joint by joint.  This is the scan order of the
 Gautier/Khalil keep rule used by every base-parameter route.
@@ -26,8 +31,13 @@ LINK_PARAMS: tuple[str, ...] = ("XX", "XY", "XZ", "YY", "YZ", "ZZ", "MX", "MY", 
 N_LINK_PARAMS = len(LINK_PARAMS)
 
 # extra id (as used in descriptions and on the CLI) -> name prefix, in column order
-EXTRA_ORDER: tuple[str, ...] = ("rotor_inertia", "coulomb", "viscous", "offset")
-EXTRA_PREFIX: dict[str, str] = {"rotor_inertia": "Ia", "coulomb": "Fc", "viscous": "Fv", "offset": "OFF"}
+# motor-side extras (a declared transmission, dynamics/transmission.py) are numbered by motor, after
+# the joint extras of the joint with the same number: Iamk (motor rotor inertia), Fcmk, Fvmk (motor friction)
+MOTOR_KINDS: tuple[str, ...] = ("motor_inertia", "motor_coulomb", "motor_viscous")
+MOTOR_FRICTION_KINDS: dict[str, str] = {"coulomb": "motor_coulomb", "viscous": "motor_viscous"}
+EXTRA_ORDER: tuple[str, ...] = ("rotor_inertia", "coulomb", "viscous", "offset") + MOTOR_KINDS
+EXTRA_PREFIX: dict[str, str] = {"rotor_inertia": "Ia", "coulomb": "Fc", "viscous": "Fv", "offset": "OFF",
+                                "motor_inertia": "Iam", "motor_coulomb": "Fcm", "motor_viscous": "Fvm"}
 FRICTION_KINDS: tuple[str, ...] = ("coulomb", "viscous", "offset")
 
 

@@ -131,4 +131,16 @@ def check_file(path: str | Path) -> dict:
         "finite": bool(np.all(np.isfinite(chain.pre)) and np.all(np.isfinite(chain.post))),
         # per link with inertial values: "ok" (a real body); an impossible one makes the file fail above
         "bodies": {link: "ok" for link, _ in verdicts},
+        # the declared transmission, validated at the loader (square, finite, invertible N)
+        "transmission": _transmission_summary(chain),
     }
+
+
+def _transmission_summary(chain) -> dict | None:
+    if chain.transmission is None:
+        return None
+    from minparam_cli.dynamics.transmission import coupled_motors, motor_matrix
+
+    N = motor_matrix(chain)
+    return {"motors": int(N.shape[0]), "coupled_motors": [k + 1 for k in coupled_motors(N)],
+            "condition_number": float(np.linalg.cond(N)), "drive_gains": chain.transmission.drive_gains is not None}

@@ -83,6 +83,8 @@ def derive_projection(chain: Chain, progress: Progress | None = None) -> BaseSet
         raise UnsupportedError("the method of projections does not handle a floating base yet; use --method qr", chain.source)
     if chain.coupling is not None:
         raise UnsupportedError("the method of projections does not handle mimic joints yet; use --method qr (or --mimic fixed)", chain.source)
+    if any(kind.startswith("motor_") for _, kind in chain.layout.extra_columns):
+        raise UnsupportedError("the method of projections does not handle motor-side columns (transmission) yet; use --method qr", chain.source)
     t0 = time.perf_counter()
     cost = projection_cost(chain)
     if cost["rows"] > MAX_ROWS:

@@ -70,6 +70,11 @@ def _columns(text: str) -> dict[str, str]:
         raise typer.BadParameter(str(e), param_hint="--columns") from None
 
 
+class Side(str, Enum):
+    joint = "joint"
+    motor = "motor"
+
+
 class TimeUnit(str, Enum):
     s = "s"
     ms = "ms"
@@ -125,6 +130,12 @@ def identify(
     export_urdf: Optional[Path] = typer.Option(None, "--export-urdf", help="With --physical: write the robot as URDF with the identified masses, centres of mass and inertias."),
     export_yaml: Optional[Path] = typer.Option(None, "--export-yaml", help="With --physical, for a YAML (DH/MDH) robot: write its YAML with the identified inertials."),
     mimic: MimicMode = mimic_option(),
+    side: Side = typer.Option(Side.joint, "--side", help="Which side of the gears the q and tau columns were measured on: joint, or motor (converted with the robot's transmission: q = N⁻¹θ + zero, τ = Nᵀτ_m)."),
+    current: bool = typer.Option(False, "--current", help="With --side motor: the tau columns are motor currents, scaled by the transmission's drive_gains (without them the torque unit is arbitrary)."),
+    payload_data: Optional[Path] = typer.Option(None, "--payload-data", help="A second recording with a known payload on the last link: identify the payload (and, with --current and no drive_gains, the drive gains) from the difference."),
+    payload_mass: Optional[float] = typer.Option(None, "--payload-mass", help="With --payload-data: the payload's mass, kg."),
+    payload_com: Optional[str] = typer.Option(None, "--payload-com", help="With --payload-data: the payload's centre of mass X,Y,Z in the last link's frame, m (else identified)."),
+    payload_inertia: Optional[str] = typer.Option(None, "--payload-inertia", help="With --payload-com: its inertia about the centre of mass IXX,IXY,IXZ,IYY,IYZ,IZZ, kg·m² (else identified)."),
     quiet: bool = typer.Option(False, "--quiet", "-q", help="No progress bar."),
     jobs: int = typer.Option(1, "--jobs", "-j", min=1, help="Batch (DATA a folder or manifest of recordings): parallel worker processes."),
     scheduler: Optional[str] = scheduler_option(),
@@ -142,7 +153,8 @@ def _split(text: str) -> tuple[float, float, float]:
 @guarded
 def _identify(robot, data, validate, test, split, columns, time_unit, topic, cutoff, force_filter, rate, decimate, trim_still, still_speed,
               friction, rotor_inertia, coulomb_smoothing, gravity, effects, no_diagnose, min_gain, physical, prior,
-              prior_weight, sigma, block_length, replicates, consistency, essential, essential_bound, ols, fmt, output, plot, seed, save_model, export_urdf, export_yaml, mimic, quiet, jobs=1, scheduler=None):
+              prior_weight, sigma, block_length, replicates, consistency, essential, essential_bound, ols, fmt, output, plot, seed, save_model, export_urdf, export_yaml, mimic, quiet, jobs=1, scheduler=None,
+              side="joint", current=False, payload_data=None, payload_mass=None, payload_com=None, payload_inertia=None):
     from minparam_cli.identify.data import DataOptions
     from minparam_cli.identify.diagnose import DiagnosisOptions
     from minparam_cli.identify.effects import EFFECT_IDS
@@ -197,11 +209,15 @@ def _identify(robot, data, validate, test, split, columns, time_unit, topic, cut
         if nominal_problems(chain):
             raise InputError("--prior nominal: " + nominal_problems_text(str(robot), nominal_problems(chain)))
     chain = chain.with_coulomb_smoothing(coulomb_smoothing)
+    from minparam_cli.dynamics.transmission import motor_side_spec
+
+    motor_side, scale_note = motor_side_spec(chain, Side(side).value, current)
+    payload = _payload_spec(payload_data, payload_mass, payload_com, payload_inertia)
     opts = IdentifyOptions(
         data=DataOptions(columns=_columns(columns), cutoff_hz=cutoff, force_filter=force_filter,
                          decimate=decimate, step_s=(1.0 / rate if rate else None),
                          trim_still_s=trim_still, still_speed=still_speed, time_unit=TimeUnit(time_unit).value,
-                         topic=topic, joint_names=coordinate_names(chain)),
+                         topic=topic, joint_names=coordinate_names(chain), motor_side=motor_side),
         split=shares,
         validate=str(validate) if validate else None,
         tests=tuple(str(t) for t in test),
@@ -241,6 +257,14 @@ def _identify(robot, data, validate, test, split, columns, time_unit, topic, cut
         if len(art.models) == 1:
             save_png(residual_vs_velocity(art.hold, art.models[0], art.models[0], f"{chain.name}: rigid-body residual (selection data)"), plot / "residual_vs_velocity_step0.png")
         save_png(measured_vs_predicted(art.hold, art.models[-1], f"{chain.name}: selection-data torque"), plot / "measured_vs_predicted.png")
+    if payload is not None:  # identify/payload.py: a second recording with a known payload
+        from minparam_cli.identify.payload import payload_report
+
+        gains_unknown = scale_note is not None
+        report["payload"] = payload_report(art.design, data, payload_data, opts.data, payload, gains_unknown)
+        scale_note = None if gains_unknown else scale_note  # the known mass fixed the scale
+    if scale_note:
+        report.setdefault("flags", []).append(scale_note)
     if save_model is not None or export_urdf is not None or export_yaml is not None:
         from minparam_cli.cli.model_files import write_identify_outputs
         from minparam_cli.identify.model import LoadSettings
@@ -254,6 +278,10 @@ def _identify(robot, data, validate, test, split, columns, time_unit, topic, cut
         from minparam_cli.render.identify_text import render_identify
 
         text = render_identify(report)
+        if "payload" in report:
+            from minparam_cli.render.payload_text import render_payload
+
+            text = text.rstrip("\n") + "\n\n" + render_payload(report["payload"])
     write_output(text, output)
 
 
@@ -271,6 +299,22 @@ def _essential(essential: bool, bound: float):
     if not (math.isfinite(bound) and bound > 0):
         raise InputError(f"--essential-bound {bound}: expected a positive percentage")
     return bound if essential else None
+
+
+def _payload_spec(payload_data, mass, com, inertia):
+    """The known payload (None without --payload-data); one-line refusals of incomplete options."""
+    from minparam_cli.errors import InputError
+
+    if payload_data is None:
+        if any(v is not None for v in (mass, com, inertia)):
+            raise InputError("--payload-mass, --payload-com and --payload-inertia need --payload-data")
+        return None
+    from minparam_cli.identify.payload import PayloadSpec, check_spec
+
+    spec = PayloadSpec(None if mass is None else float(mass), parse_floats(com, 3, "--payload-com") if com is not None else None,
+                       parse_floats(inertia, 6, "--payload-inertia") if inertia is not None else None)
+    check_spec(spec)
+    return spec
 
 
 def _check_exports(robot: Path, physical: bool, export_urdf, export_yaml) -> None:

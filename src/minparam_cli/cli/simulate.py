@@ -96,14 +96,22 @@ def simulate(
     coulomb_smoothing: float = typer.Option(0.0, "--coulomb-smoothing", help="Smooth Coulomb friction: tanh(dq/V) for sign(dq) in the injected friction effects, V in rad/s (m/s); 0: sign."),
     quiet: bool = typer.Option(False, "--quiet", "-q", help="No summary or notes on stderr."),
     mimic: MimicMode = mimic_option(),
+    side: str = typer.Option("joint", "--side", help="joint, or motor: write motor angles, rates and torques through the robot's transmission (θ = N(q − zero), τ_m = N⁻ᵀτ)."),
+    current: bool = typer.Option(False, "--current", help="With --side motor: write currents τ_m / g with the transmission's drive_gains."),
+    motor_params: str = typer.Option("", "--motor-params", help="Values of the robot's motor-side parameters to inject, e.g. Fcm6=0.06,Fvm6=6e-4,Iam6=1e-5 (motor-side units)."),
+    payload_mass: Optional[float] = typer.Option(None, "--payload-mass", help="A payload on the last link: its mass, kg."),
+    payload_com: Optional[str] = typer.Option(None, "--payload-com", help="Its centre of mass X,Y,Z in the last link's frame, m (default 0,0,0)."),
+    payload_inertia: Optional[str] = typer.Option(None, "--payload-inertia", help="Its inertia about the centre of mass IXX,IXY,IXZ,IYY,IYZ,IZZ, kg·m² (default 0)."),
 ):
     _simulate(robot, trajectory, effects, strength, noise, noise_q, seed, duration, rate, harmonics, base_frequency,
-              random_inertia, no_ddq, output, truth, quiet, coulomb_smoothing, mimic)
+              random_inertia, no_ddq, output, truth, quiet, coulomb_smoothing, mimic, side, current, motor_params,
+              payload_mass, payload_com, payload_inertia)
 
 
 @guarded
 def _simulate(robot, trajectory, effects, strength, noise, noise_q, seed, duration, rate, harmonics, base_frequency,
-              random_inertia, no_ddq, output, truth, quiet, coulomb_smoothing=0.0, mimic=MimicMode.coupled):
+              random_inertia, no_ddq, output, truth, quiet, coulomb_smoothing=0.0, mimic=MimicMode.coupled, side="joint",
+              current=False, motor_params="", payload_mass=None, payload_com=None, payload_inertia=None):
     from minparam_cli.chain import build_chain
     from minparam_cli.describe import load_description
     from minparam_cli.identify.simulate import SimulationOptions, Stream, parse_effects, plan as make_plan, truth_record, validate_options
@@ -120,6 +128,10 @@ def _simulate(robot, trajectory, effects, strength, noise, noise_q, seed, durati
 
     chain = build_chain(load_description(robot, mimic=MimicMode(mimic).value))
     require_fixed_base(chain, "simulate")
+    from minparam_cli.identify.motor_side import parse_motor_params
+
+    motor_values, gains = parse_motor_params(motor_params, chain), _side_gains(chain, side, current)
+    payload = _payload(payload_mass, payload_com, payload_inertia)
     try:
         specs = parse_effects(effects, chain.dof)
     except InputError as e:
@@ -139,11 +151,23 @@ def _simulate(robot, trajectory, effects, strength, noise, noise_q, seed, durati
         print(f"minparam: note: {robot} does not give inertial data for every link; using random physically consistent "
               "parameters (as with --random-inertia)", file=sys.stderr)
 
+    transforms = []  # per-chunk maps after the rigid body, effects and noise
+    if payload is not None:  # identify/payload.py: the payload's torque Y_n φ_L
+        from minparam_cli.identify.payload import with_payload
+
+        transforms.append(lambda c: with_payload(c, chain, payload))
+    if motor_values or side == "motor":  # motor parameters and motor-side signals: identify/motor_side.py
+        from minparam_cli.identify.motor_side import to_motor_side, with_motor_params
+
+        smooth = chain.with_coulomb_smoothing(coulomb_smoothing)
+        transforms.append(lambda c: with_motor_params(c, smooth, motor_values))
+        if side == "motor":
+            transforms.append(lambda c: to_motor_side(c, chain, gains))
     samples = validate_options(opts)
     bar = Progress(2 * samples, "simulate", quiet)
     try:
         plan = make_plan(chain, opts, np.random.default_rng(seed), progress=bar, given=given)
-        stream = Stream(plan, progress=bar)
+        stream = Stream(plan, progress=bar, transforms=tuple(transforms))
         include_ddq = not no_ddq
         if data_format == "npz":
             write_npz(stream, include_ddq, Path(output))
@@ -154,12 +178,48 @@ def _simulate(robot, trajectory, effects, strength, noise, noise_q, seed, durati
     limits = stream.limits
     if truth is not None:
         record = truth_record(plan, str(robot), seed, chain.name, include_ddq, limits=limits)
+        if payload is not None:
+            record["payload"] = {"mass": payload.mass, "com": list(payload.com), "inertia": list(payload.inertia),
+                                 "standard_parameters": payload.known()}
+        if motor_values or side == "motor":
+            record["motor_side"] = {"side": side, "current": current, "drive_gains": list(gains) if gains else None,
+                                    "motor_parameters": motor_values}
         write_output(json_text(record), Path(truth))
     if not quiet:
         sys.stderr.write(summary_text(plan, limits, chain.name, seed, output, truth, None if given is None else str(trajectory)))
     for j in limits.over_effort:
         warning_line(f"joint {j + 1}: max |tau| {limits.max_abs_tau[j]:.4g} exceeds its effort limit "
                      f"{limits.effort[j]:g} (reported, not enforced: a slower motion lowers only its inertial part)")
+
+
+def _payload(mass, com, inertia):
+    """The simulated payload (None without --payload-mass)."""
+    from minparam_cli.cli.common import parse_floats
+
+    if mass is None:
+        if com is not None or inertia is not None:
+            raise InputError("--payload-com and --payload-inertia need --payload-mass")
+        return None
+    from minparam_cli.identify.payload import PayloadSpec, check_spec
+
+    spec = PayloadSpec(float(mass), parse_floats(com, 3, "--payload-com") if com else (0.0, 0.0, 0.0),
+                       parse_floats(inertia, 6, "--payload-inertia") if inertia else (0.0,) * 6)
+    check_spec(spec)
+    return spec
+
+
+def _side_gains(chain, side: str, current: bool):
+    """The drive gains --current divides by (None for torques); one-line refusals."""
+    if side not in ("joint", "motor"):
+        raise InputError(f"--side: expected joint or motor, got {side!r}")
+    if current and side != "motor":
+        raise InputError("--current needs --side motor: currents are motor-side signals")
+    if not current:
+        return None
+    tr = chain.transmission
+    if tr is None or tr.drive_gains is None:
+        raise InputError(f"--current needs drive_gains in the transmission of {chain.source}")
+    return tr.drive_gains
 
 
 def register(app: typer.Typer) -> None:

@@ -35,5 +35,14 @@ def load_description(path: str | Path, snap_angles: float | None = None, mimic: 
     if suffix == ".urdf":
         from minparam_cli.describe.urdf import load_urdf
 
-        return load_urdf(path, snap_angles, mimic, floating_base)
+        desc = load_urdf(path, snap_angles, mimic, floating_base)
+        from minparam_cli.describe.transmission import load_side_file
+
+        if not floating_base:  # robot.transmission.yaml beside robot.urdf (a URDF has no place for it)
+            from dataclasses import replace
+
+            tr = load_side_file(path, tuple(j.type for j in desc.joints if j.mimic is None))
+            if tr is not None:
+                desc = replace(desc, transmission=tr)
+        return desc
     raise DescriptionError(f"unknown file type {suffix!r}; expected one of .yaml, .yml, .urdf", str(path))

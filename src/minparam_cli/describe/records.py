@@ -76,6 +76,26 @@ class JointRecord:
 
 
 @dataclass(frozen=True)
+class Transmission:
+    """Motors and gears between the motor coordinates and the joints (docs/methods/transmission.md).
+
+    theta_m = N (q - zero), tau_joint = Nᵀ tau_m; ``matrix`` is N row by row (motor k = row k),
+    ``zero`` the joint coordinates at which every motor reads zero (SI), ``motor_extras`` per motor
+    the motor-side columns (kinds of ``params.MOTOR_KINDS``), ``drive_gains`` the motor torque per
+    unit of current signal (tau_m = g_k i_k; None: not declared).
+    """
+
+    matrix: tuple[tuple[float, ...], ...]
+    zero: tuple[float, ...]
+    motor_extras: tuple[tuple[str, ...], ...]
+    drive_gains: tuple[float, ...] | None = None
+
+    @property
+    def n(self) -> int:
+        return len(self.matrix)
+
+
+@dataclass(frozen=True)
 class RobotDescription:
     """A whole robot file: its joints in chain order, gravity (and where it came from), units, tool."""
 
@@ -94,6 +114,8 @@ class RobotDescription:
     tool_links: tuple[tuple[str, int, tuple[float, float, float]], ...] = ()
     # values the loader changed on request (``--snap-angles``): dicts with where, from, to, degrees
     adjustments: tuple[dict, ...] = ()
+    # motors, gears and their coupling (YAML ``transmission:``, or a URDF's side file); None: none declared
+    transmission: Transmission | None = None
 
     @property
     def dof(self) -> int:

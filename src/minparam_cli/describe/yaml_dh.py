@@ -33,7 +33,8 @@ LENGTH_UNITS = {"m": Fraction(1), "mm": Fraction(1, 1000)}
 ANGLE_UNITS = ("deg", "rad")
 CONVENTIONS = ("dh", "mdh")
 JOINT_TYPES = ("revolute", "prismatic")
-TOP_KEYS = {"kind", "name", "convention", "units", "gravity", "friction", "rotor_inertia", "tool", "joints", "description"}
+TOP_KEYS = {"kind", "name", "convention", "units", "gravity", "friction", "rotor_inertia", "tool", "joints", "description",
+            "transmission"}
 JOINT_KEYS = {"name", "type", "alpha", "a", "d", "theta", "friction", "rotor_inertia", "limits", "velocity", "acceleration",
               "effort", "inertial"}
 _PI_RE = re.compile(r"^\s*([+-]?(?:\d+(?:\.\d*)?|\.\d+)?)\s*\*?\s*pi\s*(?:/\s*(\d+(?:\.\d*)?))?\s*$")
@@ -141,7 +142,13 @@ def description_from_mapping(doc: Any, src: str) -> RobotDescription:
                 max_effort=max_effort,
             )
         )
+    transmission = None
+    if doc.get("transmission") is not None:  # motors, gears, coupling: describe/transmission.py
+        from minparam_cli.describe.transmission import parse_transmission
+
+        transmission = parse_transmission(doc["transmission"], tuple(j.type for j in joints), au, float(scale), src)
     return RobotDescription(
+        transmission=transmission,
         name=name,
         source=src,
         convention=convention,

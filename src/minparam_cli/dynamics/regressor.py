@@ -22,6 +22,9 @@ tau_k = S_kᵀ · W_j.  Extras add Ia·qdd_k, Fc·sign(qd_k) (or the smooth
 Fc·tanh(qd_k / v_c), ``Chain.coulomb_smoothing``), Fv·qd_k and a constant,
 each in its own column.
 
+Motor-side columns of a declared transmission (Iamk, Fcmk, Fvmk: ``dynamics/transmission.py``)
+are Nᵀe_k times a function of the motor's speed or acceleration (N q̇)_k, (N q̈)_k.
+
 Mimic joints (``Chain.coupling``, q_joint = G·q + offset): the regressor of
 every joint is computed at the joint states the coordinates give, then its
 rows are combined by virtual work, Y = Gᵀ·Y_joints (the generalized force on
@@ -175,7 +178,12 @@ def regressor(chain: Chain, q, qd, qdd, include_extras: bool = True, backend: st
     if q.shape[1] != chain.dof or qd.shape != q.shape or qdd.shape != q.shape:
         raise ValueError(f"expected q, qd, qdd with shape (N, {chain.dof})")
     if chain.coupling is None:
-        return joint_regressor(chain, q, qd, qdd, include_extras, backend)
+        Y = joint_regressor(chain, q, qd, qdd, include_extras, backend)
+        if include_extras and chain.transmission is not None:
+            from minparam_cli.dynamics.transmission import add_motor_columns
+
+            add_motor_columns(chain, Y, qd, qdd)
+        return Y
     q, qd, qdd = (np.ascontiguousarray(x) for x in chain.coupling.joint_states(q, qd, qdd))
     return np.matmul(chain.coupling.G.T, joint_regressor(chain, q, qd, qdd, include_extras, backend))
 

@@ -53,6 +53,9 @@ class DataOptions:
     time_unit: str = "s"  # unit of a CSV or .npz time column: s, ms, us or ns (measured.columns.TIME_UNITS)
     topic: str | None = None  # a ROS bag's JointState topic; None: the bag's only one
     joint_names: tuple[str, ...] = ()  # names of the independent coordinates, in order (ROS bags match by name)
+    # motor-side data (identify --side motor): (N rows, zero, gains or None); q = N⁻¹θ + zero,
+    # τ = Nᵀ diag(gains) τ_m, applied as the rows are read (dynamics/transmission.py); None: joint side
+    motor_side: tuple | None = None
 
 
 @dataclass

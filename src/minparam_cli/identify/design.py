@@ -85,7 +85,10 @@ class Design:
         if self.theta_model is not None:
             Xb = self.base_columns(b) if Xb is None else Xb
             tau_model = Xb @ self.theta_model[: len(self.kept)]
-        return Signals(b.t, b.q, b.dq, b.ddq, tau_model, self.t0, self.chain.coulomb_smoothing)
+        motor = None
+        if self.chain.transmission is not None:  # the motor-side effects of coupled motors
+            motor = np.asarray(self.chain.transmission.matrix, dtype=float)
+        return Signals(b.t, b.q, b.dq, b.ddq, tau_model, self.t0, self.chain.coulomb_smoothing, motor)
 
     def columns(self, b: Block) -> np.ndarray:
         Xb = self.base_columns(b)

@@ -105,6 +105,10 @@ def present_effects(design: Design) -> set[tuple[str, int]]:
             if j in coordinate:
                 present.add((DECLARED.get(e, e), coordinate[j]))
     present |= {("coulomb", j) for e, j in list(present) if e == "asymmetric_coulomb"}
+    tr = design.chain.transmission
+    if tr is not None:  # a declared motor-side column of motor k covers the effect on every joint motor k moves
+        for k, extras in enumerate(tr.motor_extras):
+            present |= {(e, coordinate[j]) for e in extras for j, v in enumerate(tr.matrix[k]) if v != 0 and j in coordinate}
     return present
 
 

@@ -34,6 +34,7 @@ class Signals:
     tau_model: np.ndarray | None = None  # rigid-body model torque, for load-dependent effects
     t0: float | None = None  # time origin of the drift column (None: the first sample)
     coulomb_smoothing: float = 0.0  # > 0: every sign(q̇) of the friction effects becomes tanh(q̇ / this)
+    motor: np.ndarray | None = None  # the transmission N (θ_m = N q) when the robot declares one: motor-side effects
 
     def sgn(self, j) -> np.ndarray:
         """The Coulomb signal of joint(s) j: sign(q̇), or its smooth version tanh(q̇ / v_c)."""
@@ -72,6 +73,45 @@ def _asymmetric(s: Signals, j) -> np.ndarray:
         g = s.sgn(j)
         return np.stack([0.5 * (1.0 + g), -0.5 * (1.0 - g)], axis=1)
     return np.stack([(s.dq[:, j] > 0).astype(float), -(s.dq[:, j] < 0).astype(float)], axis=1)
+
+
+def _coupled_motor(s: Signals, j, kind: str) -> np.ndarray:
+    """Joint j's share of the friction or inertia of the coupled motors that move it (rows of N
+    with more than one entry, one of them on joint j): Σ_k N_kj f((N q̇)_k).  Zero without a
+    declared transmission, or when no coupled motor moves joint j (then it adds nothing).
+
+    Each joint of the term gets its own coefficient, so a motor k coupling joints 5 and 6 is fitted
+    as N_k5·F and N_k6·F with two numbers where one would do (the declared Fcmk column has one):
+    the per-joint diagnosis scores columns joint by joint."""
+    from minparam_cli.dynamics.transmission import coupled_motors
+
+    if s.motor is None:
+        return np.zeros_like(s.q[:, j])
+    N = s.motor
+    out = np.zeros_like(s.q)
+    for k in coupled_motors(N):
+        if kind == "motor_inertia":
+            f = s.ddq @ N[k]
+        elif kind == "motor_viscous":
+            f = s.dq @ N[k]
+        else:
+            v = s.dq @ N[k]
+            f = np.tanh(v / s.coulomb_smoothing) if s.coulomb_smoothing > 0.0 else np.sign(v)
+        out += f[:, None] * N[k][None, :]
+    return out[:, j]
+    N = s.motor
+    for k in coupled_motors(N):
+        if N[k, j] == 0:
+            continue
+        if kind == "motor_inertia":
+            f = s.ddq @ N[k]
+        elif kind == "motor_viscous":
+            f = s.dq @ N[k]
+        else:
+            v = s.dq @ N[k]
+            f = np.tanh(v / s.coulomb_smoothing) if s.coulomb_smoothing > 0.0 else np.sign(v)
+        out += N[k, j] * f
+    return out
 
 
 POSITIVE = (0.0, math.inf)
@@ -118,6 +158,16 @@ EFFECTS: dict[str, Effect] = {
                needs_model=True, build=lambda s, j, h: s.tau_model[:, j], bounds=GAIN_RANGE,
                misfit="a rescaling far from 1: a unit or sign error in the data, or a model error compensated by "
                       "rescaling the whole joint torque"),
+        Effect("motor_coulomb", "dry friction of a coupled motor (one that turns with several joints, as the TX40's "
+               "motor 6 with joints 5 and 6), against the motor's motion: N_kj·Fcm·sign((N q̇)_k)", ("Fcmc",),
+               build=lambda s, j, h: _coupled_motor(s, j, "motor_coulomb"), bounds=POSITIVE,
+               misfit="a torque that helps the motor's motion: a sign error in the coupling or the torque signal"),
+        Effect("motor_viscous", "viscous friction of a coupled motor, on the motor's speed: N_kj·Fvm·(N q̇)_k", ("Fvmc",),
+               build=lambda s, j, h: _coupled_motor(s, j, "motor_viscous"), bounds=POSITIVE,
+               misfit="a torque that grows with the motor's speed in its direction of motion: a coupling or model error"),
+        Effect("motor_inertia", "rotor inertia of a coupled motor, on the motor's acceleration: N_kj·Iam·(N q̈)_k", ("Iamc",),
+               build=lambda s, j, h: _coupled_motor(s, j, "motor_inertia"), bounds=POSITIVE,
+               misfit="a negative inertia: a lag between the torque and acceleration signals, not a rotor"),
         Effect("drift", "a slow linear drift of the torque signal (temperature, sensor drift)", ("D",),
                build=lambda s, j, h: s.t - (s.t[0] if s.t0 is None else s.t0)),
     )

@@ -116,6 +116,10 @@ class SavedModel:
         }
         if self.uncertainty is not None:
             out["uncertainty"] = self.uncertainty
+        if self.data.motor_side is not None:  # identify --side motor: the conversion the data were read with
+            rows, zero, gains = self.data.motor_side
+            out["data"]["motor_side"] = {"matrix": [list(r) for r in rows], "zero": list(zero),
+                                         "gains": None if gains is None else list(gains)}
         if self.physical is not None:
             out["physical"] = {"phi_names": list(self.physical.phi_names), "phi": [float(x) for x in self.physical.phi],
                                "theta": [float(x) for x in self.physical.theta]}
@@ -351,12 +355,33 @@ def parse_model(text: str, source: str) -> SavedModel:
         step_s=r.number(da["step_s"], "data.step_s", allow_none=True),
         still_speed=r.number(da["still_speed"], "data.still_speed"),
         trim_still_s=r.number(da["trim_still_s"], "data.trim_still_s", allow_none=True),
+        motor_side=_motor_side(r, da.get("motor_side")),
     )
     figures = doc.get("figures") or {}
     if not isinstance(figures, dict):
         r.fail("figures", "expected a JSON object")
     return SavedModel(path, sha, load, seed, kept, base_names, tuple(terms), theta_model, t0, names, theta, std,
                       data, physical, figures, _parse_uncertainty(r, doc, len(names)))
+
+
+def _motor_side(r: _Reader, v) -> tuple | None:
+    """data.motor_side of a saved model (optional; absent in files of joint-side data)."""
+    if v is None:
+        return None
+    rows = r.get(v, "matrix", "data.motor_side")
+    if not isinstance(rows, list) or not rows:
+        r.fail("data.motor_side.matrix", "expected a square list of rows")
+    n = len(rows)
+    matrix = tuple(tuple(r.numbers(row, f"data.motor_side.matrix[{i}]", n)) for i, row in enumerate(rows))
+    s = np.linalg.svd(np.array(matrix), compute_uv=False)
+    if not s[-1] > 1e-10 * s[0]:
+        r.fail("data.motor_side.matrix", "the coupling matrix is singular")
+    zero = tuple(r.numbers(r.get(v, "zero", "data.motor_side"), "data.motor_side.zero", n))
+    gains = v.get("gains")
+    gains = None if gains is None else tuple(r.numbers(gains, "data.motor_side.gains", n))
+    if gains is not None and not all(g > 0 for g in gains):
+        r.fail("data.motor_side.gains", "a drive gain must be positive")
+    return matrix, zero, gains
 
 
 # --- the robot and the design ---------------------------------------------------------------------

@@ -63,7 +63,7 @@ DEFAULT_PRIOR_WEIGHT = 1e-3
 INFORMED_RATIO = 10.0
 KINDS = {"XX": "inertia", "XY": "inertia", "XZ": "inertia", "YY": "inertia", "YZ": "inertia", "ZZ": "inertia",
          "MX": "moment", "MY": "moment", "MZ": "moment", "M": "mass"}
-SIGNED_EXTRAS = {"Ia": 0.0, "Fc": 0.0, "Fv": 0.0}  # extras with a lower bound; OFF is free
+SIGNED_EXTRAS = {"Ia": 0.0, "Fc": 0.0, "Fv": 0.0, "Iam": 0.0, "Fcm": 0.0, "Fvm": 0.0}  # extras with a lower bound; OFF is free
 
 
 @dataclass(frozen=True)

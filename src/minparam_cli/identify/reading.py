@@ -57,7 +57,10 @@ def raw_chunks(path: Path, n: int, opts: DataOptions) -> Iterator[tuple[np.ndarr
     if record is None and is_bag(path):
         from minparam_cli.measured.rosbag import bag_chunks
 
-        yield from bag_chunks(path, n, opts)
+        for table, layout in bag_chunks(path, n, opts):
+            if opts.motor_side is not None:
+                to_joint_side(table, layout, opts.motor_side)
+            yield table, layout
         return
     divisor = TIME_UNITS[opts.time_unit]
     if record is not None:
@@ -69,7 +72,24 @@ def raw_chunks(path: Path, n: int, opts: DataOptions) -> Iterator[tuple[np.ndarr
     for table, layout in source:
         if divisor != 1.0:
             table[:, 0] /= divisor  # a division: a stamp in ms, us or ns becomes the nearest double in s
+        if opts.motor_side is not None:
+            to_joint_side(table, layout, opts.motor_side)
         yield table, layout
+
+
+def to_joint_side(table: np.ndarray, layout: dict, motor_side: tuple) -> None:
+    """Motor angles, rates and torques (or current signals) of a chunk -> joint side, in place.
+
+    Linear, so it commutes with the filter and the differentiation that follow (the zero offset
+    only shifts q)."""
+    from minparam_cli.dynamics.transmission import joint_from_motor, joint_torque
+
+    rows, zero, gains = motor_side
+    N = np.asarray(rows, dtype=float)
+    for key in ("q", "dq", "ddq"):
+        if layout.get(key) is not None:
+            table[:, layout[key]] = joint_from_motor(table[:, layout[key]], N, zero if key == "q" else None)
+    table[:, layout["tau"]] = joint_torque(table[:, layout["tau"]], N, gains)
 
 
 def _file_chunks(path: Path, n: int, opts: DataOptions) -> Iterator[tuple[np.ndarray, dict]]:

@@ -265,6 +265,7 @@ def plan(chain: Chain, options: SimulationOptions, rng: np.random.Generator, pro
         phi, source = np.array(chain.phi_nominal, dtype=float), "description"
 
     dof = chain.dof
+    motor = None if chain.transmission is None else np.asarray(chain.transmission.matrix, dtype=float)  # coupled-motor effects
     tau_rigid = np.empty((samples, dof))
     grams = [[np.zeros((len(EFFECTS[s.effect].column_names),) * 2) for _ in s.joints] for s in options.effects]
     max_dq, max_ddq = np.zeros(dof), np.zeros(dof)
@@ -275,7 +276,7 @@ def plan(chain: Chain, options: SimulationOptions, rng: np.random.Generator, pro
         np.maximum(max_ddq, np.abs(ddq).max(axis=0), out=max_ddq)
         if options.effects:
             signals = Signals(t=t, q=q, dq=dq, ddq=ddq, tau_model=tau_rigid[s:e], t0=0.0,
-                              coulomb_smoothing=options.coulomb_smoothing)
+                              coulomb_smoothing=options.coulomb_smoothing, motor=motor)
             for spec, spec_grams in zip(options.effects, grams):
                 for j, gram in zip(spec.joints, spec_grams):
                     cols = EFFECTS[spec.effect].columns(signals, j, spec.hyper)
@@ -296,11 +297,15 @@ def plan(chain: Chain, options: SimulationOptions, rng: np.random.Generator, pro
 
 
 class Stream:
-    """The second pass: iterate once for the data chunk by chunk; ``limits`` is complete afterwards."""
+    """The second pass: iterate once for the data chunk by chunk; ``limits`` is complete afterwards.
 
-    def __init__(self, plan: Plan, progress: Progress | None = None):
+    ``transforms``: functions Chunk -> Chunk applied in turn to every chunk after the limits are taken
+    (per-sample maps only: a payload's torque, motor-side parameters, the change to motor signals)."""
+
+    def __init__(self, plan: Plan, progress: Progress | None = None, transforms: tuple[Callable[[Chunk], Chunk], ...] = ()):
         self.plan = plan
         self.progress = progress
+        self.transforms = tuple(transforms)
         self._max_tau = np.zeros(plan.chain.dof)
         self._used = False
         self.limits: MotionLimits | None = None
@@ -315,7 +320,9 @@ class Stream:
             rigid = p.tau_rigid[s:e]
             effects = np.zeros_like(rigid)
             if p.effects:
-                signals = Signals(t=t, q=q, dq=dq, ddq=ddq, tau_model=rigid, t0=0.0, coulomb_smoothing=o.coulomb_smoothing)
+                motor = None if p.chain.transmission is None else np.asarray(p.chain.transmission.matrix, dtype=float)
+                signals = Signals(t=t, q=q, dq=dq, ddq=ddq, tau_model=rigid, t0=0.0, coulomb_smoothing=o.coulomb_smoothing,
+                                  motor=motor)
                 for record in p.effects:
                     effect = EFFECTS[record.effect]
                     for j, c in zip(record.joints, record.coefficients):
@@ -327,7 +334,10 @@ class Stream:
             np.maximum(self._max_tau, np.abs(tau).max(axis=0), out=self._max_tau)
             if self.progress:
                 self.progress(p.samples + e, 2 * p.samples)
-            yield Chunk(s, t, q_measured, dq, ddq, tau, q, rigid, effects)
+            chunk = Chunk(s, t, q_measured, dq, ddq, tau, q, rigid, effects)
+            for transform in self.transforms:
+                chunk = transform(chunk)
+            yield chunk
         self.limits = MotionLimits(*p.limits_given, p.max_abs_dq, p.max_abs_ddq, tuple(float(x) for x in self._max_tau))
 
 
