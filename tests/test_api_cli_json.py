@@ -165,6 +165,7 @@ def test_platform():
 EXCITE_FAST = {"harmonics": 3, "rate": 50, "starts": 2, "max_iterations": 20}
 
 
+@pytest.mark.filterwarnings("ignore::minparam_cli.errors.MinparamWarning")  # planar2r.yaml gives no limits: two notes
 def test_excite(tmp_path):
     """The --json record and the CSV bytes, with the default options and with declared friction, rest and a box."""
     for kw, flags in (({}, []), ({"friction": ["coulomb", "viscous"], "rest": True, "seed": 2, "box": [[None, None], [-0.5, None], [None, None]],
