@@ -296,3 +296,10 @@ def test_generated_c_is_written_only_under_its_header_name(tmp_path, capsys):
     assert sorted(p.name for p in code.write()) == ["arm.c", "arm.h"]
     assert (tmp_path / "arm.h").read_text() == code.header
     assert capsys.readouterr() == ("", "")
+
+
+def test_codegen_takes_a_robots_own_options():
+    robot = minparam.load_robot(ROBOT, friction="coulomb,viscous", gravity=(0, -9.81, 0))
+    code = minparam.codegen(robot, "python")
+    assert code.source == minparam.codegen(ROBOT, "python", friction="coulomb,viscous", gravity="0,-9.81,0").source
+    assert code.base_names == minparam.derive(robot).names and "Fv2" in code.base_names

@@ -162,19 +162,28 @@ def _text(value: Any) -> str:
 
 def codegen(robot: Robot | str | Path, lang: str, *, model: Any = None, parameters: str | None = None,
             full: bool = False, name: str | None = None, output: str | Path | None = None, method: str = "qr",
-            friction: str | Iterable[str] | None = None, rotor_inertia: bool = False, gravity: Any = None,
-            samples: int = 100, seed: int = 0, mimic: str = "coupled", floating_base: bool = False) -> GeneratedCode:
+            friction: str | Iterable[str] | None = None, rotor_inertia: bool | None = None, gravity: Any = None,
+            samples: int = 100, seed: int = 0, mimic: str | None = None, floating_base: bool | None = None) -> GeneratedCode:
     """Generate the base regressor Y_b(q, qd, qdd) (``full=True``: also the full regressor and K) as
     self-contained code (``minparam codegen``): ``lang`` "c" (C99, a .c and a .h), "python" (NumPy)
     or "casadi".  With ``model`` (a model file of ``identify --save-model``, or ``Model.save``)
     also ``inverse_dynamics`` with its ``parameters`` ("physical" or "fit").
     ``output``: the file the code is meant for (it names the C header and the identifiers, as ``-o``
-    does; nothing is written until ``.write()``).  The text is the command's, byte for byte.
+    does; nothing is written until ``.write()``).  The text is the command's, byte for byte.  A
+    Robot's own friction, rotor inertia, gravity, mimic mode and floating base apply unless given here
+    (not with ``model``: the model's settings apply).
     """
     path = robot_path(robot)
     if model is not None and not isinstance(model, (str, Path)):
         raise InputError(f"model: expected a model file path (of identify --save-model or Model.save), got {type(model).__name__}")
     model_path = Path(model) if model is not None else None
+    if isinstance(robot, Robot) and model is None:
+        o = robot.options
+        friction = friction if friction is not None else o.friction
+        rotor_inertia = rotor_inertia if rotor_inertia is not None else o.rotor_inertia
+        gravity = gravity if gravity is not None else o.gravity
+        mimic = mimic if mimic is not None else o.mimic
+        floating_base = floating_base if floating_base is not None else o.floating_base
     friction_text = friction if isinstance(friction, str) else ",".join(str(k) for k in (friction or ()))
     if gravity is None or isinstance(gravity, str):
         gravity_text = gravity
@@ -182,7 +191,7 @@ def codegen(robot: Robot | str | Path, lang: str, *, model: Any = None, paramete
         gravity_text = ",".join(_text(float(x)) for x in float_option(gravity, 3, "--gravity"))
     out = Path(output) if output is not None else None
     gen, stem = generate(path, lang, out, model_path, parameters, full, name, method, friction_text, bool(rotor_inertia),
-                         gravity_text, int(samples), int(seed), mimic, bool(floating_base))
+                         gravity_text, int(samples), int(seed), mimic or "coupled", bool(floating_base))
     warn(gen.notes)
     return GeneratedCode(lang=choice(lang, LANGS, "--lang"), files=dict(gen.files), counts={k: dict(v) for k, v in gen.counts.items()},
                          base_names=tuple(gen.base_names), output=out, notes=tuple(gen.notes), _generated_stem=stem)
