@@ -117,7 +117,6 @@ def test_gradient_with_respect_to_the_coefficients(tmp_path):
     # the torque derivatives: τ along the same direction
     def tau(X):
         return rigid_torque(chain, Bq @ X.T, Bv @ X.T, Ba @ X.T, chain.phi_nominal)
-
     J = cons.state_jacobian(s.tau_q, s.tau_v, s.tau_a, Bq, Bv, Ba)
     fd_tau = (tau(X + h * E) - tau(X - h * E)) / (2 * h)
     assert np.allclose(J @ E.ravel(), fd_tau.ravel(), rtol=1e-4, atol=1e-6 * np.abs(fd_tau).max())
