@@ -191,3 +191,115 @@ def test_progress_true_draws_only_on_a_terminal(capsys):
     calls = []
     minparam.derive(ROBOT, method="projection", progress=lambda done, total: calls.append((done, total)))
     assert calls and capsys.readouterr() == ("", "")
+
+
+EXCITE_FAST = {"harmonics": 3, "rate": 50, "starts": 2, "max_iterations": 20}
+EXCITE_FLAGS = ["--harmonics", "3", "--rate", "50", "--starts", "2", "--max-iterations", "20", "-q"]
+
+
+def usage_error(*args) -> str:
+    """click's one-line usage error of the CLI (exit 2), e.g. 'Invalid value for --box: ...'."""
+    r = CliRunner().invoke(app, [str(a) for a in args])
+    assert r.exit_code == 2 and "Invalid value for" in r.stderr, r.output
+    return r.stderr.strip()
+
+
+@pytest.mark.parametrize("kw,flags", [
+    ({"harmonics": 0}, ["--harmonics", "0"]),
+    ({"rest": True, "harmonics": 1}, ["--rest", "--harmonics", "1"]),
+    ({"harmonics": 30, "rate": 5}, ["--harmonics", "30", "--rate", "5"]),
+    ({"margin": 0.5}, ["--margin", "0.5"]),
+    ({"seed": -1}, ["--seed", "-1"]),
+    ({"box": [[1, 0], [None, None], [None, None]]}, ["--box", "1:0,:,:"]),
+])
+def test_excite_bad_options_raise_the_cli_message(kw, flags):
+    with pytest.raises(minparam.InputError) as e:
+        minparam.excite(ROBOT, **{**EXCITE_FAST, **kw})
+    if kw.get("seed", 0) < 0:  # the CLI's option type refuses it before the command runs
+        assert "-1" in usage_error("excite", ROBOT, *EXCITE_FLAGS, *flags) and str(e.value) == "--seed must be >= 0, got -1"
+    else:
+        assert str(e.value) == cli_error("excite", ROBOT, *EXCITE_FLAGS, *flags)
+
+
+@pytest.mark.parametrize("kw,flags,option", [
+    ({"friction": "coulomb,dry"}, ["--friction", "coulomb,dry"], "--friction"),
+    ({"box": ":,:,:"}, ["--box", ":,:,:"], "--box"),
+    ({"box": "0:1,:,:x"}, ["--box", "0:1,:,:x"], "--box"),
+    ({"box": [[0, 1], [0, 1]]}, None, "--box"),
+    ({"box": [[0, 1]], "point": None}, None, "--box"),
+    ({"point": (1, 2)}, ["--point", "1,2"], "--point"),
+])
+def test_excite_bad_option_values_name_the_option(kw, flags, option):
+    with pytest.raises(minparam.InputError) as e:
+        minparam.excite(ROBOT, **{**EXCITE_FAST, **kw})
+    assert str(e.value).startswith(f"{option}: ")
+    if flags is not None:  # the same words as the CLI's usage error
+        assert str(e.value)[len(option) + 2:] in usage_error("excite", ROBOT, *EXCITE_FLAGS, *flags)
+
+
+def test_excite_prints_nothing_and_warns(capsys):
+    with pytest.warns(minparam.MinparamWarning) as rec:
+        r = minparam.excite(ROBOT, **EXCITE_FAST)
+    messages = [str(w.message) for w in rec]
+    assert len(messages) == 2 and "gives no position limits for joint(s) 1, 2" in messages[0]
+    assert "no velocity or acceleration limits" in messages[1]
+    assert capsys.readouterr() == ("", "")
+    # the samples are the series' exact values, and the design beats its own start
+    q, dq, ddq = r.evaluate(r.t)
+    np.testing.assert_allclose(np.hstack([q, dq, ddq]), np.hstack([r.q, r.dq, r.ddq]), rtol=0, atol=1e-12)
+    starts = r.to_dict()["starts"]
+    assert r.criterion <= starts[r.to_dict()["best_start"] - 1]["start"]
+    with pytest.raises(Exception):
+        r.seed = 3  # type: ignore[misc]
+
+
+def test_codegen_bad_inputs_raise_the_cli_message(tmp_path):
+    with pytest.raises(minparam.InputError) as e:
+        minparam.codegen(ROBOT, "python", parameters="fit")
+    assert str(e.value) == cli_error("codegen", ROBOT, "--lang", "python", "--parameters", "fit")
+    with pytest.raises(minparam.InputError) as e:
+        minparam.codegen(tmp_path / "missing.yaml", "python")
+    assert str(e.value) == f"{tmp_path / 'missing.yaml'}: no such file or folder"
+    with pytest.raises(minparam.InputError, match=r"--lang: 'fortran' is not one of 'c', 'python', 'casadi'"):
+        minparam.codegen(ROBOT, "fortran")
+    with pytest.raises(minparam.InputError) as e:
+        minparam.codegen(ROBOT, "python", samples=0)
+    assert str(e.value) == "--samples: must be positive"
+    assert "must be positive" in usage_error("codegen", ROBOT, "--lang", "python", "--samples", "0")
+    with pytest.raises(minparam.InputError) as e:
+        minparam.codegen(ROBOT, "c", output=tmp_path / "x.c", name="bad name")
+    assert str(e.value) == "--name: must be a C identifier (letters, digits, _), e.g. bad_name"
+    with pytest.raises(minparam.InputError, match="--gravity: expected 3 comma-separated numbers, got 2"):
+        minparam.codegen(ROBOT, "python", gravity=(0, -9.81))
+    with pytest.raises(minparam.InputError, match="model: expected a model file path"):
+        minparam.codegen(ROBOT, "python", model=3)
+
+
+def test_codegen_with_a_model_refuses_other_settings(tmp_path):
+    s = minparam.simulate(ROBOT, duration=3, seed=1)
+    minparam.identify(ROBOT, s.arrays(), diagnose=False).model.save(tmp_path / "m.json")  # type: ignore[union-attr]
+    with pytest.raises(minparam.InputError) as e:
+        minparam.codegen(ROBOT, "python", model=tmp_path / "m.json", friction="coulomb")
+    assert str(e.value) == cli_error("codegen", ROBOT, "--lang", "python", "--model", tmp_path / "m.json", "--friction", "coulomb")
+    with pytest.raises(minparam.InputError) as e:  # a model made for another robot file
+        minparam.codegen("robots/planar3r.yaml", "python", model=tmp_path / "m.json")
+    assert str(e.value) == cli_error("codegen", "robots/planar3r.yaml", "--lang", "python", "--model", tmp_path / "m.json")
+
+
+def test_generated_c_is_written_only_under_its_header_name(tmp_path, capsys):
+    code = minparam.codegen(ROBOT, "c", output=tmp_path / "arm.c")
+    assert '#include "arm.h"' in code.source and code.header is not None
+    with pytest.raises(minparam.InputError, match="includes arm.h"):
+        code.write(tmp_path / "other.c")
+    with pytest.raises(minparam.InputError, match="give a path"):
+        minparam.codegen(ROBOT, "python").write()
+    assert sorted(p.name for p in code.write()) == ["arm.c", "arm.h"]
+    assert (tmp_path / "arm.h").read_text() == code.header
+    assert capsys.readouterr() == ("", "")
+
+
+def test_codegen_takes_a_robots_own_options():
+    robot = minparam.load_robot(ROBOT, friction="coulomb,viscous", gravity=(0, -9.81, 0))
+    code = minparam.codegen(robot, "python")
+    assert code.source == minparam.codegen(ROBOT, "python", friction="coulomb,viscous", gravity="0,-9.81,0").source
+    assert code.base_names == minparam.derive(robot).names and "Fv2" in code.base_names

@@ -15,6 +15,8 @@ This package holds re-exports and documentation only; the implementation lives i
 """
 
 from minparam_cli import __version__
+from minparam_cli.api.excitation import excite
+from minparam_cli.api.generation import codegen
 from minparam_cli.api.identification import evaluate, identify
 from minparam_cli.api.kinematics import platform_fk, platform_ik, platform_workspace, singular
 from minparam_cli.api.results import (
@@ -22,6 +24,8 @@ from minparam_cli.api.results import (
     CheckResult,
     Errors,
     Evaluation,
+    Excitation,
+    GeneratedCode,
     Identification,
     LoadOptions,
     Model,
@@ -52,6 +56,8 @@ __all__ = [
     "identify",
     "evaluate",
     "simulate",
+    "excite",
+    "codegen",
     "singular",
     "platform_ik",
     "platform_fk",
@@ -66,6 +72,8 @@ __all__ = [
     "Model",
     "Evaluation",
     "Simulation",
+    "Excitation",
+    "GeneratedCode",
     "Singularity",
     "PlatformResult",
     # errors and warnings

@@ -80,3 +80,48 @@ def robot_path(robot: Any) -> Path:
             raise InputError(f"{path}: no such file or folder")
         return path
     raise InputError(f"expected a robot file path or a minparam.Robot, got {type(robot).__name__}")
+
+
+class OptionError(InputError):
+    """A bad option value, named by the CLI's flag: the API raises it as ``"--flag: detail"``; the CLI
+    re-raises it as click's usage error naming the option (``cli_option_errors``), as it always printed."""
+
+    def __init__(self, option: str, detail: str):
+        self.option = option
+        self.detail = detail
+        super().__init__(f"{option}: {detail}")
+
+
+def friction_option(text: str | Iterable[str] | None) -> tuple[str, ...]:
+    """The CLI's --friction ("coulomb,viscous"; a list from Python) checked against the known kinds."""
+    from minparam_cli.params import FRICTION_KINDS
+
+    if text is None:
+        return ()
+    items = text.split(",") if isinstance(text, str) else [str(k) for k in text]
+    kinds = tuple(k.strip() for k in items if k.strip())
+    for k in kinds:
+        if k not in FRICTION_KINDS:
+            raise OptionError("--friction", f"unknown friction kind {k!r}; expected any of {','.join(FRICTION_KINDS)}")
+    return kinds
+
+
+def float_option(value: Any, n: int, option: str) -> tuple[float, ...]:
+    """n finite numbers from the CLI's "X,Y,Z" text or a sequence (the CLI's parse_floats messages)."""
+    import math
+
+    if isinstance(value, str):
+        try:
+            vals = tuple(float(x) for x in value.replace(" ", "").split(",") if x != "")
+        except ValueError:
+            raise OptionError(option, f"expected comma-separated numbers, got {value!r}") from None
+    else:
+        try:
+            vals = tuple(float(x) for x in value)
+        except (TypeError, ValueError):
+            raise OptionError(option, f"expected {n} numbers, got {value!r}") from None
+    if len(vals) != n:
+        raise OptionError(option, f"expected {n} comma-separated numbers, got {len(vals)}")
+    if not all(math.isfinite(v) for v in vals):
+        raise OptionError(option, f"expected finite numbers, got {value!r}")
+    return vals

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import contextlib
 import functools
 import math
 import os
@@ -341,6 +342,17 @@ class Progress:
         if self.shown:
             sys.stderr.write("\n")
             sys.stderr.flush()
+
+
+@contextlib.contextmanager
+def option_errors():
+    """A shared check's ``OptionError`` as click's usage error naming the option (exit 2, one line)."""
+    from minparam_cli.api.common import OptionError
+
+    try:
+        yield
+    except OptionError as e:
+        raise typer.BadParameter(e.detail, param_hint=e.option) from None
 
 
 def parse_floats(text: str, n: int | None, what: str) -> tuple[float, ...]:

@@ -1,8 +1,9 @@
 """``minparam excite``: design an excitation trajectory for identification.
 
-Parses the options, builds the chain with the declared effects, derives the
-base parameters, calls the pure stage ``excite.design.design``, renders the
-CSV, JSON and plot, writes them atomically, maps errors to exit codes.
+Parses the options and calls what ``minparam.excite`` calls (``api.excitation``:
+the option checks, the chain with the declared effects and its limits, the
+stage ``excite.design.design``, the JSON record); prints the notes and the
+summary, writes the CSV, JSON and plot atomically, maps errors to exit codes.
 """
 
 from __future__ import annotations
@@ -15,9 +16,10 @@ from typing import Optional
 import numpy as np
 import typer
 
-from minparam_cli.cli.common import MimicMode, Progress, check_output_path, guarded, mimic_option, parse_floats, save_png, write_output
+from minparam_cli.api.common import friction_option
+from minparam_cli.cli.common import (MimicMode, Progress, check_output_path, guarded, mimic_option, option_errors, parse_floats,
+                                     save_png, write_output)
 from minparam_cli.errors import InputError
-from minparam_cli.params import FRICTION_KINDS
 
 HELP = (
     "Design an excitation trajectory: a finite Fourier series (Swevers et al. 1997) that minimises the condition "
@@ -81,40 +83,21 @@ def excite(
 
 def parse_box(text: str) -> np.ndarray:
     """'XMIN:XMAX,YMIN:YMAX,ZMIN:ZMAX' (empty side: free) -> (3, 2) with NaN for free sides."""
-    parts = text.split(",")
-    if len(parts) != 3:
-        raise typer.BadParameter(f"expected XMIN:XMAX,YMIN:YMAX,ZMIN:ZMAX, got {text!r}", param_hint="--box")
-    out = np.full((3, 2), np.nan)
-    for c, part in enumerate(parts):
-        sides = part.split(":")
-        if len(sides) != 2:
-            raise typer.BadParameter(f"expected MIN:MAX for axis {'xyz'[c]}, got {part!r}", param_hint="--box")
-        for k, v in enumerate(sides):
-            if v.strip():
-                try:
-                    out[c, k] = float(v)
-                except ValueError:
-                    raise typer.BadParameter(f"expected a number, got {v!r}", param_hint="--box") from None
-                if not np.isfinite(out[c, k]):
-                    raise typer.BadParameter(f"expected a finite number, got {v!r}", param_hint="--box")
-        if np.isfinite(out[c]).all() and not out[c, 0] < out[c, 1]:
-            raise InputError(f"infeasible limits: --box axis {'xyz'[c]} is empty ({out[c, 0]:g} >= {out[c, 1]:g})")
-    if not np.isfinite(out).any():
-        raise typer.BadParameter("every side is free", param_hint="--box")
-    return out
+    from minparam_cli.api.excitation import parse_box as parse
+
+    with option_errors():
+        return parse(text)
 
 
 @guarded
 def _excite(robot, output, json_path, plot, harmonics, base_frequency, rate, periods, criterion, scaling, rest, margin,
             friction, rotor_inertia, box, point, starts, max_iterations, seed, quiet, mimic=MimicMode.coupled):
-    from minparam_cli.pipeline import DeriveOptions, load_chain, require_fixed_base
+    from minparam_cli.api.excitation import after_notes, excite_options, excite_record, prepare_excite, run_design
 
     if seed < 0:
         raise InputError(f"--seed must be >= 0, got {seed}")
-    kinds = tuple(k.strip() for k in friction.split(",") if k.strip())
-    for k in kinds:
-        if k not in FRICTION_KINDS:
-            raise typer.BadParameter(f"unknown friction kind {k!r}; expected any of {','.join(FRICTION_KINDS)}", param_hint="--friction")
+    with option_errors():
+        kinds = friction_option(friction)
     if plot is not None and Path(plot).suffix.lower() != ".png":
         raise InputError(f"--plot {plot}: expected a .png file name")
     for path in (output, json_path, plot):
@@ -122,53 +105,33 @@ def _excite(robot, output, json_path, plot, harmonics, base_frequency, rate, per
             check_output_path(Path(path))
     box_arr = parse_box(box) if box is not None else None
     point_arr = np.array(parse_floats(point, 3, "--point")) if point is not None else None
-
-    from minparam_cli.base.qr import derive_qr
-    from minparam_cli.excite.design import ExciteOptions, chain_limits, design, validate
-
-    opts = ExciteOptions(harmonics=harmonics, base_frequency=base_frequency, rate=rate, periods=periods,
-                         criterion=Criterion(criterion).value, scaled=Scaling(scaling) == Scaling.columns, starts=starts,
-                         max_iterations=max_iterations, margin=margin, rest=rest)
-    validate(opts)
-    _, chain = load_chain(robot, DeriveOptions(friction=kinds, rotor_inertia=rotor_inertia, mimic=MimicMode(mimic).value))
-    require_fixed_base(chain, "excite")
-    if box_arr is not None and point_arr is None:
-        point_arr = np.zeros(3) if chain.tool is None else np.asarray(chain.tool, dtype=float)
-    limits = chain_limits(chain, margin, box_arr, point_arr)
-    if limits.defaulted and not quiet:
-        js = ", ".join(str(j + 1) for j in limits.defaulted)
-        print(f"minparam: note: {robot} gives no position limits for joint(s) {js}; using ±90° (revolute) or ±0.1 m "
-              "(prismatic), as simulate does", file=sys.stderr)
-    phi = None
-    if chain.phi_nominal is not None and np.isfinite(limits.effort).any():
-        phi = np.array(chain.phi_nominal, dtype=float)
-    elif np.isfinite(limits.effort).any() and not quiet:
-        print(f"minparam: note: {robot} gives effort limits but not every link's inertial values; torque limits are not enforced",
-              file=sys.stderr)
-    base = derive_qr(chain)
+    opts = excite_options(harmonics, base_frequency, rate, periods, Criterion(criterion).value, Scaling(scaling).value,
+                          rest, margin, starts, max_iterations)
+    prep = prepare_excite(robot, opts, kinds, rotor_inertia, MimicMode(mimic).value, box_arr, point_arr)
+    if not quiet:
+        for note in prep.notes:
+            print(f"minparam: note: {note}", file=sys.stderr)
     bar = Progress(opts.starts * opts.max_iterations, "excite", quiet)
     try:
-        result = design(chain, base, opts, limits, np.random.default_rng(seed), phi=phi, progress=bar)
+        result = run_design(prep, opts, seed, bar)
     finally:
         bar.close()
 
-    from minparam_cli.render.excite_text import csv_text, json_record, summary_text
+    from minparam_cli.render.excite_text import csv_text, summary_text
 
     write_output(csv_text(result), output)
     if json_path is not None:
         from minparam_cli.cli.simulate import json_text
 
-        effects = {"friction": list(kinds), "rotor_inertia": rotor_inertia, "columns": list(chain.layout.names)}
-        write_output(json_text(json_record(result, str(robot), chain.name, seed, effects)), Path(json_path))
+        write_output(json_text(excite_record(result, prep, seed)), Path(json_path))
     if plot is not None:
         from minparam_cli.render.excite_plot import render_trajectory
 
-        save_png(render_trajectory(result, chain.coordinate_types), Path(plot))
+        save_png(render_trajectory(result, prep.chain.coordinate_types), Path(plot))
     if not quiet:
-        sys.stderr.write(summary_text(result, chain.name, seed))
-    if not quiet and not (np.isfinite(limits.velocity).any() or np.isfinite(limits.acceleration).any()):
-        print(f"minparam: note: {robot} gives no velocity or acceleration limits; only the position ranges and the period "
-              "bound the speeds (add velocity: and acceleration: to the joints, or lower --base-frequency)", file=sys.stderr)
+        sys.stderr.write(summary_text(result, prep.chain.name, seed))
+        for note in after_notes(prep):
+            print(f"minparam: note: {note}", file=sys.stderr)
 
 
 def register(app: typer.Typer) -> None:
