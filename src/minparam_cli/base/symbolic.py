@@ -31,6 +31,7 @@ from minparam_cli.base.qr import (
     stacked_regressor,
 )
 from minparam_cli.base.result import BaseSet
+from minparam_cli.base.symbolic_urdf import axes_at, symbolic_description
 from minparam_cli.chain import build_chain
 from minparam_cli.errors import ComputationError
 
@@ -78,7 +79,7 @@ class BetaSampler:
     def chain_at(self, x):
         values = dict(self.pins)
         values.update({s.name: float(v) for s, v in zip(self.symbols, x)})
-        return build_chain(self.desc, values=values or None, extras=self.extras)
+        return build_chain(axes_at(self.desc, values), values=values or None, extras=self.extras)
 
     def regressor_at(self, x):
         return stacked_regressor(self.chain_at(x), self.samples, sample_rng(self.seed))
@@ -218,6 +219,7 @@ def symbolic_base(desc, chain, base: BaseSet, seed: int = SYMBOLIC_SEED) -> dict
     from minparam_cli.base.symbolic_render import field_to_sympy
 
     t0 = time.perf_counter()
+    desc = symbolic_description(desc, RIGHT_ANGLE_TOL)
     refuse_unsupported(desc, chain)
     rng = np.random.default_rng(seed)
     symbols, pins = geometry_symbols(desc)
