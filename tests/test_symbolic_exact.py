@@ -99,6 +99,7 @@ def compare_with_numeric(path, opts, n_geometries=2, seed=18):
     desc, chain = load_chain(path, opts)
     desc = symbolic_description(desc, RIGHT_ANGLE_TOL)  # URDF: lumped fixed joints and oblique axes as symbols
     symbols, pins = geometry_symbols(desc)
+    symbols = [s for s in symbols if s.name in report["symbols"]]  # --symbolic-numbers: the rest at the file's values
     g_file = float(np.linalg.norm(chain.gravity))
     names = list(report["standard_parameters"])
     keys = list(coef)
@@ -237,6 +238,28 @@ def test_oblique_axis_file_is_no_longer_refused():
     assert r["symbolic_verification"]["passed"], r.get("symbolic_notes")
     assert all("symbolic" in b for b in r["base_parameters"])
     assert any("j2_axis_phi" in b["symbolic"] for b in r["base_parameters"])
+
+
+def test_symbolic_numbers_keep_the_files_exact_lengths_and_rational_axes(tmp_path):
+    # --symbolic-numbers: lengths are the file's decimals, an axis with rational components gives
+    # rational cos/sin; only other angles and g stay symbols
+    from fractions import Fraction
+
+    opts = DeriveOptions(symbolic_numbers=True)
+    report, coef, worst, worst_beta = compare_with_numeric("robots/puma560.yaml", opts, n_geometries=1)
+    assert worst <= RTOL and worst_beta <= BETA_RTOL, (worst, worst_beta)
+    assert set(report["symbols"]) == {"g"} and set(report["symbolic_numbers"]) == {"a2", "a3", "d2", "d4", "d6"}
+    a2 = Fraction("0.4318")
+    assert coef["XXR2", "M2"] == sp.Rational(a2.numerator, a2.denominator) ** 2  # a2², exactly
+    p = tmp_path / "oblique_fixed.urdf"
+    p.write_text(URDF_OBLIQUE_FIXED)
+    report, coef, worst, worst_beta = compare_with_numeric(p, DeriveOptions(symbolic_numbers=True), n_geometries=1)
+    assert worst <= RTOL and worst_beta <= BETA_RTOL, (worst, worst_beta)
+    assert coef["MXR2", "MY2"] == sp.Rational(-3, 4)  # -cot(phi) of the axis (0.6, 0.8, 0), exactly
+    # (1 2 2)/3 has sin(theta) = sqrt(5)/3: not rational, so j3's axis angles stay symbols;
+    # j4's origin is composed with a fixed rotation by 0.3 rad: irrational, symbols too
+    assert {"j3_axis_theta", "j3_axis_phi", "j4_x", "j3_pitch"} <= set(report["symbols"])
+    assert {"j2_axis_phi", "j2_x", "j5_x", "j5_z"} <= set(report["symbolic_numbers"])
 
 
 def test_file_values_reproduce_the_reported_numeric_terms():

@@ -94,10 +94,13 @@ def refuse_unsupported(desc, chain) -> None:
 class Arith:
     """Numbers of one computation: field elements (exact) or floats, and the geometry in them."""
 
-    def __init__(self, fs: FieldSymbols, pins: dict, values: dict | None = None, rational: bool = False):
+    def __init__(self, fs: FieldSymbols, pins: dict, values: dict | None = None, rational: bool = False,
+                 numbers: dict | None = None):
         """values None: the field Q(symbols); else floats (angles in rad) or, with ``rational``,
-        Fractions (angles given by their half-angle tangent t)."""
+        Fractions (angles given by their half-angle tangent t).  ``numbers``: geometry taken as
+        exact numbers, not symbols (``symbolic_urdf.exact_numbers``)."""
         self.fs, self.pins = fs, pins
+        self.numbers = numbers or {}
         self.rational = rational
         if rational:
             self.F, self.gen = None, values
@@ -127,6 +130,8 @@ class Arith:
     def length(self, gv):
         if gv.symbol in self.fs.shifts or gv.value == 0.0:
             return self.zero
+        if gv.symbol in self.numbers:
+            return self.const(self.numbers[gv.symbol])
         return self.gen[gv.symbol]
 
     def cos_sin(self, gv):
@@ -135,6 +140,9 @@ class Arith:
         if gv.symbol in self.pins:
             k = round(self.pins[gv.symbol] / (math.pi / 2)) % 4
             c, s = [(1, 0), (0, 1), (-1, 0), (0, -1)][k]
+            return self.const(c), self.const(s)
+        if gv.symbol in self.numbers:
+            c, s = self.numbers[gv.symbol]
             return self.const(c), self.const(s)
         if self.exact:
             return self.gen[f"cos_{gv.symbol}"], self.gen[f"sin_{gv.symbol}"]

@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import replace
+from fractions import Fraction
 
 import numpy as np
 
@@ -80,9 +81,13 @@ def symbolic_description(desc, right_angle_tol: float):
             tiny = 1e-12 * max(1e-3, float(np.abs(xyz).max()))
             new = dict(zip(("x", "y", "z"), (0.0 if abs(v) <= tiny else float(v) for v in xyz)))
             new.update(zip(_RPY, (_snap(a, 1e-14) for a in rpy_of(T[:3, :3]))))
+            # a fixed rotation by right angles only: the composed lengths are sums of the file's
+            # decimals (read back to 12 significant digits); else irrational, kept as symbols only
+            perm = bool(np.all(np.isin(F[:3, :3], (-1.0, 0.0, 1.0)) | (np.abs(F[:3, :3]) < 1e-15)))
             for k, v in new.items():
                 old = origin[k]
-                origin[k] = GeomValue(float(v), old.symbol, old.is_angle, None, old.named)
+                exact = Fraction(f"{v:.12g}") if perm and not old.is_angle else None
+                origin[k] = GeomValue(float(v), old.symbol, old.is_angle, exact, old.named)
         u = np.asarray(jr.axis, dtype=float)
         u = u / np.linalg.norm(u)
         if not is_frame_axis(jr.axis):
@@ -112,3 +117,48 @@ def axis_rotation_oblique(jr, ar):
     cp, sp = ar.cos_sin(jr.origin[AXIS_PHI])
     z, o = ar.zero, ar.one
     return [[cp * ct, -sp, cp * st, z], [sp * ct, cp, sp * st, z], [-st, z, ct, z], [z, z, z, o]]
+
+
+# --- exact numbers instead of symbols (``derive --symbolic-numbers``) ----------
+
+
+def _rational_sqrt(x):
+    from math import isqrt
+
+    n, d = x.numerator, x.denominator
+    rn, rd = isqrt(n), isqrt(d)
+    return None if x < 0 or rn * rn != n or rd * rd != d else type(x)(rn, rd)
+
+
+def rational_axis(axis):
+    """The unit axis as exact rationals (e.g. 0.6 0.8 0, or 1 2 2 / 3) or None: components within
+    1e-12 of the file's unit axis whose squares sum to 1 exactly."""
+    u = [Fraction(float(c)).limit_denominator(10**6) for c in axis]
+    if sum(c * c for c in u) != 1 or any(abs(float(c) - float(a)) > 1e-12 for c, a in zip(u, axis)):
+        return None
+    return u
+
+
+def exact_numbers(desc, symbols, shifts) -> dict:
+    """{symbol: Fraction (a length) or (cos, sin) (an angle)}: the geometry that becomes exact
+    numbers.  Lengths: the file's decimals (``GeomValue.exact``; for an origin composed with fixed
+    joints turned by right angles, sums of the file's decimals read back to 12 significant digits).  Axis angles: when the unit axis has
+    rational components (``rational_axis``), cos and sin of θ and φ are rational.  Every other
+    angle stays a symbol: the cosine and sine of a rational angle (rad, or degrees other than
+    multiples of 90°) are not both rational.  Shift symbols stay symbols (they cannot appear), and so
+    do lengths without an exact value (an origin composed with a skew fixed rotation)."""
+    names = {s.name for s in symbols}
+    out: dict = {}
+    for name, gv in desc.geometry().items():
+        if name in names and name not in shifts and not gv.is_angle and gv.exact is not None:
+            out[name] = gv.exact
+    for jr in desc.joints:
+        if jr.origin is None or AXIS_THETA not in jr.origin:
+            continue
+        u = rational_axis(jr.axis)
+        st = None if u is None else _rational_sqrt(1 - u[2] * u[2])
+        if not st:
+            continue
+        out[jr.origin[AXIS_THETA].symbol] = (u[2], st)
+        out[jr.origin[AXIS_PHI].symbol] = (u[0] / st, u[1] / st)
+    return {k: v for k, v in out.items() if k in names}
