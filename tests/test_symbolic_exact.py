@@ -302,3 +302,18 @@ def test_exact_numbers_normal_form_and_zero_test():
     q = (A * S + C) / (S * S * C + C)  # = (a s + c) / (c (s² + 1)) with s² = 1 − c²: (a s + c)/(c (2 − c²))
     assert not (q * (C * (2 - C * C)) - (A * S + C))
     assert not (q * 0) and not (q - q) and q
+
+
+def test_rpy_of_inverts_the_urdf_rotation_including_gimbal_lock():
+    # the composed fixed transform is written back as roll, pitch, yaw: R = Rz(yaw)·Ry(pitch)·Rx(roll)
+    from minparam_cli.base.symbolic_urdf import _rot, rpy_of
+
+    rng = np.random.default_rng(18)
+    worst = 0.0
+    for k in range(600):
+        a = rng.uniform(-np.pi, np.pi, 3)
+        if k % 3:  # at and near pitch = ±90°, where roll and yaw share one rotation
+            a[1] = np.pi / 2 * rng.choice([-1, 1]) + (0.0 if k % 3 == 1 else rng.choice([1e-6, 1e-9, 1e-13]))
+        R = _rot(*a)
+        worst = max(worst, float(np.abs(_rot(*rpy_of(R)) - R).max()))
+    assert worst <= 1e-12, worst

@@ -41,7 +41,7 @@ def _rot(roll: float, pitch: float, yaw: float) -> np.ndarray:
 
 def rpy_of(R: np.ndarray) -> tuple[float, float, float]:
     """roll, pitch, yaw with R = Rz(yaw)·Ry(pitch)·Rx(roll) (at pitch = ±90°: roll = 0)."""
-    pitch = math.asin(max(-1.0, min(1.0, -R[2, 0])))
+    pitch = math.atan2(-R[2, 0], math.hypot(R[0, 0], R[1, 0]))  # not asin: accurate near ±90°
     if math.hypot(R[2, 1], R[2, 2]) > 1e-12:
         return math.atan2(R[2, 1], R[2, 2]), pitch, math.atan2(R[1, 0], R[0, 0])
     return 0.0, pitch, math.atan2(-R[0, 1], R[1, 1])
