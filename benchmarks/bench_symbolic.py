@@ -7,7 +7,8 @@ For each robot: whole-process wall time of ``derive`` with and without ``--symbo
 turn, median of --repeats), the child's CPU time (user + sys: on a shared, loaded machine the
 wall time includes waiting for a core), peak RSS, and the symbolic stage's own time from the
 report (exact part / with the verification at fresh geometries).  Robots from robots/ and
-benchmarks/data/symbolic/ (skewed twists, prismatic joints, offsets, a refused oblique axis).
+benchmarks/data/symbolic/ (skewed twists, prismatic joints, offsets, oblique URDF axes, joints
+after fixed joints, a refused mimic joint); rows marked --symbolic-numbers run that option instead.
 
 Run: python benchmarks/bench_symbolic.py [--repeats 3]
 """
@@ -40,8 +41,13 @@ CASES = [  # (file, extra CLI args, dof class for the target)
     (f"{DATA}/skew_rrpr_mdh.yaml", ["--friction", "offset"], 4),
     (f"{DATA}/ppr_gantry.yaml", ["--friction", "offset", "--rotor-inertia"], 3),
     (f"{DATA}/arm7_offsets_parallel.yaml", ["--friction", "viscous,offset", "--rotor-inertia"], 7),
-    (f"{DATA}/oblique_axis.urdf", [], "refused"),
+    (f"{DATA}/oblique_axis.urdf", [], 2),
+    (f"{DATA}/oblique_fixed.urdf", ["--friction", "viscous", "--rotor-inertia"], 5),
+    ("robots/ur5.urdf", ["--symbolic-numbers"], 6),
+    (f"{DATA}/oblique_fixed.urdf", ["--symbolic-numbers"], 5),
+    (f"{DATA}/mimic_gripper.urdf", [], "refused"),
 ]
+SYMBOLIC_ONLY = ("--symbolic-numbers",)  # options of the symbolic run only
 TARGETS = {"panda": 5.0, 6: 10.0}
 
 
@@ -64,12 +70,15 @@ def main() -> None:
     args = ap.parse_args()
     rows = []
     for path, extra, klass in CASES:
-        base_cmd = [sys.executable, "-m", "minparam_cli", "derive", path, *extra, "--format", "json"]
+        sym_extra = [a for a in extra if a in SYMBOLIC_ONLY] or ["--symbolic"]
+        base_cmd = [sys.executable, "-m", "minparam_cli", "derive", path, *(a for a in extra if a not in SYMBOLIC_ONLY), "--format", "json"]
         sym, num = [], []
         for _ in range(args.repeats):
-            sym.append(timed(base_cmd + ["--symbolic"]))
+            sym.append(timed(base_cmd + sym_extra))
             num.append(timed(base_cmd))
-        med = lambda xs, k: sorted(x[k] for x in xs)[len(xs) // 2]
+        def med(xs, k):
+            return sorted(x[k] for x in xs)[len(xs) // 2]
+
         report = json.loads(sym[-1][3])
         v = report.get("symbolic_verification", {})
         stage = v.get("elapsed_s", float("nan"))
@@ -81,7 +90,7 @@ def main() -> None:
             status = f"exact, {report['n_base']} base, verified {v.get('max_rel_error_fresh', float('nan')):.1e}"
             target = TARGETS.get(klass)
             ok = None if target is None else med(sym, 0) <= target
-        rows.append((path.split("/")[-1], klass if klass != "panda" else 7, f"{med(sym, 0):.2f}", f"{med(sym, 1):.2f}",
+        rows.append((path.split("/")[-1] + "".join(f" {a}" for a in extra if a in SYMBOLIC_ONLY), klass if klass != "panda" else 7, f"{med(sym, 0):.2f}", f"{med(sym, 1):.2f}",
                      f"{med(num, 0):.2f}", f"{med(num, 1):.2f}", f"{med(sym, 0) / med(num, 0):.1f}",
                      f"{v.get('exact_s', float('nan')):.2f}" if "exact_s" in v else "-", f"{stage:.2f}",
                      f"{max(x[2] for x in sym):.0f}", status,

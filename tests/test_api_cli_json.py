@@ -72,6 +72,13 @@ def test_derive_symbolic():
     assert "ZZ2 - a2**2*M2" in api.expressions  # geometry symbols where derive(ROBOT) has 0.64 = 0.8²
 
 
+def test_derive_symbolic_numbers():
+    api = minparam.derive("benchmarks/data/symbolic/oblique_axis.urdf", symbolic_numbers=True)
+    cli = cli_json("derive", "benchmarks/data/symbolic/oblique_axis.urdf", "--symbolic-numbers", "-f", "json")
+    same(api.to_dict(), cli)
+    assert cli["symbolic_numbers"] == ["j2_axis_phi", "j2_x", "j2_z"] and set(cli["symbols"]) == {"g"}
+
+
 def test_check():
     api = minparam.check("robots/puma560_mdh.yaml")
     (cli,) = cli_json("check", "robots/puma560_mdh.yaml", "--json", jsonl=True)

@@ -10,7 +10,8 @@ import pytest
 import sympy as sp
 
 from minparam_cli.base.qr import derive_qr, sample_rng, stacked_regressor
-from minparam_cli.base.symbolic import geometry_symbols
+from minparam_cli.base.symbolic import RIGHT_ANGLE_TOL, geometry_symbols
+from minparam_cli.base.symbolic_urdf import axes_at, symbolic_description
 from minparam_cli.chain import build_chain
 from minparam_cli.pipeline import DeriveOptions, derive_file, load_chain
 
@@ -96,7 +97,9 @@ def compare_with_numeric(path, opts, n_geometries=2, seed=18):
     assert "symbolic_generic" not in report
     coef = symbolic_coefficients(report)
     desc, chain = load_chain(path, opts)
+    desc = symbolic_description(desc, RIGHT_ANGLE_TOL)  # URDF: lumped fixed joints and oblique axes as symbols
     symbols, pins = geometry_symbols(desc)
+    symbols = [s for s in symbols if s.name in report["symbols"]]  # --symbolic-numbers: the rest at the file's values
     g_file = float(np.linalg.norm(chain.gravity))
     names = list(report["standard_parameters"])
     keys = list(coef)
@@ -106,7 +109,7 @@ def compare_with_numeric(path, opts, n_geometries=2, seed=18):
     for _ in range(n_geometries):
         values = {s.name: (rng.uniform(-np.pi, np.pi) if s.is_angle else rng.uniform(0.3, 1.5) * rng.choice([-1, 1])) for s in symbols}
         g = rng.uniform(3.0, 20.0)
-        other = build_chain(desc, values={**pins, **values}, extras=chain.layout.extras)
+        other = build_chain(axes_at(desc, {**pins, **values}), values={**pins, **values}, extras=chain.layout.extras)
         other = replace(other, gravity=chain.gravity * (g / g_file))
         num = derive_qr(other, seed=int(rng.integers(1 << 30)))
         assert list(num.base_names) == [b["name"] for b in report["base_parameters"]]
@@ -184,27 +187,87 @@ def test_panda(tmp_path):
     assert report["n_base"] == 43
 
 
-URDF_OBLIQUE = """<robot name="oblique">
-  <link name="base"/>
-  <link name="l1"><inertial><mass value="1"/><inertia ixx="0.1" ixy="0" ixz="0" iyy="0.1" iyz="0" izz="0.1"/></inertial></link>
-  <link name="l2"><inertial><mass value="1"/><inertia ixx="0.1" ixy="0" ixz="0" iyy="0.1" iyz="0" izz="0.1"/></inertial></link>
-  <joint name="j1" type="revolute"><parent link="base"/><child link="l1"/><axis xyz="0 0 1"/>
-    <limit lower="-3" upper="3" effort="1" velocity="1"/></joint>
-  <joint name="j2" type="revolute"><parent link="l1"/><child link="l2"/><origin xyz="0.3 0 0.2"/><axis xyz="0.6 0.8 0"/>
-    <limit lower="-3" upper="3" effort="1" velocity="1"/></joint>
-</robot>
-"""
+def _link(name, m=1.0):
+    return (f'<link name="{name}"><inertial><origin xyz="0.01 0.02 0.03"/><mass value="{m}"/>'
+            f'<inertia ixx="0.1" ixy="0.01" ixz="0" iyy="0.12" iyz="0" izz="0.09"/></inertial></link>')
 
 
-def test_oblique_urdf_axis_is_refused_with_a_reason(tmp_path):
-    p = tmp_path / "oblique.urdf"
-    p.write_text(URDF_OBLIQUE)
-    r = derive_file(p, DeriveOptions(symbolic=True))
-    assert r["n_base"] > 0 and "base_parameters" in r  # the numeric set stays
-    assert r["symbolic_verification"]["passed"] is False
+def _joint(name, kind, parent, child, xyz="0 0 0", rpy="0 0 0", axis=None):
+    ax = "" if axis is None else f'<axis xyz="{axis}"/>'
+    lim = "" if kind == "fixed" else '<limit lower="-3" upper="3" effort="1" velocity="1"/>'
+    return (f'<joint name="{name}" type="{kind}"><parent link="{parent}"/><child link="{child}"/>'
+            f'<origin xyz="{xyz}" rpy="{rpy}"/>{ax}{lim}</joint>')
+
+
+# oblique axes (one in a coordinate plane: one angle symbol; one general: two), a prismatic
+# joint on an oblique axis, and moving joints after lumped fixed joints (a flange turned by
+# π/2 written with 10 digits, and a fixed joint with a skew rotation)
+URDF_OBLIQUE_FIXED = "\n".join([
+    '<robot name="oblique and fixed">', '<link name="base"/>', _link("l1"), _link("l2"), _link("l3"),
+    _link("flange", 0.3), _link("tilt", 0.2), _link("l4"), _link("l5"),
+    _joint("j1", "revolute", "base", "l1", "0 0 0.3", axis="0 0 1"),
+    _joint("j2", "revolute", "l1", "l2", "0.3 0 0.2", axis="0.6 0.8 0"),
+    _joint("j3", "prismatic", "l2", "l3", "0.1 0.2 0", "0 0.4 0", axis="1 2 2"),
+    _joint("fix1", "fixed", "l3", "flange", "0 0 0.15", "1.5707963268 0 0"),
+    _joint("fix2", "fixed", "flange", "tilt", "0.05 0 0", "0.3 0 -0.2"),
+    _joint("j4", "revolute", "tilt", "l4", "0 0.1 0.1", axis="0 1 0"),
+    _joint("fix3", "fixed", "l4", "l4b", "0.02 0 0", "0 0 1.57079632679"), _link("l4b", 0.1),
+    _joint("j5", "revolute", "l4b", "l5", "0 0 0.12", axis="1 0 0"),
+    "</robot>", ""])
+
+
+def test_urdf_oblique_axes_and_joints_after_fixed_joints(tmp_path):
+    p = tmp_path / "oblique_fixed.urdf"
+    p.write_text(URDF_OBLIQUE_FIXED)
+    opts = DeriveOptions(symbolic=True, friction=("viscous",), rotor_inertia=True)
+    report, coef, worst, worst_beta = compare_with_numeric(p, opts, n_geometries=2)
+    assert worst <= RTOL and worst_beta <= BETA_RTOL, (worst, worst_beta)
+    names = {str(s) for c in coef.values() for s in c.free_symbols}
+    # (0.6, 0.8, 0) lies in the xy plane: its polar angle is a right angle, its azimuth a symbol
+    assert "j2_axis_phi" in report["symbols"] and "j2_axis_theta" not in report["symbols"]
+    assert {"j3_axis_theta", "j3_axis_phi"} <= set(report["symbols"])
+    assert report["symbols"]["j2_axis_phi"] == pytest.approx(np.arctan2(0.8, 0.6), abs=1e-15)
+    # j4 after fix1 and fix2: one rigid transform in j4's origin symbols (fix1's π/2 a number)
+    assert any(n.startswith("j4_") for n in names)
+    assert "j4_roll" in report["symbols"] and "j5_yaw" not in report["symbols"]
+    assert not any("symbolic_generic" in k for k in report)
+
+
+def test_oblique_axis_file_is_no_longer_refused():
+    r = derive_file("benchmarks/data/symbolic/oblique_axis.urdf", DeriveOptions(symbolic=True))
+    assert r["symbolic_verification"]["passed"], r.get("symbolic_notes")
+    assert all("symbolic" in b for b in r["base_parameters"])
+    assert any("j2_axis_phi" in b["symbolic"] for b in r["base_parameters"])
+
+
+def test_mimic_joint_is_refused_with_the_robots_reason_fast():
+    r = derive_file("benchmarks/data/symbolic/mimic_gripper.urdf", DeriveOptions(symbolic=True))
+    assert "base_parameters" in r and r["symbolic_verification"]["passed"] is False
     (note,) = r["symbolic_notes"]
-    assert note.startswith("no symbolic set:") and "j2" in note and "(0.6, 0.8, 0.0)" in note
-    assert not any("symbolic" in b for b in r["base_parameters"])
+    assert note.startswith("no symbolic set:") and "mimic joints" in note
+    assert r["symbolic_verification"]["elapsed_s"] < 2.0  # refused before any work
+
+
+def test_symbolic_numbers_keep_the_files_exact_lengths_and_rational_axes(tmp_path):
+    # --symbolic-numbers: lengths are the file's decimals, an axis with rational components gives
+    # rational cos/sin; only other angles and g stay symbols
+    from fractions import Fraction
+
+    opts = DeriveOptions(symbolic_numbers=True)
+    report, coef, worst, worst_beta = compare_with_numeric("robots/puma560.yaml", opts, n_geometries=1)
+    assert worst <= RTOL and worst_beta <= BETA_RTOL, (worst, worst_beta)
+    assert set(report["symbols"]) == {"g"} and set(report["symbolic_numbers"]) == {"a2", "a3", "d2", "d4", "d6"}
+    a2 = Fraction("0.4318")
+    assert coef["XXR2", "M2"] == sp.Rational(a2.numerator, a2.denominator) ** 2  # a2², exactly
+    p = tmp_path / "oblique_fixed.urdf"
+    p.write_text(URDF_OBLIQUE_FIXED)
+    report, coef, worst, worst_beta = compare_with_numeric(p, DeriveOptions(symbolic_numbers=True), n_geometries=1)
+    assert worst <= RTOL and worst_beta <= BETA_RTOL, (worst, worst_beta)
+    assert coef["MXR2", "MY2"] == sp.Rational(-3, 4)  # -cot(phi) of the axis (0.6, 0.8, 0), exactly
+    # (1 2 2)/3 has sin(theta) = sqrt(5)/3: not rational, so j3's axis angles stay symbols;
+    # j4's origin is composed with a fixed rotation by 0.3 rad: irrational, symbols too
+    assert {"j3_axis_theta", "j3_axis_phi", "j4_x", "j3_pitch"} <= set(report["symbols"])
+    assert {"j2_axis_phi", "j2_x", "j5_x", "j5_z"} <= set(report["symbolic_numbers"])
 
 
 def test_file_values_reproduce_the_reported_numeric_terms():
@@ -239,3 +302,18 @@ def test_exact_numbers_normal_form_and_zero_test():
     q = (A * S + C) / (S * S * C + C)  # = (a s + c) / (c (s² + 1)) with s² = 1 − c²: (a s + c)/(c (2 − c²))
     assert not (q * (C * (2 - C * C)) - (A * S + C))
     assert not (q * 0) and not (q - q) and q
+
+
+def test_rpy_of_inverts_the_urdf_rotation_including_gimbal_lock():
+    # the composed fixed transform is written back as roll, pitch, yaw: R = Rz(yaw)·Ry(pitch)·Rx(roll)
+    from minparam_cli.base.symbolic_urdf import _rot, rpy_of
+
+    rng = np.random.default_rng(18)
+    worst = 0.0
+    for k in range(600):
+        a = rng.uniform(-np.pi, np.pi, 3)
+        if k % 3:  # at and near pitch = ±90°, where roll and yaw share one rotation
+            a[1] = np.pi / 2 * rng.choice([-1, 1]) + (0.0 if k % 3 == 1 else rng.choice([1e-6, 1e-9, 1e-13]))
+        R = _rot(*a)
+        worst = max(worst, float(np.abs(_rot(*rpy_of(R)) - R).max()))
+    assert worst <= 1e-12, worst

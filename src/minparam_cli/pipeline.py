@@ -33,6 +33,7 @@ class DeriveOptions:
     explain_weak: bool = True  # look for the geometry behind weakly identifiable parameters
     mimic: str = "coupled"  # URDF mimic joints: "coupled" (move with their master) or "fixed" (frozen at their offset)
     floating_base: bool = False  # the URDF's root link is free: six virtual base joints in front of it
+    symbolic_numbers: bool = False  # with symbolic: lengths and rational axes as the file's exact numbers
 
 
 def load_chain(path: str | Path, opts: DeriveOptions):
@@ -97,10 +98,10 @@ def derive_all(path: str | Path, opts: DeriveOptions, progress: Callable[[int, i
         from minparam_cli.base.weak import weak_parameters
 
         report["weakly_identifiable"] = weak_parameters(chain, base, explain=opts.explain_weak, samples=opts.samples, seed=opts.seed)
-    if opts.symbolic:
+    if opts.symbolic or opts.symbolic_numbers:
         from minparam_cli.base.symbolic import add_symbolic
 
-        report = add_symbolic(report, desc, chain, base)
+        report = add_symbolic(report, desc, chain, base, numbers=opts.symbolic_numbers)
     report["elapsed_s"] = round(time.perf_counter() - t0, 6)
     return report, desc, chain, base
 

@@ -76,12 +76,13 @@ def check(path: str | Path) -> CheckResult:
 def derive(robot: Robot | str | Path, *, method: str = "qr", friction: str | Iterable[str] | None = None,
            rotor_inertia: bool | None = None, symbolic: bool = False, gravity: Any = None, samples: int = 100,
            seed: int = 0, snap_angles: float | None = None, mimic: str | None = None,
-           floating_base: bool | None = None, progress: ProgressArg = False) -> BaseSet:
+           floating_base: bool | None = None, progress: ProgressArg = False, symbolic_numbers: bool = False) -> BaseSet:
     """Base parameters of a robot (``minparam derive``): which are identifiable and how the others regroup.
 
     ``method``: "qr" (``samples`` random states from ``seed``, pivoted QR) or "projection" (Krutikov's
     recursive projection).  ``symbolic=True`` writes the regrouping coefficients in the geometry
-    symbols.  A Robot's own friction, rotor inertia and gravity apply unless given here.
+    symbols; ``symbolic_numbers=True`` does so with the file's lengths (and axes with rational
+    components) as exact numbers (``--symbolic-numbers``).  A Robot's own friction, rotor inertia and gravity apply unless given here.
     """
     from minparam_cli.pipeline import derive_all
 
@@ -96,7 +97,8 @@ def derive(robot: Robot | str | Path, *, method: str = "qr", friction: str | Ite
         if not 0.0 < snap_angles < MAX_TOLERANCE:
             raise InputError(f"snap_angles: must be a tolerance in radians in (0, {MAX_TOLERANCE:.4g}) (half of 15°), got {snap_angles:g}")
     opts = derive_options(load_options(robot, friction, rotor_inertia, gravity, mimic, floating_base), method=method,
-                          samples=samples, seed=seed, symbolic=symbolic or None, snap_angles=snap_angles)
+                          samples=samples, seed=seed, symbolic=symbolic or None, snap_angles=snap_angles,
+                          symbolic_numbers=symbolic_numbers)
     path = robot_path(robot)
     bar = progress_callback(progress, 1, f"{method} {path.name}")
     try:

@@ -31,6 +31,7 @@ from minparam_cli.base.qr import (
     stacked_regressor,
 )
 from minparam_cli.base.result import BaseSet
+from minparam_cli.base.symbolic_urdf import axes_at, symbolic_description
 from minparam_cli.chain import build_chain
 from minparam_cli.errors import ComputationError
 
@@ -78,7 +79,7 @@ class BetaSampler:
     def chain_at(self, x):
         values = dict(self.pins)
         values.update({s.name: float(v) for s, v in zip(self.symbols, x)})
-        return build_chain(self.desc, values=values or None, extras=self.extras)
+        return build_chain(axes_at(self.desc, values), values=values or None, extras=self.extras)
 
     def regressor_at(self, x):
         return stacked_regressor(self.chain_at(x), self.samples, sample_rng(self.seed))
@@ -148,7 +149,7 @@ def _rational_values(fs, rng) -> dict:
     return out
 
 
-def exact_coefficients(desc, chain, symbols, pins, generic: BaseSet, rng):
+def exact_coefficients(desc, chain, symbols, pins, generic: BaseSet, rng, numbers=None):
     """{(base row, index into generic.dependent): field element} and the field's symbols."""
     from minparam_cli.base.symbolic_exact import (
         exact_relations,
@@ -158,13 +159,13 @@ def exact_coefficients(desc, chain, symbols, pins, generic: BaseSet, rng):
     )
     from minparam_cli.base.symbolic_frames import Arith, field_symbols, joint_transforms
 
-    fs = field_symbols(desc, symbols)
-    ar = Arith(fs, pins)
+    fs = field_symbols(desc, [s for s in symbols if s.name not in (numbers or {})])
+    ar = Arith(fs, pins, numbers=numbers)
     transforms = joint_transforms(desc, ar)
     cols = stage1(desc, chain, ar, transforms)
-    far = Arith(fs, pins, _float_values(fs, rng))
+    far = Arith(fs, pins, _float_values(fs, rng), numbers=numbers)
     _, relations = numeric_relations(desc, chain, cols, far, joint_transforms(desc, far), rng)
-    rat = Arith(fs, pins, _rational_values(fs, rng), rational=True)
+    rat = Arith(fs, pins, _rational_values(fs, rng), rational=True, numbers=numbers)
     forms = exact_relations(desc, chain, cols, ar, transforms, relations, rng, rat, joint_transforms(desc, rat))
     coef = regrouping(forms, generic.kept, generic.dependent, generic.unidentifiable, ar, desc.source)
     stats = {"grouped_columns": len(cols), "relations": len(relations),
@@ -209,8 +210,11 @@ def verify(exprs, exact, symbols, gravity_values, beta_of, X) -> float:
     return worst
 
 
-def symbolic_base(desc, chain, base: BaseSet, seed: int = SYMBOLIC_SEED) -> dict:
+def symbolic_base(desc, chain, base: BaseSet, seed: int = SYMBOLIC_SEED, numbers: bool = False) -> dict:
     """The symbolic regrouping of ``chain``'s base set, as plain data (see ``add_symbolic``).
+
+    ``numbers``: lengths (and axes with rational components) as the file's exact numbers, only
+    angles that have no rational cosine and sine, and gravity, as symbols.
 
     Raises UnsupportedError (a property of the robot) before any work when the route does not
     apply, ComputationError when the exact relations contradict the numeric structure."""
@@ -218,13 +222,21 @@ def symbolic_base(desc, chain, base: BaseSet, seed: int = SYMBOLIC_SEED) -> dict
     from minparam_cli.base.symbolic_render import field_to_sympy
 
     t0 = time.perf_counter()
+    desc = symbolic_description(desc, RIGHT_ANGLE_TOL)
     refuse_unsupported(desc, chain)
     rng = np.random.default_rng(seed)
     symbols, pins = geometry_symbols(desc)
+    exact_nums = None
+    if numbers:  # the exact numbers leave the symbols: every random geometry keeps them at the file's values
+        from minparam_cli.base.symbolic_frames import _shift_symbols
+        from minparam_cli.base.symbolic_urdf import exact_numbers
+
+        exact_nums = exact_numbers(desc, symbols, _shift_symbols(desc))
+        symbols = tuple(s for s in symbols if s.name not in exact_nums)
     kept, K, unident = generic_structure(desc, chain, symbols, pins, rng)
     generic = BaseSet(chain.layout.names, kept, K, unident, "qr", {})
     dependent = generic.dependent
-    coef, fs, stats = exact_coefficients(desc, chain, symbols, pins, generic, rng)
+    coef, fs, stats = exact_coefficients(desc, chain, symbols, pins, generic, rng, exact_nums)
     exprs = {idx: field_to_sympy(v, fs) for idx, v in coef.items()}
     t_exact = time.perf_counter() - t0
     sampler = BetaSampler(desc, chain, symbols, pins, kept, dependent, seed)
@@ -242,6 +254,7 @@ def symbolic_base(desc, chain, base: BaseSet, seed: int = SYMBOLIC_SEED) -> dict
         "gravity": gravity,
         "pins": pins,
         "shifts": fs.shifts,
+        "numbers": sorted(exact_nums or ()),
         "adjusted": {
             k: (desc.geometry()[k].value, round(np.degrees(v)))
             for k, v in pins.items()
@@ -291,14 +304,14 @@ def special_conditions(sampler, symbols, generic_n, rng) -> list[str]:
     return out
 
 
-def add_symbolic(report: dict, desc, chain, base: BaseSet) -> dict:
+def add_symbolic(report: dict, desc, chain, base: BaseSet, numbers: bool = False) -> dict:
     """A copy of the derive report with the symbolic fields added (see docs/methods/symbolic.md)."""
     from minparam_cli.base.symbolic_render import refused_fields, symbolic_fields
     from minparam_cli.errors import UnsupportedError
 
     t0 = time.perf_counter()
     try:
-        result = symbolic_base(desc, chain, base)
+        result = symbolic_base(desc, chain, base, numbers=numbers)
     except (UnsupportedError, ComputationError) as exc:
         return refused_fields(report, str(exc), time.perf_counter() - t0)
     return symbolic_fields(report, result)

@@ -25,6 +25,7 @@ import math
 from dataclasses import dataclass
 from fractions import Fraction
 
+from minparam_cli.base.symbolic_urdf import AXIS_THETA, axis_rotation_oblique, is_frame_axis
 from minparam_cli.chain import PRISMATIC, REVOLUTE
 from minparam_cli.errors import UnsupportedError
 
@@ -86,24 +87,20 @@ def refuse_unsupported(desc, chain) -> None:
     if chain.coupling is not None:
         raise UnsupportedError("mimic joints: --symbolic covers arms whose joints are all independent coordinates", desc.source)
     for jr in desc.joints:
-        if jr.dh is None:
-            if jr.pre_fixed is not None:
-                raise UnsupportedError(
-                    f"joint '{jr.name}' follows fixed joints whose transforms are lumped as numbers; "
-                    "--symbolic needs every origin as x y z roll pitch yaw", desc.source)
-            if sorted(abs(float(c)) for c in jr.axis) != [0.0, 0.0, 1.0]:
-                raise UnsupportedError(
-                    f"joint '{jr.name}' has axis {tuple(jr.axis)}: --symbolic needs axes along a frame axis (±x, ±y or ±z)",
-                    desc.source)
+        if jr.dh is None and jr.pre_fixed is not None:  # symbolic_urdf.symbolic_description lifts these
+            raise UnsupportedError(f"joint '{jr.name}': lumped fixed transforms not rewritten as symbols", desc.source)
 
 
 class Arith:
     """Numbers of one computation: field elements (exact) or floats, and the geometry in them."""
 
-    def __init__(self, fs: FieldSymbols, pins: dict, values: dict | None = None, rational: bool = False):
+    def __init__(self, fs: FieldSymbols, pins: dict, values: dict | None = None, rational: bool = False,
+                 numbers: dict | None = None):
         """values None: the field Q(symbols); else floats (angles in rad) or, with ``rational``,
-        Fractions (angles given by their half-angle tangent t)."""
+        Fractions (angles given by their half-angle tangent t).  ``numbers``: geometry taken as
+        exact numbers, not symbols (``symbolic_urdf.exact_numbers``)."""
         self.fs, self.pins = fs, pins
+        self.numbers = numbers or {}
         self.rational = rational
         if rational:
             self.F, self.gen = None, values
@@ -133,6 +130,8 @@ class Arith:
     def length(self, gv):
         if gv.symbol in self.fs.shifts or gv.value == 0.0:
             return self.zero
+        if gv.symbol in self.numbers:
+            return self.const(self.numbers[gv.symbol])
         return self.gen[gv.symbol]
 
     def cos_sin(self, gv):
@@ -141,6 +140,9 @@ class Arith:
         if gv.symbol in self.pins:
             k = round(self.pins[gv.symbol] / (math.pi / 2)) % 4
             c, s = [(1, 0), (0, 1), (-1, 0), (0, -1)][k]
+            return self.const(c), self.const(s)
+        if gv.symbol in self.numbers:
+            c, s = self.numbers[gv.symbol]
             return self.const(c), self.const(s)
         if self.exact:
             return self.gen[f"cos_{gv.symbol}"], self.gen[f"sin_{gv.symbol}"]
@@ -207,13 +209,17 @@ def joint_transforms(desc, ar: Arith):
 
     out = []
     for (pre, axis, post), jr in zip(_joint_matrices(_RecordsOnly(desc), _Num), desc.joints):
-        Ru = axis_rotation(jr.axis if jr.dh is None else (0.0, 0.0, 1.0), ar)
+        if jr.origin is not None and AXIS_THETA in jr.origin:
+            Ru = axis_rotation_oblique(jr, ar)
+        else:
+            Ru = axis_rotation(jr.axis if jr.dh is None else (0.0, 0.0, 1.0), ar)
         out.append((matmul(pre, Ru, ar.zero), matmul(transpose(Ru), post, ar.zero)))
     return out
 
 
 class _RecordsOnly:
-    """A description whose URDF axes read as exact integers (already checked to be ±e_k)."""
+    """A description whose URDF axes read as exact integers (±e_k; an oblique axis, turned onto z
+    by ``axis_rotation_oblique``, reads as e_z: ``_joint_matrices`` only returns it)."""
 
     def __init__(self, desc):
         self.convention = desc.convention
@@ -223,7 +229,7 @@ class _RecordsOnly:
 class _AxisInt:
     def __init__(self, jr):
         self._jr = jr
-        self.axis = tuple(round(float(c)) for c in jr.axis)
+        self.axis = tuple(round(float(c)) for c in jr.axis) if is_frame_axis(jr.axis) else (0, 0, 1)
 
     def __getattr__(self, name):
         return getattr(self._jr, name)

@@ -235,6 +235,9 @@ def symbolic_fields(report: dict, result: dict) -> dict:
             notes.append(f"{shifts[0]} only shifts its joint's coordinate: the regrouping does not depend on it")
         else:
             notes.append(f"{', '.join(shifts)} only shift their joints' coordinates: the regrouping does not depend on them")
+    if result.get("numbers"):
+        report["symbolic_numbers"] = list(result["numbers"])
+        notes.append(f"exact numbers from the file, not symbols: {', '.join(result['numbers'])}")
     report["generic_n_base"] = generic.n_base
     ver["elapsed_s"] = round(result["elapsed_s"], 6)
     report["symbolic_verification"] = ver

@@ -44,6 +44,9 @@ def derive(
     samples: int = typer.Option(100, "--samples", help="Random states for the QR method."),
     seed: int = typer.Option(0, "--seed", help="Seed of the random states (reported in the output)."),
     symbolic: Optional[bool] = typer.Option(None, "--symbolic/--numeric", help="Print regrouping coefficients as expressions in the geometry symbols."),
+    symbolic_numbers: bool = typer.Option(
+        False, "--symbolic-numbers", help="--symbolic with lengths (and axes with rational components) as the file's exact numbers; only other angles and g stay symbols."
+    ),
     snap_angles: Optional[float] = typer.Option(
         None, "--snap-angles", metavar="TOL", help="Round joint angles within TOL rad of a multiple of 15° (pi/12) before deriving; every change is printed."
     ),
@@ -55,12 +58,13 @@ def derive(
     scheduler: Optional[str] = scheduler_option(),
     quiet: bool = typer.Option(False, "--quiet", "-q", help="No progress bar or notes on stderr."),
 ):
-    _derive(paths, method, fmt, friction, rotor_inertia, gravity, samples, seed, symbolic, snap_angles, output, recursive, jobs, quiet, mimic, floating_base, scheduler)
+    _derive(paths, method, fmt, friction, rotor_inertia, gravity, samples, seed, symbolic, snap_angles, output, recursive, jobs, quiet, mimic, floating_base, scheduler,
+            symbolic_numbers=symbolic_numbers)
 
 
 @guarded
 def _derive(paths, method, fmt, friction, rotor_inertia, gravity, samples, seed, symbolic, snap_angles, output, recursive, jobs, quiet,
-            mimic=MimicMode.coupled, floating_base=False, scheduler=None):
+            mimic=MimicMode.coupled, floating_base=False, scheduler=None, symbolic_numbers=False):
     from minparam_cli.pipeline import DeriveOptions, derive_file
 
     method = Method(method).value
@@ -77,7 +81,7 @@ def _derive(paths, method, fmt, friction, rotor_inertia, gravity, samples, seed,
         if not 0.0 < snap_angles < MAX_TOLERANCE:
             raise typer.BadParameter(f"must be a tolerance in radians in (0, {MAX_TOLERANCE:.4g}) (half of 15°), got {snap_angles:g}", param_hint="--snap-angles")
     opts = DeriveOptions(method, kinds, rotor_inertia, g, samples, seed, symbolic, snap_angles, mimic=MimicMode(mimic).value,
-                         floating_base=floating_base)
+                         floating_base=floating_base, symbolic_numbers=symbolic_numbers)
     files, any_folder = expand_paths(list(paths), recursive)
 
     if len(files) == 1 and not any_folder:
