@@ -29,7 +29,7 @@ CC = shutil.which("cc") or shutil.which("gcc") or shutil.which("clang")
 needs_cc = pytest.mark.skipif(CC is None, reason="no C compiler (cc, gcc or clang) on PATH: the C output cannot be compiled here")
 EXTRAS = ["--friction", "coulomb,viscous,offset", "--rotor-inertia"]
 STATES = 100
-ROBOT_KEYS = ["puma560", "panda", "ur5_urdf", "branched_urdf", "stanford_prismatic"]
+ROBOT_KEYS = ["puma560", "panda", "ur5_urdf", "branched_urdf", "stanford_prismatic", "tx40_transmission"]
 FULL_KEYS = ("panda", "branched_urdf")
 SEED = 20261125  # the random states and parameters of every test below
 
@@ -78,6 +78,7 @@ def robots(tmp_path_factory):
         "ur5_urdf": ROOT / "robots" / "ur5.urdf",
         "branched_urdf": branched_urdf(d / "tree.urdf"),
         "stanford_prismatic": ROOT / "robots" / "stanford.yaml",
+        "tx40_transmission": ROOT / "robots" / "tx40.yaml",  # coupled wrist: motor 6 moves joints 5 and 6
     }
 
 
@@ -161,6 +162,14 @@ def reference_torques(chain, phi, q, qd, qdd):
         for name, signal in ((f"Ia{j}", qdd[:, k]), (f"Fc{j}", np.sign(qd[:, k])), (f"Fv{j}", qd[:, k]), (f"OFF{j}", 1.0)):
             if name in names:
                 tau[:, k] += phi[names.index(name)] * signal
+    if chain.transmission is not None:  # motor k's torque f_k on its shaft reaches the joints as Nᵀ e_k f_k
+        N = np.asarray(chain.transmission.matrix, dtype=float)
+        rate, accel = qd @ N.T, qdd @ N.T  # θ̇_m = N q̇, θ̈_m = N q̈
+        for k in range(N.shape[0]):
+            j = k + 1
+            for name, signal in ((f"Iam{j}", accel[:, k]), (f"Fcm{j}", np.sign(rate[:, k])), (f"Fvm{j}", rate[:, k])):
+                if name in names:
+                    tau += phi[names.index(name)] * signal[:, None] * N[k][None, :]
     return tau
 
 

@@ -26,6 +26,8 @@ import numpy as np
 
 from minparam_cli.chain import REVOLUTE, Chain
 from minparam_cli.codegen.trace import Program
+from minparam_cli.dynamics.transmission import motor_matrix
+from minparam_cli.params import MOTOR_KINDS
 
 SNAP = 1e-15
 
@@ -177,6 +179,17 @@ def record_regressor(chain: Chain) -> Recorded:
             rows[k][col] = qdj[k]
         elif kind == "offset":
             rows[k][col] = 1.0
+        elif kind in MOTOR_KINDS:  # motor k of a transmission θ_m = N q: Nᵀ e_k f_k (dynamics/transmission.py)
+            Nk = [_snap(float(x)) for x in motor_matrix(chain)[k]]
+            if kind == "motor_inertia":
+                f = _dot(Nk, qddj)
+            elif kind == "motor_viscous":
+                f = _dot(Nk, qdj)
+            else:
+                f = coulomb(prog, _dot(Nk, qdj), chain.coulomb_smoothing)
+            for i, r in enumerate(Nk):
+                if r != 0.0:
+                    rows[i][col] = f * r
     joint_rows, G = rows, None
     if chain.coupling is not None:  # virtual work: Y = Gᵀ Y_joints
         G = [[_snap(x) for x in row] for row in chain.coupling.G]
