@@ -102,3 +102,22 @@ def test_bad_payload_inputs_are_one_line_exit_2(recordings, tmp_path):
         assert r.exit_code == 2, (args, r.output)
         out = [ln for ln in r.output.strip().splitlines() if ln.strip()]
         assert len(out) == 1 and needle in out[0] and "Traceback" not in r.output, (args, r.output)
+
+
+def test_the_api_gives_the_clis_report_for_motor_side_currents_and_a_payload(recordings):
+    """minparam.identify(side=, current=, payload_data=, payload_mass=) is the CLI's run, to the JSON."""
+    import minparam
+
+    _, _, without, f = recordings
+    cli = identify(without, f["a_cur"], "--side", "motor", "--current", "--payload-data", f["b_cur"], "--payload-mass", MASS)
+    api = minparam.identify(without, f["a_cur"], diagnose=False, side="motor", current=True, payload_data=f["b_cur"],
+                            payload_mass=MASS).to_dict()
+
+    def untimed(x):
+        if isinstance(x, dict):
+            return {k: untimed(v) for k, v in x.items() if k != "elapsed_s"}
+        return [untimed(v) for v in x] if isinstance(x, list) else x
+
+    assert json.dumps(untimed(api), sort_keys=True) == json.dumps(untimed(cli), sort_keys=True)
+    with pytest.raises(minparam.InputError, match="need --payload-data"):
+        minparam.identify(without, f["a_cur"], payload_mass=MASS)

@@ -75,6 +75,28 @@ def _sources(data: Any, validate: Any, test: Any) -> tuple[Any, Any, tuple[Any, 
             tuple(one(t, f"<test{k + 1}>") for k, t in enumerate(tests)), records)
 
 
+def _payload(data: Any, mass: float | None, com: Sequence[float] | None, inertia: Sequence[float] | None):
+    """The known payload of ``payload_data`` (None without it); the CLI's one-line refusals."""
+    if data is None:
+        if any(v is not None for v in (mass, com, inertia)):
+            raise InputError("--payload-mass, --payload-com and --payload-inertia need --payload-data")
+        return None
+    from minparam_cli.identify.payload import PayloadSpec, check_spec
+
+    def floats(values, count: int, what: str):
+        if values is None:
+            return None
+        out = tuple(float(v) for v in values)
+        if len(out) != count or not all(math.isfinite(v) for v in out):
+            raise InputError(f"{what}: expected {count} finite numbers, got {list(values)!r}")
+        return out
+
+    spec = PayloadSpec(None if mass is None else float(mass), floats(com, 3, "payload_com"),
+                       floats(inertia, 6, "payload_inertia"))
+    check_spec(spec)
+    return spec
+
+
 def identify(robot: Robot | str | Path, data: Any, *, validate: Any = None, test: Any = None,
              split: Sequence[float] = (0.6, 0.2, 0.2), columns: str | dict[str, str] | None = None,
              time_unit: str = "s", topic: str | None = None, cutoff: float = 5.0, filter: bool = False,
@@ -84,7 +106,9 @@ def identify(robot: Robot | str | Path, data: Any, *, validate: Any = None, test
              diagnose: bool = True, min_gain: float = 0.02, physical: bool = False, prior: str = "none",
              prior_weight: float = 1e-3, ols: bool = False, seed: int = 0, mimic: str | None = None,
              sigma: str = "hac", block_length: float | None = None, replicates: int = 200,
-             essential: float | None = None, progress: ProgressArg = False) -> Identification:
+             essential: float | None = None, side: str = "joint", current: bool = False, payload_data: Any = None,
+             payload_mass: float | None = None, payload_com: Sequence[float] | None = None,
+             payload_inertia: Sequence[float] | None = None, progress: ProgressArg = False) -> Identification:
     """Identify the base parameters from measured joint data (``minparam identify``).
 
     ``data``, ``validate`` and each ``test``: a data file (CSV, .npz, ROS bag), a mapping of arrays
@@ -94,7 +118,11 @@ def identify(robot: Robot | str | Path, data: Any, *, validate: Any = None, test
     diagnosis adds the effects the selection data ask for; ``result.test`` is measured on data that
     chose nothing.  ``sigma``: "hac" (default), "bootstrap" or "textbook" (docs/methods/uncertainty.md),
     over time blocks of ``block_length`` s; ``essential``: the bound (%) of the essential-parameter
-    reduction (the CLI's ``--essential --essential-bound``), None for none.
+    reduction (the CLI's ``--essential --essential-bound``), None for none.  ``side="motor"``: the data
+    are motor angles and torques (``current=True``: currents), converted with the robot's transmission;
+    ``payload_data`` (a second recording with a known payload on the last link, ``payload_mass`` kg,
+    optionally ``payload_com`` and ``payload_inertia``) adds the payload's identification
+    (docs/methods/transmission.md).
     """
     from minparam_cli.identify.data import DataOptions
     from minparam_cli.identify.uncertainty import UncertaintyOptions, check_options
@@ -159,11 +187,24 @@ def identify(robot: Robot | str | Path, data: Any, *, validate: Any = None, test
         if nominal_problems(chain):
             raise InputError("--prior nominal: " + nominal_problems_text(str(path), nominal_problems(chain)))
     chain = chain.with_coulomb_smoothing(smoothing)
+    from minparam_cli.dynamics.transmission import motor_side_spec
+
+    from minparam_cli.measured.arrays import as_record, is_in_memory
+
+    motor_side, scale_note = motor_side_spec(chain, choice(side, ("joint", "motor"), "side"), bool(current))
+    payload = _payload(payload_data, payload_mass, payload_com, payload_inertia)
     data_name, validate_name, test_names, records = _sources(data, validate, test)
+    payload_name = None
+    if payload is not None:
+        if is_in_memory(payload_data):
+            records.append(as_record(payload_data, "<payload>"))
+            payload_name = "<payload>"
+        else:
+            payload_name = str(payload_data)
     opts = IdentifyOptions(
         data=DataOptions(columns=column_map, cutoff_hz=cutoff, force_filter=filter, decimate=decimate,
                          step_s=(1.0 / rate if rate else None), trim_still_s=trim_still, still_speed=still_speed,
-                         time_unit=unit, topic=topic, joint_names=coordinate_names(chain)),
+                         time_unit=unit, topic=topic, joint_names=coordinate_names(chain), motor_side=motor_side),
         split=(shares[0], shares[1], shares[2]),
         validate=validate_name,
         tests=test_names,
@@ -179,8 +220,16 @@ def identify(robot: Robot | str | Path, data: Any, *, validate: Any = None, test
     try:
         with registered(records):
             report, art = run(chain, data_name, opts, progress=bar)
+            if payload is not None:  # identify/payload.py: the second recording, with a known payload
+                from minparam_cli.identify.payload import payload_report
+
+                gains_unknown = scale_note is not None
+                report["payload"] = payload_report(art.design, data_name, payload_name, opts.data, payload, gains_unknown)
+                scale_note = None if gains_unknown else scale_note  # the known mass fixed the scale
     finally:
         close(bar)
+    if scale_note:
+        report.setdefault("flags", []).append(scale_note)
     from minparam_cli.describe.safety import read_bounded  # the robot file's bytes, for its hash
 
     load = LoadSettings(friction=kinds, rotor_inertia=rotor, gravity=g, coulomb_smoothing=smoothing, mimic=mimic_mode)
