@@ -270,8 +270,7 @@ def write_csv(stream, include_ddq: bool, output: Path) -> None:
     n = stream.plan.chain.dof
 
     def write(tmp: str) -> None:
-        with open(tmp, "wb") as fh:
-            writer = CsvWriter(fh, data_columns(n, include_ddq))
+        with open(tmp, "wb") as fh, CsvWriter(fh, data_columns(n, include_ddq)) as writer:
             for c in stream:
                 writer.write(np.hstack([c.t[:, None], c.q, c.dq] + ([c.ddq] if include_ddq else []) + [c.tau]))
 

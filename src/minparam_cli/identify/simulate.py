@@ -42,6 +42,7 @@ coefficient is g (``g=``, default ``strength``), i.e. it adds g·τ_rigid.
 from __future__ import annotations
 
 import math
+import os
 from dataclasses import dataclass, field
 from typing import Callable, Iterator
 
@@ -224,15 +225,17 @@ def _coefficients(spec: EffectSpec, grams: list[np.ndarray], samples: int, rms_r
 
 
 def plan(chain: Chain, options: SimulationOptions, rng: np.random.Generator, progress: Progress | None = None,
-         chunk: int = REGRESSOR_CHUNK, given=None) -> Plan:
+         chunk: int = REGRESSOR_CHUNK, given=None, threads: int | None = None) -> Plan:
     """The first pass: trajectory, inertial parameters, rigid torque, effect coefficients.
     ``progress(done, total)`` counts samples of both passes (this one is the first half).
 
     ``given``: None (draw the random Fourier series), a FourierTrajectory (e.g. ``excite``'s, evaluated
     at the options' duration and rate), or sampled motion (an object with arrays t (N,), q, dq, ddq
     (N, n) and a ``source`` name), used as it is.  The generator's five children are drawn either
-    way, so the other random parts do not depend on it."""
+    way, so the other random parts do not depend on it.  ``threads``: for the first pass (default:
+    the machine's cores, at most 4)."""
     samples = validate_options(options)
+    threads = max(1, threads if threads is not None else min(4, os.cpu_count() or 1))
     if given is not None and not isinstance(given, FourierTrajectory):
         if given.q.shape[1] != chain.dof:
             raise InputError(f"{given.source}: {given.q.shape[1]} joints in the trajectory, {chain.dof} in the robot")
@@ -269,20 +272,34 @@ def plan(chain: Chain, options: SimulationOptions, rng: np.random.Generator, pro
     tau_rigid = np.empty((samples, dof))
     grams = [[np.zeros((len(EFFECTS[s.effect].column_names),) * 2) for _ in s.joints] for s in options.effects]
     max_dq, max_ddq = np.zeros(dof), np.zeros(dof)
-    for s, e in _bounds(samples, chunk):
+    def first_pass(bounds):
+        """Chunk [s, e): its rigid torque (written in place), largest |q̇|, |q̈| and effect Gram terms."""
+        s, e = bounds
         t, q, dq, ddq = _motion(options.rate, traj, s, e)
         tau_rigid[s:e] = regressor(chain, q, dq, ddq, include_extras=False) @ phi
-        np.maximum(max_dq, np.abs(dq).max(axis=0), out=max_dq)
-        np.maximum(max_ddq, np.abs(ddq).max(axis=0), out=max_ddq)
+        terms = []
         if options.effects:
             signals = Signals(t=t, q=q, dq=dq, ddq=ddq, tau_model=tau_rigid[s:e], t0=0.0,
                               coulomb_smoothing=options.coulomb_smoothing, motor=motor)
-            for spec, spec_grams in zip(options.effects, grams):
-                for j, gram in zip(spec.joints, spec_grams):
+            for spec in options.effects:
+                for j in spec.joints:
                     cols = EFFECTS[spec.effect].columns(signals, j, spec.hyper)
-                    gram += cols.T @ cols
-        if progress:
-            progress(e, 2 * samples)
+                    terms.append(cols.T @ cols)
+        return e, np.abs(dq).max(axis=0), np.abs(ddq).max(axis=0), terms
+
+    # The regressor kernel releases the GIL: chunks run on THREADS threads; their results are summed
+    # in chunk order, so the numbers do not depend on the thread count or timing.
+    from concurrent.futures import ThreadPoolExecutor
+
+    flat = [g for spec_grams in grams for g in spec_grams]
+    with ThreadPoolExecutor(max_workers=threads) as pool:
+        for e, mdq, mddq, terms in pool.map(first_pass, _bounds(samples, chunk)):
+            np.maximum(max_dq, mdq, out=max_dq)
+            np.maximum(max_ddq, mddq, out=max_ddq)
+            for g, term in zip(flat, terms):
+                g += term
+            if progress:
+                progress(e, 2 * samples)
 
     rms_rigid = np.sqrt(np.einsum("ij,ij->j", tau_rigid, tau_rigid) / samples)
     injected = tuple(_coefficients(spec, spec_grams, samples, rms_rigid, options.strength, effect_rng)

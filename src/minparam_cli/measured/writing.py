@@ -19,6 +19,7 @@ import os
 import shutil
 import tempfile
 import zipfile
+from collections import deque
 from typing import BinaryIO
 
 import numpy as np
@@ -48,16 +49,77 @@ def csv_block(block: np.ndarray, fast: bool = True) -> bytes:
 
 
 class CsvWriter:
-    """A header line, then row blocks, to an open binary file."""
+    """A header line, then row blocks, to an open binary file; use as a context manager.
 
-    def __init__(self, fh: BinaryIO, header: tuple[str, ...], fast: bool = True):
+    Rows are gathered into batches of ``ROWS``.  With ``background`` one worker thread formats and
+    writes each batch while the caller computes the next rows (pyarrow formats without holding the
+    GIL); one worker runs its tasks in order, so the rows stay in order; at most ``AHEAD`` batches
+    wait.  ``close`` (or leaving the ``with`` block) writes the rest."""
+
+    AHEAD = 1
+    ROWS = 16384  # rows formatted at once: pyarrow's cost per call is large beside 2048-row blocks
+
+    def __init__(self, fh: BinaryIO, header: tuple[str, ...], fast: bool = True, background: bool = True):
         self.fh, self.width, self.fast = fh, len(header), fast
+        self._pool = None
+        if background:
+            from concurrent.futures import ThreadPoolExecutor
+
+            self._pool = ThreadPoolExecutor(max_workers=1, thread_name_prefix="minparam-csv")
+        self._pending: deque = deque()
+        self._rows: list[np.ndarray] = []
+        self._count = 0
         fh.write((",".join(header) + "\n").encode("ascii"))
 
     def write(self, block: np.ndarray) -> None:
         if block.shape[1] != self.width:
             raise ValueError(f"block of {block.shape[1]} columns for a header of {self.width}")
-        self.fh.write(csv_block(block, self.fast))
+        self._rows.append(np.array(block, dtype=np.float64))
+        self._count += block.shape[0]
+        if self._count >= self.ROWS:
+            self._flush_rows()
+
+    def _flush_rows(self) -> None:
+        if not self._rows:
+            return
+        rows = np.concatenate(self._rows) if len(self._rows) > 1 else self._rows[0]
+        self._rows, self._count = [], 0
+        if self._pool is None:
+            self.fh.write(csv_block(rows, self.fast))
+            return
+        # one worker runs the tasks in the order given: it formats and writes, so the rows stay in order
+        self._pending.append(self._pool.submit(self._format_and_write, rows))
+        while len(self._pending) > self.AHEAD:
+            self._pending.popleft().result()
+
+    def _format_and_write(self, rows: np.ndarray) -> None:
+        self.fh.write(csv_block(rows, self.fast))
+
+    def close(self) -> None:
+        try:
+            self._flush_rows()
+            while self._pending:
+                self._pending.popleft().result()
+        finally:
+            self._shutdown()
+
+    def _shutdown(self) -> None:
+        if self._pool is not None:
+            for f in self._pending:
+                f.cancel()
+            self._pending.clear()
+            self._pool.shutdown(wait=True)
+            self._pool = None
+        self._rows, self._count = [], 0
+
+    def __enter__(self) -> "CsvWriter":
+        return self
+
+    def __exit__(self, kind, value, tb) -> None:
+        if kind is None:
+            self.close()
+        else:
+            self._shutdown()
 
 
 class NpzWriter:
