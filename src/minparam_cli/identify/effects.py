@@ -83,35 +83,15 @@ def _coupled_motor(s: Signals, j, kind: str) -> np.ndarray:
     Each joint of the term gets its own coefficient, so a motor k coupling joints 5 and 6 is fitted
     as N_k5·F and N_k6·F with two numbers where one would do (the declared Fcmk column has one):
     the per-joint diagnosis scores columns joint by joint."""
-    from minparam_cli.dynamics.transmission import coupled_motors
+    from minparam_cli.dynamics.transmission import coupled_motors, motor_column
 
     if s.motor is None:
         return np.zeros_like(s.q[:, j])
-    N = s.motor
-    out = np.zeros_like(s.q)
+    N = np.asarray(s.motor, dtype=float)
+    out = np.zeros_like(s.q, dtype=float)
     for k in coupled_motors(N):
-        if kind == "motor_inertia":
-            f = s.ddq @ N[k]
-        elif kind == "motor_viscous":
-            f = s.dq @ N[k]
-        else:
-            v = s.dq @ N[k]
-            f = np.tanh(v / s.coulomb_smoothing) if s.coulomb_smoothing > 0.0 else np.sign(v)
-        out += f[:, None] * N[k][None, :]
+        out += motor_column(N, k, kind, s.dq, s.ddq, s.coulomb_smoothing)
     return out[:, j]
-    N = s.motor
-    for k in coupled_motors(N):
-        if N[k, j] == 0:
-            continue
-        if kind == "motor_inertia":
-            f = s.ddq @ N[k]
-        elif kind == "motor_viscous":
-            f = s.dq @ N[k]
-        else:
-            v = s.dq @ N[k]
-            f = np.tanh(v / s.coulomb_smoothing) if s.coulomb_smoothing > 0.0 else np.sign(v)
-        out += N[k, j] * f
-    return out
 
 
 POSITIVE = (0.0, math.inf)
