@@ -303,16 +303,10 @@ def platform_workspace(platform: str | Path, *, samples: int = 20000, orientatio
 
     from minparam_cli.kinematics import platform_report as rep
     from minparam_cli.kinematics.platform import platform_model
-    from minparam_cli.kinematics.platform_workspace import default_box, sample_workspace
+    from minparam_cli.kinematics.platform_workspace import default_box, require_workspace, sample_workspace
 
     desc = _platform(platform)
-    if desc.structure == "truss":
-        raise DescriptionError("a free 12-leg truss has no base to measure a workspace from; "
-                               "describe it with 'base' and 'platform'", str(platform), "nodes")
-    for k, leg in enumerate(desc.legs):
-        if leg.limits is None:
-            raise DescriptionError(f"leg {leg.name!r} has no length limits; the workspace needs them "
-                                   "(give 'limits' or 'leg_limits')", str(platform), f"legs[{k + 1}]")
+    require_workspace(desc, str(platform))
     if samples < 1 or seed < 0:
         raise InputError("samples: must be >= 1, and seed >= 0")
     model = platform_model(desc)

@@ -249,16 +249,10 @@ def _workspace(file, samples, orientation, seed, plot, fmt, output, quiet):
 
     from minparam_cli.kinematics import platform_report as rep
     from minparam_cli.kinematics.platform import platform_model
-    from minparam_cli.kinematics.platform_workspace import default_box, sample_workspace, workspace_figure
+    from minparam_cli.kinematics.platform_workspace import default_box, require_workspace, sample_workspace, workspace_figure
 
     desc = _load(file)
-    if desc.structure == "truss":
-        raise DescriptionError("a free 12-leg truss has no base to measure a workspace from; "
-                               "describe it with 'base' and 'platform'", str(file), "nodes")
-    for k, leg in enumerate(desc.legs):
-        if leg.limits is None:
-            raise DescriptionError(f"leg {leg.name!r} has no length limits; the workspace needs them "
-                                   "(give 'limits' or 'leg_limits')", str(file), f"legs[{k + 1}]")
+    require_workspace(desc, str(file))
     if plot is not None and Path(plot).suffix.lower() != ".png":
         raise typer.BadParameter("the plot is written as PNG; use a .png file name", param_hint="--plot")
     for path in (plot, output):  # both checked before the sampling: a failure leaves neither

@@ -47,6 +47,20 @@ class WorkspaceResult:
         return p * self.box_volume, float(se * self.box_volume)
 
 
+def require_workspace(desc, source: str) -> None:
+    """Refuse a platform whose workspace cannot be sampled (one line): a free truss has no base, and
+    every leg needs its length limits."""
+    from minparam_cli.errors import DescriptionError
+
+    if desc.structure == "truss":
+        raise DescriptionError("a free 12-leg truss has no base to measure a workspace from; "
+                               "describe it with 'base' and 'platform'", source, "nodes")
+    for k, leg in enumerate(desc.legs):
+        if leg.limits is None:
+            raise DescriptionError(f"leg {leg.name!r} has no length limits; the workspace needs them "
+                                   "(give 'limits' or 'leg_limits')", source, f"legs[{k + 1}]")
+
+
 def default_box(model: PlatformModel, given: dict[str, tuple[float, float]]) -> tuple[tuple[float, float], ...]:
     """The sampling box: the file's ranges where given; otherwise |x|, |y| <= R, 0 <= z <= R, angles fixed at 0.
 
