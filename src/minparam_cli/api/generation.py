@@ -47,18 +47,10 @@ def model_chain(model: Path, robot: Path, robot_bytes: bytes, which: str | None)
     """Chain, base set and parameters of a saved model, refused when made for another robot file."""
     from minparam_cli.base.qr import derive_qr
     from minparam_cli.codegen.functions import ModelParameters
-    from minparam_cli.describe.safety import read_bounded
-    from minparam_cli.errors import DescriptionError
-    from minparam_cli.identify.model import ModelError, check_robot, model_design, parse_model
+    from minparam_cli.identify.model import check_robot, model_design, read_model
     from minparam_cli.pipeline import load_chain, require_fixed_base
 
-    try:
-        text = read_bounded(model).decode("utf-8")
-    except DescriptionError as e:
-        raise ModelError(f"cannot read the model file: {e}") from None
-    except UnicodeDecodeError as e:
-        raise ModelError(f"{model}: cannot read the model file (not UTF-8 text: {e.reason})") from None
-    m = parse_model(text, str(model))
+    m = read_model(model)
     check_robot(m, str(model), str(robot), robot_bytes)
     _, chain = load_chain(robot, m.load.derive_options(m.seed))
     require_fixed_base(chain, "codegen --model")

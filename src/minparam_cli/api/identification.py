@@ -252,18 +252,11 @@ def open_model(model: str | Path, robot: str | Path | None = None) -> tuple[Save
     """Read a model file, check its robot file's SHA-256 and rebuild its design: (model, robot file,
     design).  ``robot``: the robot file to use instead of the one the model names."""
     from minparam_cli.describe.safety import read_bounded
-    from minparam_cli.errors import DescriptionError
-    from minparam_cli.identify.model import ModelError, check_robot, model_design, parse_model
+    from minparam_cli.identify.model import ModelError, check_robot, model_design, read_model
     from minparam_cli.pipeline import load_chain, require_fixed_base
 
     model = Path(model)
-    try:  # a regular file of bounded size (a FIFO or /dev/zero given as the model would never end)
-        text = read_bounded(model).decode("utf-8")
-    except DescriptionError as e:
-        raise ModelError(f"cannot read the model file: {e}") from None
-    except UnicodeDecodeError as e:
-        raise ModelError(f"{model}: cannot read the model file (not UTF-8 text: {e.reason})") from None
-    m = parse_model(text, str(model))
+    m = read_model(model)
     robot_file = Path(robot) if robot is not None else Path(m.robot)
     if not robot_file.is_file():
         raise ModelError(f"{model}: robot file {robot_file} not found" + ("" if robot else " (give it with --robot)"))

@@ -254,6 +254,24 @@ class _Reader:
         return tuple(self.text(x, f"{where}[{i}]") for i, x in enumerate(v))
 
 
+def read_model(path) -> "SavedModel":
+    """Parse the model file at ``path``: a regular file of bounded size (a FIFO or /dev/zero given as
+    the model would never end), UTF-8; ModelError in one line otherwise."""
+    from pathlib import Path
+
+    from minparam_cli.describe.safety import read_bounded
+    from minparam_cli.errors import DescriptionError
+
+    path = Path(path)
+    try:
+        text = read_bounded(path).decode("utf-8")
+    except DescriptionError as e:
+        raise ModelError(f"cannot read the model file: {e}") from None
+    except UnicodeDecodeError as e:
+        raise ModelError(f"{path}: cannot read the model file (not UTF-8 text: {e.reason})") from None
+    return parse_model(text, str(path))
+
+
 def parse_model(text: str, source: str) -> SavedModel:
     """The model in ``text`` (a model file's contents); ``source`` names it in errors."""
     r = _Reader(source)
