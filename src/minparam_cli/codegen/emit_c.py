@@ -7,11 +7,10 @@ writes its output row-major into a caller's array; the instructions are the reco
 
 from __future__ import annotations
 
-from minparam_cli.codegen.trace import Sym, schedule
+from minparam_cli.codegen.trace import expressions
 
 _CALL = {"sin": "sin({})", "cos": "cos({})", "tanh": "tanh({})", "exp": "exp({})", "abs": "fabs({})",
          "sign": "(double)(({0} > 0.0) - ({0} < 0.0))", "pos": "({} > 0.0 ? 1.0 : 0.0)", "negind": "({} < 0.0 ? 1.0 : 0.0)"}
-_BIN = {"add": "{} + {}", "sub": "{} - {}", "mul": "{} * {}"}
 
 
 def constant(x: float) -> str:
@@ -23,28 +22,9 @@ def constant(x: float) -> str:
 
 
 def _body(prog, outputs, out_name: str, indent: str = "    ") -> list[str]:
-    order, local = schedule(prog, outputs)
-
-    def ref(a) -> str:
-        if type(a) is float:
-            return constant(a)
-        node = prog.nodes[a]
-        if node.op == "in":
-            return f"{node.args[0]}[{node.args[1]}]"
-        return f"t{local[a]}"
-
-    lines = []
-    for i, node in order:
-        if node.op in _BIN:
-            expr = _BIN[node.op].format(ref(node.args[0]), ref(node.args[1]))
-        elif node.op == "neg":
-            expr = f"-{ref(node.args[0])}"
-        else:
-            expr = _CALL[node.op].format(ref(node.args[0]))
-        lines.append(f"{indent}const double t{local[i]} = {expr};")
-    for k, o in enumerate(outputs):
-        lines.append(f"{indent}{out_name}[{k}] = {ref(o.i) if isinstance(o, Sym) else constant(o)};")
-    return lines
+    assigns, outs = expressions(prog, outputs, _CALL, constant, lambda name, k: f"{name}[{k}]")
+    return ([f"{indent}const double t{k} = {expr};" for k, expr in assigns]
+            + [f"{indent}{out_name}[{k}] = {o};" for k, o in enumerate(outs)])
 
 
 def _comment(lines: list[str]) -> str:

@@ -7,13 +7,12 @@ CasADi module builds its Functions once, on import, from SX symbols.
 
 from __future__ import annotations
 
-from minparam_cli.codegen.trace import Sym, schedule
+from minparam_cli.codegen.trace import expressions
 
 _NUMPY = {"sin": "np.sin({})", "cos": "np.cos({})", "tanh": "np.tanh({})", "exp": "np.exp({})", "abs": "np.abs({})",
           "sign": "np.sign({})", "pos": "np.greater({}, 0.0).astype(float)", "negind": "np.less({}, 0.0).astype(float)"}
 _CASADI = {"sin": "ca.sin({})", "cos": "ca.cos({})", "tanh": "ca.tanh({})", "exp": "ca.exp({})", "abs": "ca.fabs({})",
            "sign": "ca.sign({})", "pos": "ca.if_else({} > 0, 1.0, 0.0)", "negind": "ca.if_else({} < 0, 1.0, 0.0)"}
-_BIN = {"add": "{} + {}", "sub": "{} - {}", "mul": "{} * {}"}
 
 
 def _docstring(text: str) -> str:
@@ -28,27 +27,11 @@ def constant(x: float) -> str:
 
 def _body(prog, outputs, casadi: bool) -> tuple[list[str], list[str]]:
     """Assignments of the instructions, and each output's expression (a name or a constant)."""
-    order, local = schedule(prog, outputs)
-    calls = _CASADI if casadi else _NUMPY
+    def element(name, k) -> str:
+        return f"{name}[{k}]" if casadi else f"{name}[:, {k}]"
 
-    def ref(a) -> str:
-        if type(a) is float:
-            return constant(a)
-        node = prog.nodes[a]
-        if node.op == "in":
-            return f"{node.args[0]}[{node.args[1]}]" if casadi else f"{node.args[0]}[:, {node.args[1]}]"
-        return f"t{local[a]}"
-
-    lines = []
-    for i, node in order:
-        if node.op in _BIN:
-            expr = _BIN[node.op].format(ref(node.args[0]), ref(node.args[1]))
-        elif node.op == "neg":
-            expr = f"-{ref(node.args[0])}"
-        else:
-            expr = calls[node.op].format(ref(node.args[0]))
-        lines.append(f"    t{local[i]} = {expr}")
-    return lines, [ref(o.i) if isinstance(o, Sym) else constant(o) for o in outputs]
+    assigns, outs = expressions(prog, outputs, _CASADI if casadi else _NUMPY, constant, element)
+    return [f"    t{k} = {expr}" for k, expr in assigns], outs
 
 
 def _numpy_function(prog, f) -> list[str]:

@@ -256,3 +256,32 @@ def schedule(prog: Program, outputs) -> tuple[list[tuple[int, Node]], dict[int, 
     """The live instructions other than inputs, in order, and each one's local number (t0, t1, ...)."""
     order = [(i, prog.nodes[i]) for i in prog.live(outputs) if prog.nodes[i].op != "in"]
     return order, {i: k for k, (i, _) in enumerate(order)}
+
+
+BINARY = {"add": "{} + {}", "sub": "{} - {}", "mul": "{} * {}"}
+
+
+def expressions(prog, outputs, calls: dict[str, str], constant, input_ref) -> tuple[list[tuple[int, str]], list[str]]:
+    """The scheduled program as text, for every emitter: [(local index k of t<k>, expression)] in
+    order, and each output's expression.  ``calls``: the language's unary functions ("sin" ->
+    "sin({})"); ``constant(x)``: a literal; ``input_ref(name, k)``: element k of input ``name``."""
+    order, local = schedule(prog, outputs)
+
+    def ref(a) -> str:
+        if type(a) is float:
+            return constant(a)
+        node = prog.nodes[a]
+        if node.op == "in":
+            return input_ref(node.args[0], node.args[1])
+        return f"t{local[a]}"
+
+    assigns = []
+    for i, node in order:
+        if node.op in BINARY:
+            expr = BINARY[node.op].format(ref(node.args[0]), ref(node.args[1]))
+        elif node.op == "neg":
+            expr = f"-{ref(node.args[0])}"
+        else:
+            expr = calls[node.op].format(ref(node.args[0]))
+        assigns.append((local[i], expr))
+    return assigns, [ref(o.i) if isinstance(o, Sym) else constant(o) for o in outputs]
