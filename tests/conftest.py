@@ -41,3 +41,22 @@ def robot_path(request) -> Path:
 def _run_from_repository_root(monkeypatch):
     """Tests name robot files relative to the repository root."""
     monkeypatch.chdir(ROOT)
+
+
+# A two-link arm whose joints take extra YAML keys (limits): tests/test_motion_limits.py, tests/test_excite.py
+ARM = """name: limited 2R
+convention: dh
+units: {{length: m, angle: deg}}
+gravity: [0, -9.81, 0]
+joints:
+  - {{name: shoulder, type: revolute, alpha: 0, a: 1.0, d: 0, theta: 0, limits: [-90, 90], {j1}
+     inertial: {{mass: 2.0, com: [-0.5, 0, 0], inertia: [0.01, 0, 0, 0.17, 0, 0.17]}}}}
+  - {{name: elbow, type: revolute, alpha: 0, a: 0.8, d: 0, theta: 0, limits: [-120, 120], {j2}
+     inertial: {{mass: 1.5, com: [-0.4, 0, 0], inertia: [0.01, 0, 0, 0.08, 0, 0.08]}}}}
+"""
+
+
+def arm(tmp_path, j1: str = "", j2: str = "", name: str = "arm.yaml") -> str:
+    p = tmp_path / name
+    p.write_text(ARM.format(j1=j1, j2=j2))
+    return str(p)

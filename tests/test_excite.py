@@ -8,6 +8,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from conftest import ARM, arm  # the shared two-link arm
 from typer.testing import CliRunner
 
 from minparam_cli.base.qr import derive_qr
@@ -23,24 +24,8 @@ from minparam_cli.pipeline import DeriveOptions, load_chain
 
 runner = CliRunner()
 
-ARM = """name: limited 2R
-convention: dh
-units: {{length: m, angle: deg}}
-gravity: [0, -9.81, 0]
-joints:
-  - {{name: shoulder, type: revolute, alpha: 0, a: 1.0, d: 0, theta: 0, limits: [-90, 90], {j1}
-     inertial: {{mass: 2.0, com: [-0.5, 0, 0], inertia: [0.01, 0, 0, 0.17, 0, 0.17]}}}}
-  - {{name: elbow, type: revolute, alpha: 0, a: 0.8, d: 0, theta: 0, limits: [-120, 120], {j2}
-     inertial: {{mass: 1.5, com: [-0.4, 0, 0], inertia: [0.01, 0, 0, 0.08, 0, 0.08]}}}}
-"""
 LIMITED = ("velocity: 60, acceleration: 100, effort: 40,", "velocity: 90, acceleration: 150, effort: 15,")
 FAST = ["--starts", "2", "--max-iterations", "25", "--harmonics", "3", "--rate", "50", "-q"]
-
-
-def arm(tmp_path, j1: str = "", j2: str = "", name: str = "arm.yaml") -> str:
-    p = tmp_path / name
-    p.write_text(ARM.format(j1=j1, j2=j2))
-    return str(p)
 
 
 @pytest.fixture(scope="module")

@@ -9,6 +9,7 @@ import math
 
 import numpy as np
 import pytest
+from conftest import arm  # the shared two-link arm
 from typer.testing import CliRunner
 
 from minparam_cli.chain import build_chain
@@ -17,23 +18,6 @@ from minparam_cli.errors import DescriptionError
 from minparam_cli.identify.trajectory import LIMIT_MARGIN, fourier_excitation
 
 runner = CliRunner()
-
-ARM = """name: limited 2R
-convention: dh
-units: {{length: m, angle: deg}}
-gravity: [0, -9.81, 0]
-joints:
-  - {{name: shoulder, type: revolute, alpha: 0, a: 1.0, d: 0, theta: 0, limits: [-90, 90], {j1}
-     inertial: {{mass: 2.0, com: [-0.5, 0, 0], inertia: [0.01, 0, 0, 0.17, 0, 0.17]}}}}
-  - {{name: elbow, type: revolute, alpha: 0, a: 0.8, d: 0, theta: 0, limits: [-120, 120], {j2}
-     inertial: {{mass: 1.5, com: [-0.4, 0, 0], inertia: [0.01, 0, 0, 0.08, 0, 0.08]}}}}
-"""
-
-
-def arm(tmp_path, j1: str = "", j2: str = "", name: str = "arm.yaml") -> str:
-    p = tmp_path / name
-    p.write_text(ARM.format(j1=j1, j2=j2))
-    return str(p)
 
 
 @pytest.fixture(scope="module")
