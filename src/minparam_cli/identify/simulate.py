@@ -163,10 +163,6 @@ def rigid_torque(chain: Chain, q, dq, ddq, phi) -> np.ndarray:
     return out
 
 
-def _rms(x: np.ndarray, axis=0) -> np.ndarray:
-    return np.sqrt(np.mean(np.square(x), axis=axis))
-
-
 def _bounds(samples: int, chunk: int) -> Iterator[tuple[int, int]]:
     for s in range(0, samples, chunk):
         yield s, min(s + chunk, samples)

@@ -21,15 +21,20 @@ BLOCK_BYTES = 2**20  # pyarrow's streaming block: 1 MB keeps its read-ahead buff
 ENV = "MINPARAM_CSV_READER"  # "numpy" forces the numpy reader (benchmarks, tests, a suspected difference)
 
 
-def csv_module():
-    """pyarrow.csv, or None when pyarrow is not installed or the numpy reader is asked for."""
-    if os.environ.get(ENV, "").strip().lower() == "numpy":
-        return None
+def pyarrow_csv():
+    """pyarrow.csv, or None when pyarrow (the [arrow] extra) is not installed."""
     try:
         import pyarrow.csv as pacsv
     except ImportError:
         return None
     return pacsv
+
+
+def csv_module():
+    """pyarrow.csv, or None when pyarrow is not installed or the numpy reader is asked for."""
+    if os.environ.get(ENV, "").strip().lower() == "numpy":
+        return None
+    return pyarrow_csv()
 
 
 def _options(pacsv, width: int):

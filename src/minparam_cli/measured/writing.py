@@ -24,23 +24,17 @@ from typing import BinaryIO
 
 import numpy as np
 
-
-def _arrow_csv():
-    try:
-        import pyarrow as pa
-        import pyarrow.csv as pacsv
-    except ImportError:
-        return None
-    return pa, pacsv
+from minparam_cli.measured.arrow_csv import pyarrow_csv
 
 
 def csv_block(block: np.ndarray, fast: bool = True) -> bytes:
     """Rows of ``block`` (k, m) as CSV lines, no header."""
     block = np.asarray(block, dtype=np.float64)
-    arrow = _arrow_csv() if fast else None
-    if arrow is None:
+    pacsv = pyarrow_csv() if fast else None
+    if pacsv is None:
         return "".join(",".join(map(repr, row)) + "\n" for row in block.tolist()).encode("ascii")
-    pa, pacsv = arrow
+    import pyarrow as pa
+
     table = pa.Table.from_arrays([pa.array(np.ascontiguousarray(col)) for col in block.T],
                                  names=[f"c{i}" for i in range(block.shape[1])])
     sink = pa.BufferOutputStream()
