@@ -14,7 +14,7 @@ ProgressArg = Union[bool, Callable[[int, int], None]]
 def progress_callback(progress: ProgressArg, total: int, label: str):
     """None (no bar: the default), the caller's own callable, or the CLI's bar on stderr (True)."""
     if progress is True:
-        from minparam_cli.cli.common import Progress
+        from minparam_cli.output import Progress
 
         return Progress(total, label)
     if callable(progress):

@@ -122,7 +122,7 @@ def generate(robot: Path, lang: str, output: Path | None = None, model: Path | N
 def write_files(files: dict[str, str], lang: str, output: Path | None) -> list[Path]:
     """Write the generated files as ``-o output`` does (C: FILE.h and FILE.c; otherwise one file, or
     stdout for None or "-"), each atomically."""
-    from minparam_cli.cli.common import write_output
+    from minparam_cli.output import write_output
 
     if lang == "c":
         assert output is not None

@@ -275,7 +275,7 @@ def load_model(path: str | Path, robot: str | Path | None = None) -> Model:
 
 def save_model(model: Model, path: str | Path) -> None:
     """``Model.save``: the model file, written atomically."""
-    from minparam_cli.cli.common import write_output
+    from minparam_cli.output import write_output
     from minparam_cli.identify.model import dumps
 
     write_output(dumps(model.saved), Path(path))
