@@ -95,6 +95,43 @@ def test_simulate(sim_files):
     assert table.shape[1] == 1 + 4 * n
 
 
+def test_simulate_motor_side_payload_and_given_trajectory(tmp_path):
+    """The options beyond the joint-side defaults map one to one too: motor-side currents through a
+    coupled transmission with motor friction, a payload, and a given excite trajectory."""
+    import yaml
+    from conftest import ROBOTS
+
+    doc = yaml.safe_load((ROBOTS / "puma560_mdh.yaml").read_text())
+    doc["transmission"] = {"ratios": [62.6, 107.8, 53.7, 76.0, 71.9, 76.7], "coupling": [[6, 5, 13.25]],
+                           "drive_gains": [0.8, 0.9, 1.1, 0.7, 1.3, 0.6], "motor_friction": ["coulomb", "viscous"]}
+    robot = tmp_path / "puma.yaml"
+    robot.write_text(yaml.safe_dump(doc))
+    traj = tmp_path / "traj.csv"
+    r = CliRunner().invoke(app, ["excite", str(robot), "--harmonics", "2", "--starts", "1", "--max-iterations", "5",
+                                 "-o", str(traj), "--json", str(tmp_path / "traj.json"), "-q"])
+    assert r.exit_code == 0, r.output
+    given = str(tmp_path / "traj.json")
+    flags = ["--side", "motor", "--current", "--motor-params", "Fcm6=0.06,Fvm6=0.0006", "--payload-mass", "2.8",
+             "--payload-com", "0.02,-0.01,0.05", "--noise", "0.01", "--duration", "2", "--seed", "5", "--trajectory", given]
+    r = CliRunner().invoke(app, ["simulate", str(robot), *flags, "-o", str(tmp_path / "m.csv"),
+                                 "--truth", str(tmp_path / "t.json"), "-q"])
+    assert r.exit_code == 0, r.output
+    api = minparam.simulate(robot, side="motor", current=True, motor_params={"Fcm6": 0.06, "Fvm6": 0.0006},
+                            payload_mass=2.8, payload_com=(0.02, -0.01, 0.05), noise=0.01, duration=2, seed=5,
+                            trajectory=given)
+    cli_truth = json.loads((tmp_path / "t.json").read_text())
+    same(api.to_dict(), cli_truth)
+    assert cli_truth["motor_side"]["current"] is True and cli_truth["payload"]["mass"] == 2.8
+    table = np.loadtxt(tmp_path / "m.csv", delimiter=",", skiprows=1)
+    np.testing.assert_array_equal(table, np.hstack([api.t[:, None], api.q, api.dq, api.ddq, api.tau]))
+    # and the API refuses what the CLI refuses, in the same words
+    r = CliRunner().invoke(app, ["simulate", str(robot), "--current", "-o", str(tmp_path / "x.csv")])
+    assert r.exit_code == 2
+    with pytest.raises(minparam.InputError) as e:
+        minparam.simulate(robot, current=True)
+    assert str(e.value) in r.output
+
+
 def test_identify_and_model_file(sim_files):
     robot, d, cli = sim_files
     api = minparam.identify(robot, d / "sim.csv")

@@ -1,29 +1,132 @@
-"""Synthetic measured data: ``simulate`` (the stage of ``minparam simulate``, arrays in memory)."""
+"""Synthetic measured data: ``simulate`` (the stage of ``minparam simulate``, arrays in memory).
+
+``prepare_simulation`` turns the command's options into what the stream needs (the chain, the
+options, a given trajectory, the per-chunk transforms for a payload and motor-side signals) and the
+truth record's extra sections; ``minparam simulate`` streams it to a file, ``simulate`` collects it in
+memory.  One function for both, so the API and the CLI accept and refuse the same inputs.
+"""
 
 from __future__ import annotations
 
+from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Iterable
+from typing import Any, Callable, Iterable, Mapping
 
-from minparam_cli.api.common import choice, robot_path, warn
+from minparam_cli.api.common import choice, float_option, robot_path, warn
 from minparam_cli.api.results import Robot, Simulation
 from minparam_cli.errors import InputError
 
 
-def simulate(robot: Robot | str | Path, *, effects: str | Iterable[str] = "", strength: float = 0.1,
-             noise: float = 0.0, noise_q: float = 0.0, seed: int = 0, duration: float = 20.0, rate: float = 200.0,
-             harmonics: int = 5, base_frequency: float = 0.1, random_inertia: bool = False, ddq: bool = True,
-             coulomb_smoothing: float = 0.0, mimic: str = "coupled") -> Simulation:
-    """Synthetic joint data (``minparam simulate``): a random Fourier excitation (Swevers et al. 1997)
-    inside the joint limits from one generator seeded with ``seed``, torques from the file's inertial
-    values (or random physically consistent ones), injected ``effects`` (the CLI's syntax, e.g.
-    "coulomb,viscous,spring@2") and Gaussian noise.  ``to_dict()`` is the truth record (``--truth``).
-    """
-    import numpy as np
+@dataclass
+class SimulationSetup:
+    """Everything a simulation run needs after its options are checked (``prepare_simulation``)."""
 
+    robot: Path
+    chain: Any
+    options: Any  # identify.simulate_spec.SimulationOptions
+    seed: int
+    samples: int
+    given: Any = None  # a given trajectory (excite's series or samples), or None: a random Fourier series
+    trajectory_label: str | None = None  # the --trajectory file, for the summary
+    transforms: tuple[Callable, ...] = ()  # per-chunk maps: payload torque, motor parameters, motor signals
+    notes: tuple[str, ...] = ()
+    extra_record: dict[str, Any] = field(default_factory=dict)  # the truth record's payload / motor_side sections
+
+    def stream(self, progress=None):
+        """The plan (first pass) and its stream of chunks (second pass), from one generator seeded with
+        ``seed``."""
+        import numpy as np
+
+        from minparam_cli.identify.simulate import Stream, plan as make_plan
+
+        p = make_plan(self.chain, self.options, np.random.default_rng(self.seed), progress=progress, given=self.given)
+        return p, Stream(p, progress=progress, transforms=self.transforms)
+
+    def record(self, plan, include_ddq: bool, limits) -> dict[str, Any]:
+        """The truth record (``--truth``) of a streamed plan."""
+        from minparam_cli.identify.simulate import truth_record
+
+        record = truth_record(plan, str(self.robot), self.seed, self.chain.name, include_ddq, limits=limits)
+        record.update(self.extra_record)
+        return record
+
+
+def read_given_trajectory(trajectory: str | Path, n: int):
+    """``--trajectory``: 'fourier' (None), or excite's .json (the series) or .csv (the samples)."""
+    text = str(trajectory)
+    if text == "fourier":
+        return None
+    from minparam_cli.identify.trajectory_file import MAX_BYTES, parse_trajectory_csv, parse_trajectory_json
+
+    path = Path(text)
+    suffix = path.suffix.lower()
+    if suffix not in (".json", ".csv"):
+        raise InputError(f"--trajectory {text}: expected 'fourier' or an excite output file (.json or .csv)")
+    if not path.is_file():
+        raise InputError(f"--trajectory {text}: no such file")
+    if path.stat().st_size > MAX_BYTES:
+        raise InputError(f"--trajectory {text}: larger than {MAX_BYTES >> 20} MiB")
+    try:
+        content = path.read_text(encoding="utf-8")
+    except (OSError, UnicodeDecodeError) as e:
+        raise InputError(f"--trajectory {text}: cannot read ({e})") from None
+    if suffix == ".json":
+        return parse_trajectory_json(content, n, text)
+    return parse_trajectory_csv(content, n, text)
+
+
+def _payload(mass, com, inertia):
+    """The simulated payload (None without a mass)."""
+    if mass is None:
+        if com is not None or inertia is not None:
+            raise InputError("--payload-com and --payload-inertia need --payload-mass")
+        return None
+    from minparam_cli.identify.payload import PayloadSpec, check_spec
+
+    try:
+        m = float(mass)
+    except (TypeError, ValueError):
+        raise InputError(f"--payload-mass: expected a number, got {mass!r}") from None
+    c = float_option(com, 3, "--payload-com") if com is not None else (0.0, 0.0, 0.0)
+    spec = PayloadSpec(m, (c[0], c[1], c[2]),
+                       float_option(inertia, 6, "--payload-inertia") if inertia is not None else (0.0,) * 6)
+    check_spec(spec)
+    return spec
+
+
+def _side_gains(chain, side: str, current: bool):
+    """The drive gains --current divides by (None for torques); one-line refusals."""
+    if side not in ("joint", "motor"):
+        raise InputError(f"--side: expected joint or motor, got {side!r}")
+    if current and side != "motor":
+        raise InputError("--current needs --side motor: currents are motor-side signals")
+    if not current:
+        return None
+    tr = chain.transmission
+    if tr is None or tr.drive_gains is None:
+        raise InputError(f"--current needs drive_gains in the transmission of {chain.source}")
+    return tr.drive_gains
+
+
+def _motor_values(motor_params: str | Mapping[str, float], chain) -> dict[str, float]:
+    from minparam_cli.identify.motor_side import parse_motor_params
+
+    if isinstance(motor_params, Mapping):
+        motor_params = ",".join(f"{k}={v}" for k, v in motor_params.items())
+    return parse_motor_params(str(motor_params), chain)
+
+
+def prepare_simulation(robot: Robot | str | Path, *, trajectory: str | Path = "fourier", effects: str | Iterable[str] = "",
+                       strength: float = 0.1, noise: float = 0.0, noise_q: float = 0.0, seed: int = 0,
+                       duration: float = 20.0, rate: float = 200.0, harmonics: int = 5, base_frequency: float = 0.1,
+                       random_inertia: bool = False, coulomb_smoothing: float = 0.0, mimic: str = "coupled",
+                       side: str = "joint", current: bool = False, motor_params: str | Mapping[str, float] = "",
+                       payload_mass: float | None = None, payload_com: Any = None, payload_inertia: Any = None) -> SimulationSetup:
+    """Check ``minparam simulate``'s options and build its setup (the chain, the options, the given
+    trajectory, the payload and motor-side transforms); every refusal is one ``InputError`` line."""
     from minparam_cli.chain import build_chain
     from minparam_cli.describe import load_description
-    from minparam_cli.identify.simulate import SimulationOptions, parse_effects, simulate as run, truth_record, validate_options
+    from minparam_cli.identify.simulate import SimulationOptions, parse_effects, validate_options
     from minparam_cli.pipeline import require_fixed_base
 
     if seed < 0:
@@ -31,11 +134,22 @@ def simulate(robot: Robot | str | Path, *, effects: str | Iterable[str] = "", st
     path = robot_path(robot)
     chain = build_chain(load_description(path, mimic=choice(mimic, ("coupled", "fixed"), "mimic")))
     require_fixed_base(chain, "simulate")
+    side = str(getattr(side, "value", side))
+    motor_values, gains = _motor_values(motor_params, chain), _side_gains(chain, side, bool(current))
+    payload = _payload(payload_mass, payload_com, payload_inertia)
     text = effects if isinstance(effects, str) else ",".join(effects)
     try:
         specs = parse_effects(text, chain.dof)
     except InputError as e:
         raise InputError(f"--effects: {e}") from None
+    given = read_given_trajectory(trajectory, chain.dof)
+    if given is not None and hasattr(given, "harmonics"):  # excite's series: its own harmonics and period
+        harmonics, base_frequency = given.harmonics, given.base_frequency
+    elif given is not None:  # samples: their own length and rate
+        import numpy as np
+
+        step = float(np.median(np.diff(given.t)))
+        rate, duration = 1.0 / step, given.t.size * step
     try:  # the CLI's types: a 20 given for a float option is 20.0 in the truth record
         opts = SimulationOptions(duration=float(duration), rate=float(rate), harmonics=int(harmonics),
                                  base_frequency=float(base_frequency), effects=specs, strength=float(strength),
@@ -43,17 +157,72 @@ def simulate(robot: Robot | str | Path, *, effects: str | Iterable[str] = "", st
                                  coulomb_smoothing=float(coulomb_smoothing))
     except (TypeError, ValueError) as e:
         raise InputError(f"simulate: expected numbers for duration, rate, harmonics, base_frequency, strength and noise ({e})") from None
-    validate_options(opts)
+    samples = validate_options(opts)
     notes = []
     if chain.phi_nominal is None and not random_inertia:
         notes.append(f"{path} does not give inertial data for every link; using random physically consistent "
                      "parameters (as with --random-inertia)")
-    sim = run(chain, opts, np.random.default_rng(seed))
-    limits = sim.limits
-    for j in limits.over_effort if limits is not None else ():
-        assert limits is not None
-        notes.append(f"joint {j + 1}: max |tau| {limits.max_abs_tau[j]:.4g} exceeds its effort limit "
-                     f"{limits.effort[j]:g} (reported, not enforced: a slower motion lowers only its inertial part)")
-    warn(notes)
-    record = truth_record(sim, str(path), seed, chain.name, ddq)
-    return Simulation(t=sim.t, q=sim.q, dq=sim.dq, ddq=sim.ddq, tau=sim.tau, seed=seed, _report=record)
+
+    transforms: list[Callable] = []
+    extra: dict[str, Any] = {}
+    if payload is not None:  # identify/payload.py: the payload's torque Y_n φ_L
+        from minparam_cli.identify.payload import with_payload
+
+        transforms.append(lambda c: with_payload(c, chain, payload))
+        extra["payload"] = {"mass": payload.mass, "com": list(payload.com), "inertia": list(payload.inertia),
+                            "standard_parameters": payload.known()}
+    if motor_values or side == "motor":  # motor parameters and motor-side signals: identify/motor_side.py
+        from minparam_cli.identify.motor_side import to_motor_side, with_motor_params
+
+        smooth = chain.with_coulomb_smoothing(opts.coulomb_smoothing)
+        transforms.append(lambda c: with_motor_params(c, smooth, motor_values))
+        if side == "motor":
+            transforms.append(lambda c: to_motor_side(c, chain, gains))
+        extra["motor_side"] = {"side": side, "current": bool(current), "drive_gains": list(gains) if gains else None,
+                               "motor_parameters": motor_values}
+    return SimulationSetup(robot=path, chain=chain, options=opts, seed=int(seed), samples=samples, given=given,
+                           trajectory_label=None if given is None else str(trajectory), transforms=tuple(transforms),
+                           notes=tuple(notes), extra_record=extra)
+
+
+def effort_notes(limits) -> list[str]:
+    """One note per joint whose largest |τ| exceeds its effort limit."""
+    return [f"joint {j + 1}: max |tau| {limits.max_abs_tau[j]:.4g} exceeds its effort limit "
+            f"{limits.effort[j]:g} (reported, not enforced: a slower motion lowers only its inertial part)"
+            for j in (limits.over_effort if limits is not None else ())]
+
+
+def simulate(robot: Robot | str | Path, *, effects: str | Iterable[str] = "", strength: float = 0.1,
+             noise: float = 0.0, noise_q: float = 0.0, seed: int = 0, duration: float = 20.0, rate: float = 200.0,
+             harmonics: int = 5, base_frequency: float = 0.1, random_inertia: bool = False, ddq: bool = True,
+             coulomb_smoothing: float = 0.0, mimic: str = "coupled", trajectory: str | Path = "fourier",
+             side: str = "joint", current: bool = False, motor_params: str | Mapping[str, float] = "",
+             payload_mass: float | None = None, payload_com: Any = None, payload_inertia: Any = None) -> Simulation:
+    """Synthetic joint data (``minparam simulate``): a random Fourier excitation (Swevers et al. 1997)
+    inside the joint limits from one generator seeded with ``seed`` (or ``trajectory``, an excite
+    output file), torques from the file's inertial values (or random physically consistent ones),
+    injected ``effects`` (the CLI's syntax, e.g. "coulomb,viscous,spring@2") and Gaussian noise; a
+    payload on the last link (``payload_mass``, ``payload_com`` X,Y,Z, ``payload_inertia`` about its
+    centre of mass), motor-side parameters (``motor_params``, e.g. {"Fcm6": 0.06}) and motor-side
+    signals (``side="motor"``, ``current=True`` for currents through the drive gains).
+    ``to_dict()`` is the truth record (``--truth``); the arrays are those the CLI writes, bit for bit.
+    """
+    import numpy as np
+
+    setup = prepare_simulation(robot, trajectory=trajectory, effects=effects, strength=strength, noise=noise,
+                               noise_q=noise_q, seed=seed, duration=duration, rate=rate, harmonics=harmonics,
+                               base_frequency=base_frequency, random_inertia=random_inertia,
+                               coulomb_smoothing=coulomb_smoothing, mimic=mimic, side=side, current=current,
+                               motor_params=motor_params, payload_mass=payload_mass, payload_com=payload_com,
+                               payload_inertia=payload_inertia)
+    warn(setup.notes)
+    plan, stream = setup.stream()
+    parts = list(stream)
+    warn(effort_notes(stream.limits))
+
+    def stack(name):
+        return np.concatenate([getattr(c, name) for c in parts])
+
+    record = setup.record(plan, bool(ddq), stream.limits)
+    return Simulation(t=stack("t"), q=stack("q"), dq=stack("dq"), ddq=stack("ddq"), tau=stack("tau"), seed=int(seed),
+                      _report=record)

@@ -8,14 +8,14 @@ from __future__ import annotations
 
 import json
 import sys
-from enum import Enum
 from pathlib import Path
 from typing import Optional
 
 import numpy as np
 import typer
 
-from minparam_cli.cli.common import MimicMode, Progress, atomic_write, check_output_path, guarded, is_stdout, mimic_option, warning_line, write_output
+from minparam_cli.cli.common import (MimicMode, Progress, atomic_write, check_output_path, guarded, is_stdout, mimic_option,
+                                     option_errors, warning_line, write_output)
 from minparam_cli.errors import InputError
 
 HELP = (
@@ -48,33 +48,6 @@ m/s, rad/s² or m/s², N·m or N.  Without -o the CSV goes to stdout.
 
 Exit codes: 0 success, 1 failed computation, 2 bad input.
 """
-
-
-class TrajectoryKind(str, Enum):
-    fourier = "fourier"
-
-
-def read_given_trajectory(text: str, n: int):
-    """``--trajectory FILE``: excite's .json (the series) or .csv (the samples); None for 'fourier'."""
-    if text == TrajectoryKind.fourier.value:
-        return None
-    from minparam_cli.identify.trajectory_file import MAX_BYTES, parse_trajectory_csv, parse_trajectory_json
-
-    path = Path(text)
-    suffix = path.suffix.lower()
-    if suffix not in (".json", ".csv"):
-        raise InputError(f"--trajectory {text}: expected 'fourier' or an excite output file (.json or .csv)")
-    if not path.is_file():
-        raise InputError(f"--trajectory {text}: no such file")
-    if path.stat().st_size > MAX_BYTES:
-        raise InputError(f"--trajectory {text}: larger than {MAX_BYTES >> 20} MiB")
-    try:
-        content = path.read_text(encoding="utf-8")
-    except (OSError, UnicodeDecodeError) as e:
-        raise InputError(f"--trajectory {text}: cannot read ({e})") from None
-    if suffix == ".json":
-        return parse_trajectory_json(content, n, text)
-    return parse_trajectory_csv(content, n, text)
 
 
 def simulate(
@@ -112,9 +85,7 @@ def simulate(
 def _simulate(robot, trajectory, effects, strength, noise, noise_q, seed, duration, rate, harmonics, base_frequency,
               random_inertia, no_ddq, output, truth, quiet, coulomb_smoothing=0.0, mimic=MimicMode.coupled, side="joint",
               current=False, motor_params="", payload_mass=None, payload_com=None, payload_inertia=None):
-    from minparam_cli.chain import build_chain
-    from minparam_cli.describe import load_description
-    from minparam_cli.identify.simulate import SimulationOptions, Stream, parse_effects, plan as make_plan, truth_record, validate_options
+    from minparam_cli.api.simulation import effort_notes, prepare_simulation
 
     if seed < 0:
         raise InputError(f"--seed must be >= 0, got {seed}")
@@ -124,51 +95,20 @@ def _simulate(robot, trajectory, effects, strength, noise, noise_q, seed, durati
     for path in (output, truth):
         if path is not None:
             check_output_path(Path(path))
-    from minparam_cli.pipeline import require_fixed_base
-
-    chain = build_chain(load_description(robot, mimic=MimicMode(mimic).value))
-    require_fixed_base(chain, "simulate")
-    from minparam_cli.identify.motor_side import parse_motor_params
-
-    motor_values, gains = parse_motor_params(motor_params, chain), _side_gains(chain, side, current)
-    payload = _payload(payload_mass, payload_com, payload_inertia)
+    with option_errors():
+        setup = prepare_simulation(
+            robot, trajectory=trajectory, effects=effects, strength=strength, noise=noise, noise_q=noise_q, seed=seed,
+            duration=duration, rate=rate, harmonics=harmonics, base_frequency=base_frequency,
+            random_inertia=random_inertia, coulomb_smoothing=coulomb_smoothing, mimic=MimicMode(mimic).value, side=side,
+            current=current, motor_params=motor_params, payload_mass=payload_mass, payload_com=payload_com,
+            payload_inertia=payload_inertia)
+    if not quiet:
+        for note in setup.notes:
+            print(f"minparam: note: {note}", file=sys.stderr)
+    bar = Progress(2 * setup.samples, "simulate", quiet)
+    include_ddq = not no_ddq
     try:
-        specs = parse_effects(effects, chain.dof)
-    except InputError as e:
-        raise InputError(f"--effects: {e}") from None
-    given = read_given_trajectory(str(trajectory), chain.dof)
-    if given is not None and hasattr(given, "harmonics"):  # excite's series: its own harmonics and period
-        harmonics, base_frequency = given.harmonics, given.base_frequency
-    elif given is not None:  # samples: their own length and rate
-        step = float(np.median(np.diff(given.t)))
-        rate, duration = 1.0 / step, given.t.size * step
-    opts = SimulationOptions(
-        duration=duration, rate=rate, harmonics=harmonics, base_frequency=base_frequency, effects=specs,
-        strength=strength, noise=noise, noise_q=noise_q, random_inertia=random_inertia,
-        coulomb_smoothing=coulomb_smoothing,
-    )
-    if chain.phi_nominal is None and not random_inertia and not quiet:
-        print(f"minparam: note: {robot} does not give inertial data for every link; using random physically consistent "
-              "parameters (as with --random-inertia)", file=sys.stderr)
-
-    transforms = []  # per-chunk maps after the rigid body, effects and noise
-    if payload is not None:  # identify/payload.py: the payload's torque Y_n φ_L
-        from minparam_cli.identify.payload import with_payload
-
-        transforms.append(lambda c: with_payload(c, chain, payload))
-    if motor_values or side == "motor":  # motor parameters and motor-side signals: identify/motor_side.py
-        from minparam_cli.identify.motor_side import to_motor_side, with_motor_params
-
-        smooth = chain.with_coulomb_smoothing(coulomb_smoothing)
-        transforms.append(lambda c: with_motor_params(c, smooth, motor_values))
-        if side == "motor":
-            transforms.append(lambda c: to_motor_side(c, chain, gains))
-    samples = validate_options(opts)
-    bar = Progress(2 * samples, "simulate", quiet)
-    try:
-        plan = make_plan(chain, opts, np.random.default_rng(seed), progress=bar, given=given)
-        stream = Stream(plan, progress=bar, transforms=tuple(transforms))
-        include_ddq = not no_ddq
+        plan, stream = setup.stream(progress=bar)
         if data_format == "npz":
             write_npz(stream, include_ddq, Path(output))
         else:
@@ -177,49 +117,11 @@ def _simulate(robot, trajectory, effects, strength, noise, noise_q, seed, durati
         bar.close()
     limits = stream.limits
     if truth is not None:
-        record = truth_record(plan, str(robot), seed, chain.name, include_ddq, limits=limits)
-        if payload is not None:
-            record["payload"] = {"mass": payload.mass, "com": list(payload.com), "inertia": list(payload.inertia),
-                                 "standard_parameters": payload.known()}
-        if motor_values or side == "motor":
-            record["motor_side"] = {"side": side, "current": current, "drive_gains": list(gains) if gains else None,
-                                    "motor_parameters": motor_values}
-        write_output(json_text(record), Path(truth))
+        write_output(json_text(setup.record(plan, include_ddq, limits)), Path(truth))
     if not quiet:
-        sys.stderr.write(summary_text(plan, limits, chain.name, seed, output, truth, None if given is None else str(trajectory)))
-    for j in limits.over_effort:
-        warning_line(f"joint {j + 1}: max |tau| {limits.max_abs_tau[j]:.4g} exceeds its effort limit "
-                     f"{limits.effort[j]:g} (reported, not enforced: a slower motion lowers only its inertial part)")
-
-
-def _payload(mass, com, inertia):
-    """The simulated payload (None without --payload-mass)."""
-    from minparam_cli.cli.common import parse_floats
-
-    if mass is None:
-        if com is not None or inertia is not None:
-            raise InputError("--payload-com and --payload-inertia need --payload-mass")
-        return None
-    from minparam_cli.identify.payload import PayloadSpec, check_spec
-
-    spec = PayloadSpec(float(mass), parse_floats(com, 3, "--payload-com") if com else (0.0, 0.0, 0.0),
-                       parse_floats(inertia, 6, "--payload-inertia") if inertia else (0.0,) * 6)
-    check_spec(spec)
-    return spec
-
-
-def _side_gains(chain, side: str, current: bool):
-    """The drive gains --current divides by (None for torques); one-line refusals."""
-    if side not in ("joint", "motor"):
-        raise InputError(f"--side: expected joint or motor, got {side!r}")
-    if current and side != "motor":
-        raise InputError("--current needs --side motor: currents are motor-side signals")
-    if not current:
-        return None
-    tr = chain.transmission
-    if tr is None or tr.drive_gains is None:
-        raise InputError(f"--current needs drive_gains in the transmission of {chain.source}")
-    return tr.drive_gains
+        sys.stderr.write(summary_text(plan, limits, setup.chain.name, seed, output, truth, setup.trajectory_label))
+    for note in effort_notes(limits):
+        warning_line(note)
 
 
 def register(app: typer.Typer) -> None:
