@@ -15,7 +15,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Sequence
 
-from minparam_cli.api.common import ProgressArg, choice, close, progress_callback, robot_path, warn
+from minparam_cli.api.common import OptionError, ProgressArg, choice, close, progress_callback, robot_path, warn
 from minparam_cli.api.results import PlatformResult, Robot, Singularity
 from minparam_cli.errors import DescriptionError, InputError
 from minparam_cli.kinematics.defaults import DEFAULT_DAMPING, DEFAULT_EPSILON, DEFAULT_STEP_DEG
@@ -269,7 +269,7 @@ def platform_fk(platform: str | Path, lengths: Sequence[float], *, method: str =
 
 def _truss_fk(platform: str | Path, desc, lengths: Sequence[float], frame: Sequence[str] | None, seed: int,
               rtol: float) -> PlatformResult:
-    """The truss branch of ``minparam platform fk`` (same stage and report)."""
+    """The truss branch of ``minparam platform fk`` (the command calls it too: same checks, same report)."""
     import numpy as np
 
     from minparam_cli.kinematics import platform_report as rep
@@ -281,9 +281,9 @@ def _truss_fk(platform: str | Path, desc, lengths: Sequence[float], frame: Seque
     model = truss_model(desc)
     face = None
     if frame is not None:
-        names = [str(n).strip() for n in frame]
+        names = [str(n).strip() for n in frame if str(n).strip()]
         if len(names) != 3 or any(n not in model.node_names for n in names):
-            raise InputError(f"frame: expected three node names of {', '.join(model.node_names)}")
+            raise OptionError("--frame", f"expected three node names of {', '.join(model.node_names)}")
         i, j, k = (model.node_names.index(n) for n in names)
         face = (i, j, k)
     t0 = time.perf_counter()

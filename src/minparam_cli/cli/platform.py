@@ -11,8 +11,8 @@ from typing import Optional
 
 import typer
 
-from minparam_cli.cli.common import Progress, check_output_path, guarded, parse_floats, save_png, write_output
-from minparam_cli.errors import DescriptionError, InputError
+from minparam_cli.cli.common import Progress, check_output_path, guarded, option_errors, parse_floats, save_png, write_output
+from minparam_cli.errors import DescriptionError
 
 HELP = "Kinematics of parallel platforms: hexapods and the dodekapod (Dang 2013). Inverse, forward (every assembly mode), workspace."
 IK_HELP = "Inverse kinematics: leg lengths from a pose (x,y,z + roll,pitch,yaw, or position + platform normal)."
@@ -181,25 +181,12 @@ def _fk(file, lengths, method, starts, particles, iterations, seed, side, rtol, 
     target = np.array(parse_floats(lengths, len(desc.legs), "--lengths"))
     if np.any(target <= 0):
         raise typer.BadParameter("leg lengths must be positive", param_hint="--lengths")
-    if desc.structure == "truss":
-        from minparam_cli.kinematics.platform_truss import truss_fk, truss_model
+    if desc.structure == "truss":  # the API's truss branch: the same checks and report
+        from minparam_cli.api.kinematics import _truss_fk
 
-        model = truss_model(desc)
-        face = None
-        if frame is not None:
-            names = [n.strip() for n in frame.split(",") if n.strip()]
-            unknown = [n for n in names if n not in model.node_names]
-            if len(names) != 3 or unknown:
-                raise typer.BadParameter(f"expected three node names of {', '.join(model.node_names)}",
-                                         param_hint="--frame")
-            face = tuple(model.node_names.index(n) for n in names)
-        t0 = time.perf_counter()
-        try:
-            result = truss_fk(model, target, face, rtol=rtol)
-        except ValueError as e:
-            raise InputError(f"{file}: --frame: {e}") from None
-        d = rep.truss_fk_dict(model, result, seed, time.perf_counter() - t0)
-        write_output(_render(d, fmt, rep.truss_fk_table), output)
+        with option_errors():
+            result = _truss_fk(file, desc, target, None if frame is None else frame.split(","), seed, rtol)
+        write_output(_render(result.to_dict(), fmt, rep.truss_fk_table), output)
         return
     if frame is not None:
         raise typer.BadParameter("--frame is for a 12-leg truss", param_hint="--frame")
