@@ -25,12 +25,12 @@ octahedron.  Lengths keep the file's unit; angles are stored in radians.
 from __future__ import annotations
 
 import math
-import re
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from minparam_cli.describe.safety import MAX_ABS_VALUE, finite_number, key_list, read_yaml, short_repr
+from minparam_cli.describe.angles import parse_angle
+from minparam_cli.describe.safety import finite_number, key_list, read_yaml, short_repr
 from minparam_cli.errors import DescriptionError
 
 LENGTH_UNITS = ("mm", "cm", "m")
@@ -40,7 +40,6 @@ SIDE_KEYS = {"radius", "angles", "names", "nodes"}
 LEG_KEYS = {"name", "nodes", "limits"}
 BOX_KEYS = ("x", "y", "z", "roll", "pitch", "yaw")
 MAX_NODES = 64
-_PI_RE = re.compile(r"^\s*([+-]?\d*\.?\d*)\s*\*?\s*pi\s*(?:/\s*(\d+(?:\.\d*)?))?\s*$")
 
 
 @dataclass(frozen=True)
@@ -189,24 +188,7 @@ def _name(value, src, where) -> str:
 
 def _angle(value, angle_unit, src, where) -> float:
     """An angle in the file's unit, or an expression like '7*pi/6' (radians only) -> radians."""
-    if isinstance(value, str):
-        m = _PI_RE.match(value) if len(value) <= 64 else None
-        if not m:
-            raise DescriptionError(f"expected a number or an expression like '7*pi/6', got {short_repr(value)}", src, where)
-        if angle_unit != "rad":
-            raise DescriptionError(f"{value!r} is in radians but units.angle is {angle_unit!r}", src, where)
-        coef = m.group(1)
-        coef = 1.0 if coef in ("", "+") else -1.0 if coef == "-" else float(coef) if coef.strip("+-.") else None
-        if coef is None:
-            raise DescriptionError(f"expected a number or an expression like '7*pi/6', got {value!r}", src, where)
-        den = float(m.group(2)) if m.group(2) else 1.0
-        if den == 0:
-            raise DescriptionError(f"division by zero in {value!r}", src, where)
-        if abs(coef / den) > MAX_ABS_VALUE:
-            raise DescriptionError(f"{value!r} is out of range", src, where)
-        return coef * math.pi / den
-    x = _number(value, src, where)
-    return math.radians(x) if angle_unit == "deg" else x
+    return parse_angle(value, angle_unit, src, where)[0]
 
 
 def _vector(value, src, where, n=3) -> tuple[float, ...]:

@@ -67,7 +67,7 @@ def load_side_file(urdf: Path, types: tuple[str, ...]) -> Transmission | None:
 
 def parse_transmission(v: Any, types: tuple[str, ...], angle_unit: str, length_scale: float, src: str) -> Transmission:
     """Validate a ``transmission:`` mapping for joints of ``types`` (revolute|prismatic)."""
-    from minparam_cli.describe.yaml_dh import parse_angle
+    from minparam_cli.describe.angles import parse_angle
 
     where = "transmission"
     n = len(types)

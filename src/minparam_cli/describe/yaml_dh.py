@@ -24,8 +24,9 @@ from fractions import Fraction
 from pathlib import Path
 from typing import Any
 
+from minparam_cli.describe.angles import parse_angle
 from minparam_cli.describe.records import GeomValue, Inertial, JointRecord, RobotDescription
-from minparam_cli.describe.safety import MAX_ABS_VALUE, MAX_JOINTS, finite_number, key_list, read_yaml, short_repr
+from minparam_cli.describe.safety import MAX_JOINTS, finite_number, key_list, read_yaml, short_repr
 from minparam_cli.errors import DescriptionError, NotARobotError
 from minparam_cli.params import FRICTION_KINDS
 
@@ -37,7 +38,6 @@ TOP_KEYS = {"kind", "name", "convention", "units", "gravity", "friction", "rotor
             "transmission"}
 JOINT_KEYS = {"name", "type", "alpha", "a", "d", "theta", "friction", "rotor_inertia", "limits", "velocity", "acceleration",
               "effort", "inertial"}
-_PI_RE = re.compile(r"^\s*([+-]?(?:\d+(?:\.\d*)?|\.\d+)?)\s*\*?\s*pi\s*(?:/\s*(\d+(?:\.\d*)?))?\s*$")
 
 
 def load_yaml(path: Path) -> RobotDescription:
@@ -207,32 +207,6 @@ def _friction(v: Any, src: str, where: str) -> tuple[str, ...]:
         if not isinstance(k, str) or k not in FRICTION_KINDS:
             raise DescriptionError(f"unknown friction kind {short_repr(k)}; expected any of {list(FRICTION_KINDS)}", src, where)
     return tuple(v)
-
-
-def parse_angle(v: Any, unit: str, src: str, where: str) -> tuple[float, Fraction | None]:
-    """Angle -> (radians, exact degrees or None).  Accepts numbers, and 'pi/2'-style strings under
-    ``angle: rad`` (under ``angle: deg`` they are refused: the file would mix two angle units)."""
-    if isinstance(v, str):
-        m = _PI_RE.match(v) if len(v) <= 64 else None
-        if not m:
-            raise DescriptionError(f"expected a number or a multiple of pi like '-pi/2', got {short_repr(v)}", src, where)
-        coef = m.group(1)
-        num = Fraction(coef) if coef not in ("", "+", "-") else Fraction(-1 if coef == "-" else 1)
-        den = Fraction(m.group(2)) if m.group(2) else Fraction(1)
-        if den == 0:
-            raise DescriptionError(f"division by zero in {v!r}", src, where)
-        deg = num / den * 180
-        if abs(deg) > MAX_ABS_VALUE:
-            raise DescriptionError(f"{v!r} is out of range: expected at most {MAX_ABS_VALUE:g} degrees", src, where)
-        if unit == "deg":  # a multiple of pi is a value in radians: one file, one angle unit
-            raise DescriptionError(f"{v!r} is in radians, but units.angle is 'deg'; write {float(deg):g} "
-                                   "or set units: {angle: rad}", src, where)
-        return float(deg) * math.pi / 180, deg
-    x = _number(v, src, where)
-    if unit == "deg":
-        return math.radians(x), Fraction(repr(x))
-    # radians given as a plain number: exact only when zero
-    return x, (Fraction(0) if x == 0 else None)
 
 
 def _geom(v: Any, key: str, j: int, is_angle: bool, scale: Fraction, au: str, src: str, where: str) -> GeomValue:
