@@ -173,3 +173,16 @@ class Progress:
         if self.shown:
             sys.stderr.write("\n")
             sys.stderr.flush()
+
+
+def write_code_files(files: dict[str, str], lang: str, output: Path | None) -> list[Path]:
+    """Write generated code as ``codegen -o output`` does (C: FILE.h and FILE.c; otherwise one file,
+    or stdout for None or "-"), each atomically; returns the paths written."""
+    if lang == "c":
+        assert output is not None
+        h, c = output.with_suffix(".h"), output.with_suffix(".c") if output.suffix != ".c" else output
+        write_output(files[".h"], h)
+        write_output(files[".c"], c)
+        return [c, h]
+    write_output(files[".py"], output)
+    return [] if output is None or is_stdout(output) else [output]

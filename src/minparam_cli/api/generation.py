@@ -119,35 +119,6 @@ def generate(robot: Path, lang: str, output: Path | None = None, model: Path | N
     return generate_code(chain, base, lang, prefix, meta, params, full, stem=stem), stem
 
 
-def write_files(files: dict[str, str], lang: str, output: Path | None) -> list[Path]:
-    """Write the generated files as ``-o output`` does (C: FILE.h and FILE.c; otherwise one file, or
-    stdout for None or "-"), each atomically."""
-    from minparam_cli.output import write_output
-
-    if lang == "c":
-        assert output is not None
-        h, c = output.with_suffix(".h"), output.with_suffix(".c") if output.suffix != ".c" else output
-        write_output(files[".h"], h)
-        write_output(files[".c"], c)
-        return [c, h]
-    write_output(files[".py"], output)
-    return [] if output is None or is_stdout(output) else [output]
-
-
-def write_generated(code: GeneratedCode, path: str | Path | None) -> list[Path]:
-    """``GeneratedCode.write``: to ``path`` or to the output the code was generated for."""
-    target = Path(path) if path is not None else code.output
-    if target is None:
-        raise InputError("write: give a path (the code was generated without an output)")
-    if code.lang == "c":
-        stem = code._generated_stem
-        if is_stdout(target):
-            raise InputError("C output is two files (.c and .h): give a path FILE.c")
-        if target.stem != stem:
-            raise InputError(f"write: the C source includes {stem}.h; write it as {stem}.c (or generate with output={str(target)!r})")
-    return write_files(code.files, code.lang, target)
-
-
 def _text(value: Any) -> str:
     return repr(value) if float(format(value, "g")) != value else format(value, "g")
 

@@ -16,6 +16,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any, Iterable, Sequence
 
 from minparam_cli.api.common import ProgressArg, choice, close, friction_kinds, gravity3, progress_callback, robot_path
+from minparam_cli.api.model_file import open_model  # noqa: F401  (the CLI's evaluate imports it from here)
 from minparam_cli.api.results import Errors, Evaluation, Identification, Model, Robot
 from minparam_cli.errors import InputError
 
@@ -248,57 +249,19 @@ def identify(robot: Robot | str | Path, data: Any, *, validate: Any = None, test
 # --- the model file -----------------------------------------------------------------------------------
 
 
-def open_model(model: str | Path, robot: str | Path | None = None) -> tuple[SavedModel, Path, Design]:
-    """Read a model file, check its robot file's SHA-256 and rebuild its design: (model, robot file,
-    design).  ``robot``: the robot file to use instead of the one the model names."""
-    from minparam_cli.describe.safety import read_bounded
-    from minparam_cli.identify.model import ModelError, check_robot, model_design, read_model
-    from minparam_cli.pipeline import load_chain, require_fixed_base
-
-    model = Path(model)
-    m = read_model(model)
-    robot_file = Path(robot) if robot is not None else Path(m.robot)
-    if not robot_file.is_file():
-        raise ModelError(f"{model}: robot file {robot_file} not found" + ("" if robot else " (give it with --robot)"))
-    check_robot(m, str(model), str(robot_file), read_bounded(robot_file))
-    _, chain = load_chain(robot_file, m.load.derive_options(m.seed))
-    require_fixed_base(chain, "evaluate")
-    chain = chain.with_coulomb_smoothing(m.load.coulomb_smoothing)
-    return m, robot_file, model_design(m, chain, str(model))
-
-
 def load_model(path: str | Path, robot: str | Path | None = None) -> Model:
     """``Model.load``: a model file written by ``identify --save-model`` or ``Model.save``."""
-    m, robot_file, design = open_model(path, robot)
-    return Model(saved=m, design=design, robot=str(robot_file), names=tuple(m.names))
+    return Model.load(path, robot)
 
 
 def save_model(model: Model, path: str | Path) -> None:
     """``Model.save``: the model file, written atomically."""
-    from minparam_cli.output import write_output
-    from minparam_cli.identify.model import dumps
-
-    write_output(dumps(model.saved), Path(path))
+    model.save(path)
 
 
 def predict(model: Model, q: Any, dq: Any, ddq: Any, t: Any = None, which: str = "fit") -> np.ndarray:
     """``Model.predict``: τ = X(q, dq, ddq)·θ for (N, dof) joint states."""
-    import numpy as np
-
-    from minparam_cli.identify.data import Block
-    from minparam_cli.identify.evaluation import predict as run
-
-    n = model.design.chain.dof
-    arrays = [np.atleast_2d(np.asarray(x, dtype=float)) for x in (q, dq, ddq)]
-    for name, x in zip(("q", "dq", "ddq"), arrays):
-        if x.ndim != 2 or x.shape != arrays[0].shape or x.shape[1] != n:
-            raise InputError(f"{name}: expected shape (N, {n}) like q, got {x.shape}")
-    N = arrays[0].shape[0]
-    tt = np.zeros(N) if t is None else np.asarray(t, dtype=float).reshape(-1)
-    if len(tt) != N:
-        raise InputError(f"t: expected {N} time stamps, got {len(tt)}")
-    theta = model.saved.fit_theta(choice(which, ("fit", "physical"), "which"))
-    return run(model.design, theta, Block(tt, arrays[0], arrays[1], arrays[2], np.zeros((N, n))))
+    return model.predict(q, dq, ddq, t, which)
 
 
 # --- evaluate -----------------------------------------------------------------------------------------

@@ -197,15 +197,17 @@ class Model:
 
     @staticmethod
     def load(path: str | Path, robot: str | Path | None = None) -> Model:
-        from minparam_cli.api.identification import load_model
+        from minparam_cli.api.model_file import open_model
 
-        return load_model(path, robot)
+        m, robot_file, design = open_model(path, robot)
+        return Model(saved=m, design=design, robot=str(robot_file), names=tuple(m.names))
 
     def save(self, path: str | Path) -> None:
         """Write the model file (JSON) atomically."""
-        from minparam_cli.api.identification import save_model
+        from minparam_cli.identify.model import dumps
+        from minparam_cli.output import write_output
 
-        save_model(self, path)
+        write_output(dumps(self.saved), Path(path))
 
     def to_dict(self) -> dict[str, Any]:
         """The model file's JSON."""
@@ -217,9 +219,26 @@ class Model:
     def predict(self, q: Any, dq: Any, ddq: Any, t: Any = None, which: str = "fit") -> np.ndarray:
         """Torques (N, dof) at joint states q, dq, ddq (N, dof); ``t`` (N,) in s matters only to a
         drift term (default: zeros)."""
-        from minparam_cli.api.identification import predict
+        import numpy as np
 
-        return predict(self, q, dq, ddq, t, which)
+        from minparam_cli.errors import InputError
+        from minparam_cli.identify.data import Block
+        from minparam_cli.identify.evaluation import predict as run
+
+        n = self.design.chain.dof
+        arrays = [np.atleast_2d(np.asarray(x, dtype=float)) for x in (q, dq, ddq)]
+        for name, x in zip(("q", "dq", "ddq"), arrays):
+            if x.ndim != 2 or x.shape != arrays[0].shape or x.shape[1] != n:
+                raise InputError(f"{name}: expected shape (N, {n}) like q, got {x.shape}")
+        N = arrays[0].shape[0]
+        tt = np.zeros(N) if t is None else np.asarray(t, dtype=float).reshape(-1)
+        if len(tt) != N:
+            raise InputError(f"t: expected {N} time stamps, got {len(tt)}")
+        which = str(getattr(which, "value", which))
+        if which not in ("fit", "physical"):
+            raise InputError(f"which: {which!r} is not one of 'fit', 'physical'")
+        theta = self.saved.fit_theta(which)
+        return run(self.design, theta, Block(tt, arrays[0], arrays[1], arrays[2], np.zeros((N, n))))
 
 
 @dataclass(frozen=True)
@@ -361,6 +380,16 @@ class GeneratedCode:
     def write(self, path: str | Path | None = None) -> list[Path]:
         """Write the file(s) atomically to ``path`` (default: the ``output`` the code was generated for);
         for C, ``path`` names the .c file and the .h goes beside it.  Returns the paths written."""
-        from minparam_cli.api.generation import write_generated
+        from minparam_cli.errors import InputError
+        from minparam_cli.output import is_stdout, write_code_files
 
-        return write_generated(self, path)
+        target = Path(path) if path is not None else self.output
+        if target is None:
+            raise InputError("write: give a path (the code was generated without an output)")
+        if self.lang == "c":
+            stem = self._generated_stem
+            if is_stdout(target):
+                raise InputError("C output is two files (.c and .h): give a path FILE.c")
+            if target.stem != stem:
+                raise InputError(f"write: the C source includes {stem}.h; write it as {stem}.c (or generate with output={str(target)!r})")
+        return write_code_files(self.files, self.lang, target)

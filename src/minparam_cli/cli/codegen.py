@@ -72,7 +72,8 @@ def codegen(
 @guarded
 def _codegen(robot, lang, output, model, which, full, name, method, friction, rotor_inertia, gravity, samples, seed, mimic,
              floating_base, quiet):
-    from minparam_cli.api.generation import generate, write_files
+    from minparam_cli.api.generation import generate
+    from minparam_cli.output import write_code_files
     from minparam_cli.errors import InputError
 
     t0 = time.perf_counter()
@@ -82,7 +83,7 @@ def _codegen(robot, lang, output, model, which, full, name, method, friction, ro
     with option_errors():
         gen, _ = generate(robot, lang, output, model, which and Which(which).value, full, name, Method(method).value,
                           friction, rotor_inertia, gravity, samples, seed, MimicMode(mimic).value, floating_base)
-    write_files(gen.files, lang, output)
+    write_code_files(gen.files, lang, output)
     if not quiet:
         for note in gen.notes:
             warning_line(note)
