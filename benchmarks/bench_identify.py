@@ -39,7 +39,7 @@ sys.path.insert(0, str(ROOT / "src"))
 from minparam_cli.chain import build_chain  # noqa: E402
 from minparam_cli.describe import load_description  # noqa: E402
 from minparam_cli.dynamics.regressor import regressor  # noqa: E402
-from minparam_cli.identify.inertia import random_inertia  # noqa: E402
+from minparam_cli.dynamics.inertia import random_inertia  # noqa: E402
 
 RATE = 1000.0
 

@@ -21,7 +21,7 @@ from typer.testing import CliRunner
 
 from minparam_cli.cli.app import app
 from minparam_cli.dynamics.regressor import regressor
-from minparam_cli.identify.inertia import random_inertia
+from minparam_cli.dynamics.inertia import random_inertia
 from minparam_cli.pipeline import DeriveOptions, load_chain
 from minparam_cli.render import export_robot
 

@@ -76,7 +76,7 @@ def _panda_sample(tmp_path: Path, samples: int = 12_000) -> Path:
     from minparam_cli.chain import build_chain
     from minparam_cli.describe import load_description
     from minparam_cli.dynamics.regressor import regressor
-    from minparam_cli.identify.inertia import random_inertia
+    from minparam_cli.dynamics.inertia import random_inertia
 
     chain = build_chain(load_description(Path("robots/panda.yaml")))
     rng = np.random.default_rng(1)

@@ -14,7 +14,7 @@ from minparam_cli.describe import load_description
 from minparam_cli.dynamics.regressor import regressor
 from minparam_cli.errors import InputError
 from minparam_cli.identify.effects import COGGING_GRID, EFFECTS, STRIBECK_GRID, Signals, effect_torque
-from minparam_cli.identify.inertia import pseudo_inertia_from_standard, random_inertia, standard_from_com
+from minparam_cli.dynamics.inertia import pseudo_inertia_from_standard, random_inertia, standard_from_com
 from minparam_cli.identify.simulate import SimulationOptions, data_columns, parse_effects, simulate
 from minparam_cli.identify.trajectory import LIMIT_MARGIN, excursion_bounds, fourier_excitation, joint_ranges
 from minparam_cli.params import standard_names
@@ -436,7 +436,7 @@ def test_cli_help_has_examples(app):
 
 
 def test_body_from_standard_inverts_standard_from_com():
-    from minparam_cli.identify.inertia import body_from_standard
+    from minparam_cli.dynamics.inertia import body_from_standard
 
     rng = np.random.default_rng(11)
     bodies = random_inertia(4, 0.5, rng)

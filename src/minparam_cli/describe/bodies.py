@@ -3,7 +3,7 @@
 A link's mass m, centre of mass c and inertia about the centre of mass I_C
 describe a rigid body exactly when its pseudo-inertia matrix is positive
 semidefinite (Wensing, Kim and Slotine, IEEE RA-L 3(1), 2018; the matrix is
-``identify.inertia.pseudo_inertia_from_standard``): m > 0 and the principal
+``minparam_cli.dynamics.inertia.pseudo_inertia_from_standard``): m > 0 and the principal
 moments of I_C obey the triangle inequalities J_a + J_b >= J_c (which make
 them non-negative).  Equality is a flat plate, a rod or a point mass: the
 limit of real bodies, accepted.  A link with no mass and no inertia is a
@@ -28,7 +28,7 @@ RELATIVE_TOL = 1e-9
 def link_problem(phi_link) -> str | None:
     """None for a real (or massless) body, else what is wrong, from the 10 standard parameters
     (params.LINK_PARAMS: inertia about the link frame origin, first moments m·c, mass)."""
-    from minparam_cli.identify.inertia import pseudo_inertia_from_standard
+    from minparam_cli.dynamics.inertia import pseudo_inertia_from_standard
 
     phi = np.asarray(phi_link, dtype=float)
     if not np.all(np.isfinite(phi)):
@@ -57,7 +57,7 @@ def _fmt(values) -> str:
 
 def body_verdicts(desc: RobotDescription) -> list[tuple[str, str | None]]:
     """(link name, problem or None) for every moving link with inertial values, in joint order."""
-    from minparam_cli.identify.inertia import standard_from_com
+    from minparam_cli.dynamics.inertia import standard_from_com
 
     out = []
     for k, jr in enumerate(desc.joints):

@@ -238,7 +238,7 @@ def _informed(A: np.ndarray, scale: np.ndarray, K: np.ndarray, n: int, n_eq: int
 def link_bodies(phi: np.ndarray, n: int) -> list[dict]:
     """Mass, centre of mass, inertia about it (link-frame axes), principal moments, and the smallest
     eigenvalue of the pseudo-inertia, per link."""
-    from minparam_cli.identify.inertia import body_from_standard, pseudo_inertia_from_standard
+    from minparam_cli.dynamics.inertia import body_from_standard, pseudo_inertia_from_standard
 
     out = []
     for i in range(n):

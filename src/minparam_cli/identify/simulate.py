@@ -7,7 +7,7 @@ returned, so a fit can be checked against the truth.  The measured torque is
 
 with Y the Newton–Euler regressor (``dynamics.regressor``), φ the standard
 inertial parameters (the description's, or random physically consistent ones
-from ``identify.inertia``), C_e the columns of the effect library
+from ``minparam_cli.dynamics.inertia``), C_e the columns of the effect library
 (``identify.effects``, the same functions ``identify`` fits) and c_e their
 coefficients.  The motion is Swevers' finite Fourier series
 (``identify.trajectory``) with exact q̇ and q̈.
@@ -52,7 +52,7 @@ from minparam_cli.chain import Chain
 from minparam_cli.dynamics.regressor import regressor
 from minparam_cli.errors import InputError
 from minparam_cli.identify.effects import EFFECTS, Signals
-from minparam_cli.identify.inertia import RandomInertia, random_inertia
+from minparam_cli.dynamics.inertia import RandomInertia, random_inertia
 from minparam_cli.identify.simulate_spec import (  # noqa: F401  (the names callers import from here)
     HYPER_DEFAULT,
     HYPER_KEY,

@@ -49,7 +49,7 @@ def standard_in_frame(phi10: np.ndarray, T: np.ndarray) -> np.ndarray:
 
 def body(phi10: np.ndarray) -> tuple[float, np.ndarray, np.ndarray]:
     """(mass, centre of mass, inertia tensor about it) of one link's standard parameters, same frame."""
-    from minparam_cli.identify.inertia import body_from_standard
+    from minparam_cli.dynamics.inertia import body_from_standard
 
     if not phi10[9] > 0:  # params.LINK_PARAMS: M last
         raise ValueError(f"a link of mass {phi10[9]} has no centre of mass")
