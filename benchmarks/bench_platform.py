@@ -35,9 +35,9 @@ from tabulate import tabulate
 sys.path.insert(0, str(ROOT / "src"))
 
 from minparam_cli.describe.platform_yaml import load_platform  # noqa: E402
-from minparam_cli.kinematics.platform import leg_lengths, platform_model, within_limits  # noqa: E402
-from minparam_cli.kinematics.platform_fk import forward_kinematics  # noqa: E402
-from minparam_cli.kinematics.platform_pso import PSOSettings, pso_search  # noqa: E402
+from minparam_cli.kinematics.parallel.platform import leg_lengths, platform_model, within_limits  # noqa: E402
+from minparam_cli.kinematics.parallel.platform_fk import forward_kinematics  # noqa: E402
+from minparam_cli.kinematics.parallel.platform_pso import PSOSettings, pso_search  # noqa: E402
 
 L = np.array([238.6357, 269.3776, 256.0046, 247.4046, 185.4388, 190.2705])
 

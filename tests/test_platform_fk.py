@@ -8,15 +8,15 @@ import numpy as np
 import pytest
 
 from minparam_cli.describe.platform_yaml import load_platform
-from minparam_cli.kinematics.platform import (
+from minparam_cli.kinematics.parallel.platform import (
     PlatformModel,
     leg_lengths,
     platform_model,
     platform_points,
     within_limits,
 )
-from minparam_cli.kinematics.platform_fk import forward_kinematics, octahedral_pattern
-from minparam_cli.kinematics.platform_truss import frame_coordinates, truss_fk, truss_lengths, truss_model
+from minparam_cli.kinematics.parallel.platform_fk import forward_kinematics, octahedral_pattern
+from minparam_cli.kinematics.parallel.platform_truss import frame_coordinates, truss_fk, truss_lengths, truss_model
 from conftest import ROBOTS
 
 PAPER_L = np.array([238.6357, 269.3776, 256.0046, 247.4046, 185.4388, 190.2705])

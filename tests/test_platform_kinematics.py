@@ -9,7 +9,7 @@ import pytest
 from scipy.spatial.transform import Rotation
 
 from minparam_cli.describe.platform_yaml import load_platform
-from minparam_cli.kinematics.platform import (
+from minparam_cli.kinematics.parallel.platform import (
     canonical_pose,
     leg_jacobian,
     leg_lengths,

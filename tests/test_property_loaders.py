@@ -139,8 +139,8 @@ def test_mutated_urdf_attributes(tmp_path, urdf, data, value):
 @SETTINGS
 @given(data=st.data(), value=values, delete=st.booleans())
 def test_mutated_platform_yaml(tmp_path, platform, data, value, delete):
-    from minparam_cli.kinematics.platform import platform_model
-    from minparam_cli.kinematics.platform_truss import truss_model
+    from minparam_cli.kinematics.parallel.platform import platform_model
+    from minparam_cli.kinematics.parallel.platform_truss import truss_model
 
     doc = yaml.safe_load(platform.read_text())
     path = data.draw(st.sampled_from(list(_paths(doc))))

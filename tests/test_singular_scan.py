@@ -10,8 +10,8 @@ import pytest
 from minparam_cli.chain import build_chain
 from minparam_cli.describe import load_description
 from minparam_cli.errors import InputError, UnsupportedError
-from minparam_cli.kinematics.screws import analyse, plucker_matrices
-from minparam_cli.kinematics.singular_scan import grid_plucker, scan, sigma_map, swept_joints
+from minparam_cli.kinematics.serial.screws import analyse, plucker_matrices
+from minparam_cli.kinematics.serial.singular_scan import grid_plucker, scan, sigma_map, swept_joints
 
 ROBOTS = Path(__file__).resolve().parents[1] / "robots"
 D = np.radians
@@ -97,7 +97,7 @@ def test_swept_joints():
 
 
 def test_symbolic_planar_3r():
-    from minparam_cli.kinematics.singular_symbolic import symbolic_conditions
+    from minparam_cli.kinematics.serial.singular_symbolic import symbolic_conditions
 
     s = symbolic_conditions(chain("planar3r.yaml"))
     assert s.what == "3-minors"
@@ -107,7 +107,7 @@ def test_symbolic_planar_3r():
 
 
 def test_symbolic_universal15_matches_scan_branches():
-    from minparam_cli.kinematics.singular_symbolic import symbolic_conditions
+    from minparam_cli.kinematics.serial.singular_symbolic import symbolic_conditions
 
     s = symbolic_conditions(chain("universal15_glazunov.yaml"))
     exprs = {c.expression for c in s.conditions}
@@ -119,7 +119,7 @@ def test_symbolic_universal15_matches_scan_branches():
 
 
 def test_symbolic_refuses_seven_joints():
-    from minparam_cli.kinematics.singular_symbolic import symbolic_conditions
+    from minparam_cli.kinematics.serial.singular_symbolic import symbolic_conditions
 
     with pytest.raises(UnsupportedError, match="at most 6 joints"):
         symbolic_conditions(chain("panda.yaml"))

@@ -11,7 +11,7 @@ from scipy.optimize import brentq
 from minparam_cli.chain import build_chain, forward_kinematics
 from minparam_cli.describe import load_description
 from minparam_cli.errors import InputError, UnsupportedError
-from minparam_cli.kinematics.screws import (
+from minparam_cli.kinematics.serial.screws import (
     DEFAULT_EPSILON,
     analyse,
     check_nearest,

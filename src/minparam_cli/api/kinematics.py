@@ -3,7 +3,7 @@ inverse/forward kinematics and workspace (Dang 2013).
 
 ``singular_analysis`` is the computation and JSON of ``minparam singular`` (less the --plot map,
 a file): the CLI and ``singular`` both call it.  The platform functions call the same stages and
-report builders (``kinematics.platform_report``) as ``minparam platform ik|fk|workspace``; poses and
+report builders (``kinematics.parallel.platform_report``) as ``minparam platform ik|fk|workspace``; poses and
 lengths are in the platform file's units, as on the command line.
 """
 
@@ -62,7 +62,7 @@ def singular_analysis(desc, chain, source: str, q_si=None, *, twist=None, epsilo
     conditions: JSON sections in the CLI's order."""
     import numpy as np
 
-    from minparam_cli.kinematics import screws
+    from minparam_cli.kinematics.serial import screws
     from minparam_cli.render.singular_text import local_json, scan_json, symbolic_json
 
     tool_doc, _ = tool_report(desc)
@@ -77,13 +77,13 @@ def singular_analysis(desc, chain, source: str, q_si=None, *, twist=None, epsilo
             out.check = screws.check_nearest(out.local, chain, np.random.default_rng(seed))
         out.doc.update(local_json(out.local, out.check, seed))
     if scan_step is not None:
-        from minparam_cli.kinematics.singular_scan import scan as run_scan
+        from minparam_cli.kinematics.serial.singular_scan import scan as run_scan
 
         q_fixed = q_si if q_si is not None else np.zeros(chain.n)
         out.scan = run_scan(chain, q_fixed, step=scan_step, epsilon=epsilon, progress=progress)
         out.doc["scan"] = scan_json(out.scan)
     if symbolic:
-        from minparam_cli.kinematics.singular_symbolic import symbolic_conditions
+        from minparam_cli.kinematics.serial.singular_symbolic import symbolic_conditions
 
         out.symbolic = symbolic_conditions(chain)
         out.doc["symbolic"] = symbolic_json(out.symbolic)
@@ -107,7 +107,7 @@ def singular(robot: Robot | str | Path, q: Sequence[float] | None = None, *, twi
 
     from minparam_cli.chain import build_chain
     from minparam_cli.describe import load_description
-    from minparam_cli.kinematics import screws
+    from minparam_cli.kinematics.serial import screws
     from minparam_cli.render.singular_text import _clean
 
     if not (math.isfinite(epsilon) and 0 < epsilon < 1):
@@ -187,12 +187,12 @@ def platform_ik(platform: str | Path, pose: Sequence[float] | None = None, *, po
     truss takes node coordinates (18 numbers; default: the file's)."""
     import numpy as np
 
-    from minparam_cli.kinematics import platform_report as rep
-    from minparam_cli.kinematics.platform import leg_lengths, legs_within_limits, platform_model, pose_from_normal
+    from minparam_cli.kinematics.parallel import platform_report as rep
+    from minparam_cli.kinematics.parallel.platform import leg_lengths, legs_within_limits, platform_model, pose_from_normal
 
     desc = _platform(platform)
     if desc.structure == "truss":
-        from minparam_cli.kinematics.platform_truss import truss_lengths, truss_model
+        from minparam_cli.kinematics.parallel.platform_truss import truss_lengths, truss_model
 
         if pose is not None or position is not None or normal is not None:
             raise InputError("pose: a free truss has no pose; give node coordinates with coords")
@@ -231,10 +231,10 @@ def platform_fk(platform: str | Path, lengths: Sequence[float], *, method: str =
     in the frame of the three nodes ``frame`` (default: the first face in node order)."""
     import numpy as np
 
-    from minparam_cli.kinematics import platform_report as rep
-    from minparam_cli.kinematics.platform import platform_model
-    from minparam_cli.kinematics.platform_fk import forward_kinematics, octahedral_pattern
-    from minparam_cli.kinematics.platform_pso import PSOSettings
+    from minparam_cli.kinematics.parallel import platform_report as rep
+    from minparam_cli.kinematics.parallel.platform import platform_model
+    from minparam_cli.kinematics.parallel.platform_fk import forward_kinematics, octahedral_pattern
+    from minparam_cli.kinematics.parallel.platform_pso import PSOSettings
 
     desc = _platform(platform)
     if desc.structure == "truss":
@@ -272,8 +272,8 @@ def _truss_fk(platform: str | Path, desc, lengths: Sequence[float], frame: Seque
     """The truss branch of ``minparam platform fk`` (the command calls it too: same checks, same report)."""
     import numpy as np
 
-    from minparam_cli.kinematics import platform_report as rep
-    from minparam_cli.kinematics.platform_truss import truss_fk, truss_model
+    from minparam_cli.kinematics.parallel import platform_report as rep
+    from minparam_cli.kinematics.parallel.platform_truss import truss_fk, truss_model
 
     target = _numbers(lengths, len(desc.legs), "lengths")
     if np.any(target <= 0):
@@ -301,9 +301,9 @@ def platform_workspace(platform: str | Path, *, samples: int = 20000, orientatio
     those with every leg within its limits counted (``reachable``: their share)."""
     import numpy as np
 
-    from minparam_cli.kinematics import platform_report as rep
-    from minparam_cli.kinematics.platform import platform_model
-    from minparam_cli.kinematics.platform_workspace import default_box, require_workspace, sample_workspace
+    from minparam_cli.kinematics.parallel import platform_report as rep
+    from minparam_cli.kinematics.parallel.platform import platform_model
+    from minparam_cli.kinematics.parallel.platform_workspace import default_box, require_workspace, sample_workspace
 
     desc = _platform(platform)
     require_workspace(desc, str(platform))

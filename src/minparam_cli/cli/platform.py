@@ -112,12 +112,12 @@ def ik(
 def _ik(file, pose, position, normal, yaw, coords, fmt, output):
     import numpy as np
 
-    from minparam_cli.kinematics import platform_report as rep
-    from minparam_cli.kinematics.platform import leg_lengths, legs_within_limits, platform_model, pose_from_normal
+    from minparam_cli.kinematics.parallel import platform_report as rep
+    from minparam_cli.kinematics.parallel.platform import leg_lengths, legs_within_limits, platform_model, pose_from_normal
 
     desc = _load(file)
     if desc.structure == "truss":
-        from minparam_cli.kinematics.platform_truss import truss_lengths, truss_model
+        from minparam_cli.kinematics.parallel.platform_truss import truss_lengths, truss_model
 
         if pose is not None or position is not None or normal is not None:
             raise typer.BadParameter("a free truss has no pose; give node coordinates with --coords", param_hint="--pose")
@@ -175,7 +175,7 @@ def fk(
 def _fk(file, lengths, method, starts, particles, iterations, seed, side, rtol, frame, fmt, output, quiet):
     import numpy as np
 
-    from minparam_cli.kinematics import platform_report as rep
+    from minparam_cli.kinematics.parallel import platform_report as rep
 
     desc = _load(file)
     target = np.array(parse_floats(lengths, len(desc.legs), "--lengths"))
@@ -190,9 +190,9 @@ def _fk(file, lengths, method, starts, particles, iterations, seed, side, rtol, 
         return
     if frame is not None:
         raise typer.BadParameter("--frame is for a 12-leg truss", param_hint="--frame")
-    from minparam_cli.kinematics.platform import platform_model
-    from minparam_cli.kinematics.platform_fk import forward_kinematics, octahedral_pattern
-    from minparam_cli.kinematics.platform_pso import PSOSettings
+    from minparam_cli.kinematics.parallel.platform import platform_model
+    from minparam_cli.kinematics.parallel.platform_fk import forward_kinematics, octahedral_pattern
+    from minparam_cli.kinematics.parallel.platform_pso import PSOSettings
 
     model = platform_model(desc)
     if method == Method.exact and octahedral_pattern(model) is None:
@@ -234,9 +234,9 @@ def workspace(
 def _workspace(file, samples, orientation, seed, plot, fmt, output, quiet):
     import numpy as np
 
-    from minparam_cli.kinematics import platform_report as rep
-    from minparam_cli.kinematics.platform import platform_model
-    from minparam_cli.kinematics.platform_workspace import default_box, require_workspace, sample_workspace, workspace_figure
+    from minparam_cli.kinematics.parallel import platform_report as rep
+    from minparam_cli.kinematics.parallel.platform import platform_model
+    from minparam_cli.kinematics.parallel.platform_workspace import default_box, require_workspace, sample_workspace, workspace_figure
 
     desc = _load(file)
     require_workspace(desc, str(file))

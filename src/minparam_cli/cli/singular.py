@@ -1,6 +1,6 @@
 """``minparam singular``: singular positions by screw theory (Glazunov 1985).
 
-Parses, calls the kinematics stage (``kinematics.screws``, ``singular_scan``,
+Parses, calls the kinematics stage (``kinematics.serial.screws``, ``singular_scan``,
 ``singular_symbolic``), renders with ``render.singular_text`` / ``singular_plot``,
 writes, maps errors.
 """
@@ -156,7 +156,7 @@ def singular(
 
         desc = select_tool(desc, tool)
     chain = build_chain(desc)
-    from minparam_cli.kinematics import screws
+    from minparam_cli.kinematics.serial import screws
 
     screws.require_serial(chain)
     angle = "rad" if rad else "deg"
@@ -180,7 +180,7 @@ def singular(
         sections.append(scan_table(res.scan, chain.types, angle))
 
     if plot is not None:
-        from minparam_cli.kinematics.singular_scan import sigma_map, swept_joints
+        from minparam_cli.kinematics.serial.singular_scan import sigma_map, swept_joints
 
         if joints is None:
             sw = swept_joints(chain)

@@ -61,7 +61,7 @@ def _clean(obj):
 
 
 def local_json(report, check, seed: int) -> dict:
-    from minparam_cli.kinematics.screws import SCREW_CONVENTION, TWIST_CONVENTION, twist_distances
+    from minparam_cli.kinematics.serial.screws import SCREW_CONVENTION, TWIST_CONVENTION, twist_distances
 
     t = report.test
     out = {
@@ -170,7 +170,7 @@ def local_table(report, check, seed: int, angle: str) -> str:
         from tabulate import tabulate
 
         L = report.length_scale
-        from minparam_cli.kinematics.screws import twist_distances
+        from minparam_cli.kinematics.serial.screws import twist_distances
 
         rows = []
         for name, tw in (("requested", sol.requested), ("nearest (Glazunov)", sol.nearest),
@@ -201,7 +201,7 @@ def local_table(report, check, seed: int, angle: str) -> str:
 
 
 def scan_json(r) -> dict:
-    from minparam_cli.kinematics.singular_scan import MAX_POINTS_KEPT
+    from minparam_cli.kinematics.serial.singular_scan import MAX_POINTS_KEPT
 
     listed = min(r.points.shape[0], 5000)
     return {

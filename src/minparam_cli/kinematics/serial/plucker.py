@@ -13,6 +13,8 @@ that its singular values are dimensionless and comparable across robots.
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 
 from minparam_cli.chain import Chain, forward_kinematics
@@ -93,3 +95,14 @@ def relative_sigma(Jn: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 def to_nd(T: np.ndarray, L: float) -> np.ndarray:
     """A twist (w; v at O_c) in the normalised matrix's units: (w; v / L)."""
     return np.concatenate([T[:3], T[3:] / L])
+
+
+@dataclass(frozen=True, eq=False)
+class ReciprocalScrew:
+    """A unit screw reciprocal to every kept joint screw (|h| = 1, or |h0| = 1 for a couple)."""
+
+    plucker: np.ndarray  # (h; h0) with h0 about the base origin
+    moment_at_tool: np.ndarray  # h0 about O_c
+    kind: str  # "screw" | "force" (zero pitch) | "couple" (h = 0)
+    pitch: float  # inf for a couple, metres otherwise
+    axis_point: np.ndarray | None  # point of the axis nearest the base origin (None for a couple)

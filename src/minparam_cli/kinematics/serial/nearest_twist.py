@@ -13,22 +13,19 @@ squares are computed beside it for comparison.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
 
 import numpy as np
 
 from minparam_cli.chain import Chain
 from minparam_cli.errors import InputError
-from minparam_cli.kinematics.plucker import (
+from minparam_cli.kinematics.serial.plucker import (
+    ReciprocalScrew,
     ZERO_COMPONENT,
     column_scale,
     normalised_matrices,
     rows_at_point,
     to_nd,
 )
-
-if TYPE_CHECKING:
-    from minparam_cli.kinematics.screws import ReciprocalScrew
 
 
 @dataclass(frozen=True, eq=False)

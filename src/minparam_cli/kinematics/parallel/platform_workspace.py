@@ -14,7 +14,7 @@ from typing import Callable
 
 import numpy as np
 
-from minparam_cli.kinematics.platform import POSE_NAMES, PlatformModel, leg_lengths
+from minparam_cli.kinematics.parallel.platform import POSE_NAMES, PlatformModel, leg_lengths
 
 
 @dataclass(frozen=True)

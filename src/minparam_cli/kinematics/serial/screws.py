@@ -45,7 +45,7 @@ import numpy as np
 
 from minparam_cli.chain import Chain
 from minparam_cli.errors import ComputationError, InputError
-from minparam_cli.kinematics.nearest_twist import (
+from minparam_cli.kinematics.serial.nearest_twist import (
     NearestCheck,
     TwistSolution,
     check_nearest,
@@ -54,7 +54,8 @@ from minparam_cli.kinematics.nearest_twist import (
     solve_twist,
     twist_distances,
 )
-from minparam_cli.kinematics.plucker import (
+from minparam_cli.kinematics.serial.plucker import (
+    ReciprocalScrew,
     SCREW_CONVENTION,
     TWIST_CONVENTION,
     ZERO_COMPONENT,
@@ -101,17 +102,6 @@ class RankTest:
             return None
         below = float(self.singular_values[self.rank])
         return float("inf") if below == 0 else float(self.singular_values[self.rank - 1]) / below
-
-
-@dataclass(frozen=True, eq=False)
-class ReciprocalScrew:
-    """A unit screw reciprocal to every kept joint screw (|h| = 1, or |h0| = 1 for a couple)."""
-
-    plucker: np.ndarray  # (h; h0) with h0 about the base origin
-    moment_at_tool: np.ndarray  # h0 about O_c
-    kind: str  # "screw" | "force" (zero pitch) | "couple" (h = 0)
-    pitch: float  # inf for a couple, metres otherwise
-    axis_point: np.ndarray | None  # point of the axis nearest the base origin (None for a couple)
 
 
 @dataclass(frozen=True, eq=False)

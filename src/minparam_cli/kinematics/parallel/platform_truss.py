@@ -16,8 +16,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from minparam_cli.kinematics.platform_exact import BEZOUT_BOUND, solve_octahedral
-from minparam_cli.kinematics.platform_fk import DEFAULT_RTOL, Certificate
+from minparam_cli.kinematics.parallel.platform_exact import BEZOUT_BOUND, solve_octahedral
+from minparam_cli.kinematics.parallel.platform_fk import DEFAULT_RTOL, Certificate
 
 
 @dataclass(frozen=True)

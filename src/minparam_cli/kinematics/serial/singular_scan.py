@@ -27,7 +27,7 @@ import numpy as np
 
 from minparam_cli.chain import REVOLUTE, Chain, motion
 from minparam_cli.errors import InputError
-from minparam_cli.kinematics.screws import (
+from minparam_cli.kinematics.serial.screws import (
     DEFAULT_EPSILON,
     dependent_groups,
     normalised_matrices,

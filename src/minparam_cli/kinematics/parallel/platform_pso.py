@@ -21,7 +21,7 @@ from typing import Callable
 
 import numpy as np
 
-from minparam_cli.kinematics.platform import EPS, PlatformModel, canonical_pose, leg_jacobian, leg_lengths
+from minparam_cli.kinematics.parallel.platform import EPS, PlatformModel, canonical_pose, leg_jacobian, leg_lengths
 
 
 @dataclass(frozen=True)

@@ -6,10 +6,10 @@ import math
 
 import numpy as np
 
-from minparam_cli.kinematics.platform import POSE_NAMES, PlatformModel, normal_from_rpy
-from minparam_cli.kinematics.platform_fk import FKResult
-from minparam_cli.kinematics.platform_truss import TrussFKResult, TrussModel
-from minparam_cli.kinematics.platform_workspace import WorkspaceResult
+from minparam_cli.kinematics.parallel.platform import POSE_NAMES, PlatformModel, normal_from_rpy
+from minparam_cli.kinematics.parallel.platform_fk import FKResult
+from minparam_cli.kinematics.parallel.platform_truss import TrussFKResult, TrussModel
+from minparam_cli.kinematics.parallel.platform_workspace import WorkspaceResult
 
 
 def to_unit(angle: float, unit: str) -> float:

@@ -21,9 +21,9 @@ from typing import Callable
 
 import numpy as np
 
-from minparam_cli.kinematics.platform import PlatformModel, leg_lengths, platform_points, pose_from_points
-from minparam_cli.kinematics.platform_exact import BEZOUT_BOUND, solve_octahedral
-from minparam_cli.kinematics.platform_pso import PSOSettings, newton_polish, polish, pso_search, random_starts
+from minparam_cli.kinematics.parallel.platform import PlatformModel, leg_lengths, platform_points, pose_from_points
+from minparam_cli.kinematics.parallel.platform_exact import BEZOUT_BOUND, solve_octahedral
+from minparam_cli.kinematics.parallel.platform_pso import PSOSettings, newton_polish, polish, pso_search, random_starts
 
 METHODS = ("auto", "exact", "pso", "multistart")
 DEFAULT_RTOL = 1e-12  # accepted max |l - l*| relative to max l*
