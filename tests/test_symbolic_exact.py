@@ -240,14 +240,6 @@ def test_oblique_axis_file_is_no_longer_refused():
     assert any("j2_axis_phi" in b["symbolic"] for b in r["base_parameters"])
 
 
-def test_mimic_joint_is_refused_with_the_robots_reason_fast():
-    r = derive_file("benchmarks/data/symbolic/mimic_gripper.urdf", DeriveOptions(symbolic=True))
-    assert "base_parameters" in r and r["symbolic_verification"]["passed"] is False
-    (note,) = r["symbolic_notes"]
-    assert note.startswith("no symbolic set:") and "mimic joints" in note
-    assert r["symbolic_verification"]["elapsed_s"] < 2.0  # refused before any work
-
-
 def test_symbolic_numbers_keep_the_files_exact_lengths_and_rational_axes(tmp_path):
     # --symbolic-numbers: lengths are the file's decimals, an axis with rational components gives
     # rational cos/sin; only other angles and g stay symbols

@@ -152,6 +152,7 @@ def _rational_values(fs, rng) -> dict:
 def exact_coefficients(desc, chain, symbols, pins, generic: BaseSet, rng, numbers=None):
     """{(base row, index into generic.dependent): field element} and the field's symbols."""
     from minparam_cli.base.symbolic_exact import (
+        Coupled,
         exact_relations,
         numeric_relations,
         regrouping,
@@ -163,10 +164,11 @@ def exact_coefficients(desc, chain, symbols, pins, generic: BaseSet, rng, number
     ar = Arith(fs, pins, numbers=numbers)
     transforms = joint_transforms(desc, ar)
     cols = stage1(desc, chain, ar, transforms)
+    plan = Coupled(chain, desc.source)
     far = Arith(fs, pins, _float_values(fs, rng), numbers=numbers)
-    _, relations = numeric_relations(desc, chain, cols, far, joint_transforms(desc, far), rng)
+    _, relations = numeric_relations(desc, chain, cols, far, joint_transforms(desc, far), rng, plan)
     rat = Arith(fs, pins, _rational_values(fs, rng), rational=True, numbers=numbers)
-    forms = exact_relations(desc, chain, cols, ar, transforms, relations, rng, rat, joint_transforms(desc, rat))
+    forms = exact_relations(desc, chain, cols, ar, transforms, relations, rng, rat, joint_transforms(desc, rat), plan)
     coef = regrouping(forms, generic.kept, generic.dependent, generic.unidentifiable, ar, desc.source)
     stats = {"grouped_columns": len(cols), "relations": len(relations),
              "largest_relation": max((len(v) for v in relations.values()), default=0)}

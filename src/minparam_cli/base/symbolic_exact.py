@@ -30,6 +30,7 @@ its kept set the regrouping matrix is K = A_kept⁻¹ A, solved by sparse exact 
 
 from __future__ import annotations
 
+import math
 from fractions import Fraction
 
 import numpy as np
@@ -96,7 +97,9 @@ def stage1(desc, chain, ar: Arith, transforms) -> list[Column]:
     """Khalil's rules generalised, in the arithmetic ``ar``."""
     n = chain.n
     layout = chain.layout
-    acc = [[{N_LINK_PARAMS * j + i: ar.one} for i in range(N_LINK_PARAMS)] for j in range(n)]
+    # a massless virtual link of a floating base has no columns: its forms start empty
+    first = {j: N_LINK_PARAMS * k for k, j in enumerate(layout.links_with_columns)}
+    acc = [[{first[j] + i: ar.one} if j in first else {} for i in range(N_LINK_PARAMS)] for j in range(n)]
     cols: list[Column] = []
     from minparam_cli.params import LINK_PARAMS
 
@@ -128,7 +131,7 @@ def stage1(desc, chain, ar: Arith, transforms) -> list[Column]:
         name = layout.names[c]
         if kind == "rotor_inertia":
             cols.append(Column({c: ar.one}, ("rotor", j), name))
-        elif kind == "offset" and chain.types[j] == PRISMATIC:
+        elif kind == "offset":  # energy −q_j: a constant generalized force on joint j
             cols.append(Column({c: ar.one}, ("offset", j), name))
         else:
             cols.append(Column({c: ar.one}, ("free", name), name))
@@ -161,30 +164,134 @@ def column_values(desc, cols, ar: Arith, transforms, state, only=None) -> list:
     return out
 
 
-def float_state(n, rng):
-    th = rng.uniform(-np.pi, np.pi, n)
-    return list(np.cos(th)), list(np.sin(th)), list(rng.uniform(-1, 1, n)), list(rng.uniform(-1, 1, n))
+class Coupled:
+    """How every joint's state follows the independent coordinates (mimic joints: q_j = k_j q_m(j),
+    the offset moved into the joint's fixed transform by ``joint_transforms``).
+
+    Float states (the structure decision) follow the constraint itself.  Exact states use, per
+    master coordinate, one rational value u for every polynomial occurrence (q_j = k_j u: prismatic
+    positions, offset columns) and, for the cosines and sines of its revolute joints, either
+    independent rational points of the circle ("free") or one point t with joint j at the
+    multiple angle p_j t, p_j = k_j r ("period" r).  Both are exact (docs/methods/symbolic.md,
+    mimic joints): every energy coefficient has frequency at most 2 in each joint angle and is a
+    polynomial in the prismatic positions, so a relation holds on the constraint exactly when it
+    holds with the angles free, unless two distinct frequency vectors a, b ∈ [−2, 2]^m meet
+    (Σ (a_l − b_l) k_l = 0); then the angles are parameterised by t, exactly."""
+
+    def __init__(self, chain, source: str):
+        n = chain.n
+        self.master = list(range(n))
+        self.k = [Fraction(1)] * n
+        if chain.coupling is not None:
+            G, coords = chain.coupling.G, chain.coupling.coordinates
+            for j in range(n):
+                i = int(np.flatnonzero(G[j])[0]) if np.any(G[j]) else None
+                self.master[j] = coords[i] if i is not None else j
+                self.k[j] = Fraction(repr(float(G[j, i]))) if i is not None else Fraction(0)
+        self.revolute = [t != PRISMATIC for t in chain.types]
+        self.period: dict[int, int] = {}
+        for m in sorted(set(self.master)):
+            ks = [self.k[j] for j in range(n) if self.master[j] == m and self.revolute[j] and self.k[j]]
+            if len(ks) > 1 and not _frequencies_distinct(ks):
+                r = math.lcm(*(x.denominator for x in ks))
+                if max(abs(x * r) for x in ks) > 24:
+                    raise ComputationError(f"{source}: mimic multipliers {', '.join(str(x) for x in ks)} of one joint "
+                                           f"have coinciding frequencies at a period of {r}: too long for exact states")
+                self.period[m] = r
+
+    def float_state(self, rng):
+        n = len(self.master)
+        x = [rng.uniform(-np.pi, np.pi) if self.revolute[j] else rng.uniform(-1, 1) for j in range(n)]
+        v = list(rng.uniform(-1, 1, n))
+        x = [float(self.k[j]) * x[self.master[j]] for j in range(n)]
+        v = [float(self.k[j]) * v[self.master[j]] for j in range(n)]
+        return list(np.cos(x)), list(np.sin(x)), x, v
+
+    def rational_state(self, rng, ar: Arith):
+        """cos/sin from t ↦ ((1−t²)/(1+t²), 2t/(1+t²)) at rational t; rational q, q̇."""
+
+        def r():
+            return Fraction(int(rng.integers(-12, 13)), int(rng.integers(1, 12)))
+
+        def circle():
+            t = r()
+            return (1 - t * t) / (1 + t * t), 2 * t / (1 + t * t)
+
+        n = len(self.master)
+        u, v = [r() for _ in range(n)], [r() for _ in range(n)]
+        point = {m: circle() for m in self.period}
+        cq, sq = [], []
+        for j in range(n):
+            m, k = self.master[j], self.k[j]
+            if not k:
+                c, s = Fraction(1), Fraction(0)
+            elif m in self.period and self.revolute[j]:
+                c, s = _multiple_angle(point[m], int(k * self.period[m]))
+            else:
+                c, s = circle()
+            cq.append(ar.const(c))
+            sq.append(ar.const(s))
+        q = [ar.const(self.k[j] * u[self.master[j]]) for j in range(n)]
+        qd = [ar.const(self.k[j] * v[self.master[j]]) for j in range(n)]
+        return cq, sq, q, qd
+
+    def free_relations(self, chain, cols) -> dict:
+        """{friction or offset column d: (column it is a multiple of, factor)} among the joints one
+        coordinate drives: on the coordinate's row Fv_j = k_j² q̇, Fc_j = |k_j| sign q̇ (k_j tanh(k_j q̇/s)
+        when smoothed: equal for equal |k_j| only); revolute offsets are energy columns (stage 2)."""
+        smooth = chain.coulomb_smoothing > 0.0
+        groups: dict = {}
+        out: dict = {}
+        for d, c in enumerate(cols):
+            if c.where[0] != "free":
+                continue
+            j, kind = chain.layout.extra_columns[next(iter(c.form)) - chain.layout.n_inertial]
+            k = self.k[j]
+            if kind not in ("coulomb", "viscous") or chain.coupling is None:
+                continue
+            if not k:
+                out[d] = (None, Fraction(0))
+                continue
+            f = k * k if kind == "viscous" else (Fraction(1) if smooth else abs(k))
+            key = (self.master[j], kind, abs(k) if smooth and kind == "coulomb" else None)
+            if key in groups:
+                rep, f0 = groups[key]
+                out[d] = (rep, f / f0)
+            else:
+                groups[key] = (d, f)
+        return out
 
 
-def rational_state(n, rng, ar: Arith):
-    """cos/sin from t ↦ ((1−t²)/(1+t²), 2t/(1+t²)) at rational t; rational q, q̇."""
+def _frequencies_distinct(ks) -> bool:
+    """No nonzero integer vector δ ∈ [−4, 4]^m with Σ δ_l k_l = 0 (checked exactly)."""
+    import itertools
 
-    def r():
-        return Fraction(int(rng.integers(-12, 13)), int(rng.integers(1, 12)))
+    if len(ks) > 6:
+        return False
+    for delta in itertools.product(range(-4, 5), repeat=len(ks)):
+        if any(delta) and sum(d * k for d, k in zip(delta, ks)) == 0:
+            return False
+    return True
 
-    ts = [r() for _ in range(n)]
-    cq = [ar.const((1 - t * t) / (1 + t * t)) for t in ts]
-    sq = [ar.const(2 * t / (1 + t * t)) for t in ts]
-    return cq, sq, [ar.const(r()) for _ in range(n)], [ar.const(r()) for _ in range(n)]
+
+def _multiple_angle(point, p: int):
+    """(cos pt, sin pt) from (cos t, sin t), exactly."""
+    c, s = point
+    if p < 0:
+        c, s, p = c, -s, -p
+    rc, rs = Fraction(1), Fraction(0)
+    for _ in range(p):
+        rc, rs = rc * c - rs * s, rc * s + rs * c
+    return rc, rs
 
 
-def numeric_relations(desc, chain, cols, far: Arith, ftrans, rng):
+def numeric_relations(desc, chain, cols, far: Arith, ftrans, rng, plan: Coupled):
     """(independent column indices, {dependent: support}) decided at floats, scan order."""
     energy = [k for k, c in enumerate(cols) if c.where[0] != "free"]
     n_states = 2 * len(energy) + 10
     rows = []
     for _ in range(n_states):
-        v = column_values(desc, cols, far, ftrans, float_state(chain.n, rng))
+        v = column_values(desc, cols, far, ftrans, plan.float_state(rng))
         rows.append([v[k] for k in energy])
     D = np.array(rows[1:]) - np.array(rows[0])
     norms = np.linalg.norm(D, axis=0)
@@ -242,7 +349,7 @@ def solve_dense(rows: list[list], rhs: list, zero):
     return [A[i][m] for i in range(m)]
 
 
-def exact_relations(desc, chain, cols, ar: Arith, transforms, relations, rng, rat: Arith, rat_transforms):
+def exact_relations(desc, chain, cols, ar: Arith, transforms, relations, rng, rat: Arith, rat_transforms, plan: Coupled):
     """Stage 2: exact c for every numeric relation; the forms moved onto the independent ones.
 
     ``rat``: the rational arithmetic at a random rational geometry, where vanishing columns are
@@ -251,7 +358,7 @@ def exact_relations(desc, chain, cols, ar: Arith, transforms, relations, rng, ra
 
     def state(i):
         while len(states) <= i:
-            states.append(rational_state(chain.n, rng, ar))
+            states.append(plan.rational_state(rng, ar))
         return states[i]
 
     cache: dict = {}
@@ -265,7 +372,7 @@ def exact_relations(desc, chain, cols, ar: Arith, transforms, relations, rng, ra
     forms = {k: dict(c.form) for k, c in enumerate(cols)}
     zero_cols = [d for d, support in relations.items() if not support]
     if zero_cols:
-        rs = [rational_state(chain.n, rng, rat) for _ in range(2)]
+        rs = [plan.rational_state(rng, rat) for _ in range(2)]
         v1, v0 = (column_values(desc, cols, rat, rat_transforms, s, only=set(zero_cols)) for s in rs)
         for d in zero_cols:
             if v1[d] - v0[d]:
@@ -288,13 +395,17 @@ def exact_relations(desc, chain, cols, ar: Arith, transforms, relations, rng, ra
                 if c:
                     _axpy(forms[k], c, forms[d])
         forms.pop(d)
+    for d, (k, f) in plan.free_relations(chain, cols).items():
+        if k is not None:
+            _axpy(forms[k], ar.const(f), forms[d])
+        forms.pop(d)
     return forms
 
 
 def regrouping(forms: dict, kept: tuple[int, ...], dependent: tuple[int, ...], unident: tuple[int, ...], ar: Arith, source: str):
     """Stage 3: {(base row i, dependent column): exact β} for the numeric route's kept set."""
     rows = [f for f in forms.values() if f]
-    if len(rows) != len(kept):
+    if len(rows) < len(kept):
         raise ComputationError(f"{source}: {len(rows)} exact base parameters against {len(kept)} of the numeric route")
     stray = {c for f in rows for c in f} & set(unident)
     if stray:
@@ -316,6 +427,12 @@ def regrouping(forms: dict, kept: tuple[int, ...], dependent: tuple[int, ...], u
                 _axpy(rows[r], -rows[r][c], rows[i])
         done.add(i)
         pivot_of[c] = i
+    # forms can be linearly dependent (a floating base: the free body's parameters reach the
+    # virtual links through several rules); the base parameters are their span, so the rows
+    # left after the kept pivots must vanish exactly
+    extra = [i for i in range(len(rows)) if i not in done and rows[i]]
+    if extra:
+        raise ComputationError(f"{source}: {len(kept) + len(extra)} exact base parameters against {len(kept)} of the numeric route")
     out = {}
     for bi, c in enumerate(kept):
         row = rows[pivot_of[c]]
