@@ -87,16 +87,21 @@ def field_to_sympy(value, fs):
                 out.append(sp.Symbol(nm))
         return out
 
-    def expr(n, fl, R):
-        """Expanded and factored forms of n / prod(f^e) (full factorisation of small numerators,
-        numeric and monomial content of large ones: sympy's factoring costs seconds there)."""
+    def expanded(n, fl, R):
         syms = target(R)
         den = sp.Integer(1)
         for f, e in fl:
             den *= f.as_expr(*syms) ** e
         den = _pythagoras(den)
-        out = [n.as_expr(*syms) / den]
-        if not n.is_ground:
+        return n.as_expr(*syms) / den, den, syms
+
+    def expr(n, fl, R, first):
+        """Expanded and factored forms of n / prod(f^e) (full factorisation of small numerators,
+        numeric and monomial content of large ones: sympy's factoring costs seconds there; a
+        monomial is its own factored form)."""
+        e0, den, syms = first
+        out = [e0]
+        if len(n.terms()) > 1:
             if len(n.terms()) <= FACTOR_TERMS:  # in the symbols present only (sympy's ring has all)
                 num = sp.factor(out[0] * den)
             else:
@@ -109,15 +114,25 @@ def field_to_sympy(value, fs):
             out.append(_pythagoras(num / den))
         return out
 
-    cands = expr(value.n, facs, ctx.R)
+    key = (tuple(sorted(value.n.items())), tuple(sorted(value.d.items())))
+    cache = ctx.__dict__.setdefault("_printed", {})
+    if key in cache:  # equal coefficients recur across base parameters
+        return cache[key]
+    forms = [(value.n, facs, ctx.R)]
     if fs.angles:
         R2 = _swapped(ctx)
         g2 = {str(g): g for g in R2.gens}
         circle = [g2[f"sin_{a}"] ** 2 + g2[f"cos_{a}"] ** 2 - 1 for a in fs.angles]
         n2 = value.n.set_ring(R2).rem(circle)
         f2 = [(f.set_ring(R2).rem(circle), e) for f, e in facs]
-        cands += expr(*_cancel_by_division(n2, f2), R2)
-    return min(cands, key=lambda x: (len(str(x)), str(x)))
+        forms.append((*_cancel_by_division(n2, f2), R2))
+    # the normal form (sin² or cos² eliminated) whose expanded form is shorter is factored, only it
+    firsts = [expanded(*f) for f in forms]
+    best = min(range(len(forms)), key=lambda i: (len(str(firsts[i][0])), i))
+    cands = expr(*forms[best], firsts[best]) + [f[0] for f in firsts]
+    out = min(cands, key=lambda x: (len(str(x)), str(x)))
+    cache[key] = out
+    return out
 
 
 def _pythagoras(expr):
