@@ -318,3 +318,27 @@ def test_rpy_of_inverts_the_urdf_rotation_including_gimbal_lock():
         R = _rot(*a)
         worst = max(worst, float(np.abs(_rot(*rpy_of(R)) - R).max()))
     assert worst <= 1e-12, worst
+
+
+def _uncollected(coef, lengths) -> list:
+    """Printed terms that put several length monomials over one trigonometric denominator."""
+    bad = []
+    for c in coef.values():
+        for t in sp.Add.make_args(c):
+            num, den = sp.fraction(sp.factor_terms(t))
+            if num.is_Add and den.has(sp.sin, sp.cos):
+                monos = {sp.Poly(a, *lengths).monoms()[0] for a in num.args if a.free_symbols & set(lengths)}
+                if len(monos) > 1:
+                    bad.append(t)
+    return bad
+
+
+def test_skewed_coefficients_are_collected_by_the_lengths(tmp_path):
+    # issue 18 point 4: a1²/sin²α1 − a2²/sin²α2 + d2², not (a1² sin²α2 − a2² sin²α1 + d2² sin²α1 sin²α2)/(sin²α1 sin²α2)
+    report, coef, worst, _ = compare_with_numeric(_file(tmp_path, SKEW_DH), DeriveOptions(symbolic=True))
+    assert worst <= RTOL
+    lengths = [sp.Symbol(s) for s in report["symbols"] if s[0] in "ad" and s[1:].isdigit()]
+    assert not _uncollected(coef, lengths)
+    # and the check can fail: the same coefficient written over a common denominator is caught
+    joint = {k: sp.together(v) for k, v in coef.items()}
+    assert _uncollected(joint, lengths)

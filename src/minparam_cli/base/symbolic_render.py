@@ -119,6 +119,7 @@ def field_to_sympy(value, fs):
     if key in cache:  # equal coefficients recur across base parameters
         return cache[key]
     forms = [(value.n, facs, ctx.R)]
+    circles = [ctx.circle]
     if fs.angles:
         R2 = _swapped(ctx)
         g2 = {str(g): g for g in R2.gens}
@@ -126,13 +127,62 @@ def field_to_sympy(value, fs):
         n2 = value.n.set_ring(R2).rem(circle)
         f2 = [(f.set_ring(R2).rem(circle), e) for f, e in facs]
         forms.append((*_cancel_by_division(n2, f2), R2))
+        circles.append(circle)
     # the normal form (sin² or cos² eliminated) whose expanded form is shorter is factored, only it
     firsts = [expanded(*f) for f in forms]
     best = min(range(len(forms)), key=lambda i: (len(str(firsts[i][0])), i))
     cands = expr(*forms[best], firsts[best]) + [f[0] for f in firsts]
+    lengths = {*fs.lengths, *(g for g, _, _ in fs.gravity)}
+    for (n, fl, R), circle, (_, _, syms) in zip(forms, circles, firsts):
+        c = _collected(n, fl, R, circle, syms, lengths)
+        if c is not None:
+            cands.append(c)
     out = min(cands, key=lambda x: (len(str(x)), str(x)))
     cache[key] = out
     return out
+
+
+_FACTORS: dict = {}  # denominator factor -> factor_list (few, recurring)
+
+
+def _collected(n, fl, R, circle, syms, lengths):
+    """n / den as a sum over the monomials m of the lengths and gravity: Σ m · (P_m / den), each
+    trigonometric quotient cancelled (the form a paper prints: a1²/sin²α1 − a2²/sin²α2 + d2²
+    instead of one fraction over sin²α1·sin²α2).  None when a denominator factor holds a length
+    or n has a single length monomial (nothing to collect)."""
+    import sympy as sp
+
+    idx = [i for i, g in enumerate(R.gens) if str(g) in lengths]
+    if not idx or any(f.degrees()[i] for f, _ in fl for i in idx):
+        return None
+    groups: dict = {}
+    for mon, c in n.terms():
+        key = tuple(mon[i] for i in idx)
+        rest = tuple(0 if i in idx else e for i, e in enumerate(mon))
+        groups.setdefault(key, {})[rest] = c
+    if len(groups) < 2:
+        return None
+    # the denominator in the same normal form as n ((cos α − 1)(cos α + 1) → −sin²α), then split
+    # into irreducible factors, so exact division cancels all it can
+    den = R.one
+    for f, e in fl:
+        den *= f**e
+    den = den.rem(circle) if circle else den
+    key = (R, tuple(sorted(den.items())))
+    if key not in _FACTORS:
+        _FACTORS[key] = den.factor_list()
+    c, fl = _FACTORS[key]
+    out = []
+    for key, terms in groups.items():
+        m = sp.Integer(1)
+        for i, e in zip(idx, key):
+            m *= syms[i] ** e
+        p, fl_m = _cancel_by_division(R.from_dict(terms), fl)  # irreducible factors: complete cancellation
+        d = sp.Rational(c.numerator, c.denominator)
+        for f, e in fl_m:
+            d *= f.as_expr(*syms) ** e
+        out.append(m * p.as_expr(*syms) / _pythagoras(d))
+    return sp.Add(*out)
 
 
 def _pythagoras(expr):
