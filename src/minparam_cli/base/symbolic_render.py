@@ -308,8 +308,10 @@ def symbolic_fields(report: dict, result: dict) -> dict:
     report["symbolic_verification"] = ver
     if not ver["passed"]:
         notes.append(
-            f"symbolic coefficients failed verification against numeric beta (max relative error "
-            f"{ver['max_rel_error_fresh']:.3g} at fresh geometries); not printed"
+            f"symbolic coefficients failed verification (at fresh geometries: beta error "
+            f"{ver['max_rel_error_fresh']:.3g}, identity error {ver.get('max_identity_error_fresh', float('nan')):.3g}; "
+            f"at the file's values: identity error {ver['max_rel_error_file'] if ver['max_rel_error_file'] is not None else float('nan'):.3g}); "
+            "not printed"
         )
         report["symbolic_notes"] = notes
         return report
