@@ -95,3 +95,19 @@ def test_coupled_plan_reads_the_coupling(tmp_path):
 def test_former_refusal_now_gives_a_set():
     r = derive_file("benchmarks/data/symbolic/mimic_gripper.urdf", DeriveOptions(symbolic=True))
     assert r["symbolic_verification"]["passed"] is True and not r.get("symbolic_notes")
+
+
+def test_multipliers_meeting_only_at_a_long_period_are_refused_fast(tmp_path):
+    # k = 0.3333 and 0.6667 on one master: 0.3333 + 0.6667 = 1, frequencies meet, period 10000
+    j = tm.joint
+    joints = [
+        j("j1", "revolute", "base", "l1", "0 0 0.3", "0 0 1"),
+        j("j2", "revolute", "l1", "l2", "0.2 0 0.1", "0 1 0", mimic=("j1", 0.3333, 0)),
+        j("j3", "revolute", "l2", "l3", "0.25 0 0.04", "1 0 0", mimic=("j1", 0.6667, 0)),
+    ]
+    path = tm.write(tmp_path, "long_period", joints, ["base", "l1", "l2", "l3"])
+    r = derive_file(path, DeriveOptions(symbolic=True))
+    assert "base_parameters" in r and r["symbolic_verification"]["passed"] is False
+    (note,) = r["symbolic_notes"]
+    assert note.startswith("no symbolic set:") and "period of 10000" in note
+    assert r["symbolic_verification"]["elapsed_s"] < 2.0
