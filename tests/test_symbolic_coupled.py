@@ -111,3 +111,10 @@ def test_multipliers_meeting_only_at_a_long_period_are_refused_fast(tmp_path):
     (note,) = r["symbolic_notes"]
     assert note.startswith("no symbolic set:") and "period of 10000" in note
     assert r["symbolic_verification"]["elapsed_s"] < 2.0
+
+
+def test_mimic_with_symbolic_numbers(tmp_path):
+    # lengths and the slide's mimic offset as the file's exact decimals; the revolute offset stays an angle symbol
+    report, _ = _check(mixed_arm(tmp_path), DeriveOptions(symbolic_numbers=True))
+    assert "s1_mimic_offset" in report["symbolic_numbers"] and "j3_mimic_offset" in report["symbols"]
+    assert set(report["symbols"]) == {"j3_mimic_offset", "j4_roll", "g"}
