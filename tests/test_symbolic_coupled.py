@@ -4,8 +4,9 @@ geometries (mimic offsets included) and random gravity, as in test_symbolic_exac
 
 Mimic joints: q_j = k·q_m + o; the offset joins the joint's fixed transform (a symbol
 ``<joint>_mimic_offset``), the multiplier stays the file's exact decimal.  The three ways of
-drawing exact states are covered: free angles (k = 0.37, no two frequencies meet), a common
-period (k = 2, −0.5: frequencies meet), and prismatic slaves of a revolute master."""
+drawing exact states are covered: free angles (k = 0.37, no two frequencies meet), angles on a
+lattice (k = 2, −0.5, and 0.3333 with 0.6667: frequencies meet), and prismatic slaves of a
+revolute master."""
 
 from __future__ import annotations
 
@@ -16,7 +17,7 @@ import test_floating_base as fb
 import test_mimic as tm
 from test_symbolic_exact import RTOL, compare_with_numeric
 
-from minparam_cli.base.symbolic_exact import Coupled, _frequencies_distinct, _multiple_angle
+from minparam_cli.base.symbolic_exact import Coupled, _collisions, _complement, _multiple_angle
 from minparam_cli.pipeline import DeriveOptions, derive_file
 
 ALL = dict(friction=("coulomb", "viscous", "offset"), rotor_inertia=True)
@@ -69,11 +70,17 @@ def test_floating_base_biped(tmp_path, floating_joint):
 
 def test_exact_state_rules():
     # frequencies meet for k = 2 (2·1 − 1·2 = 0) and k = −1/2, not for k = 37/100
-    assert not _frequencies_distinct([Fraction(1), Fraction(2)])
-    assert not _frequencies_distinct([Fraction(1), Fraction(-1, 2)])
-    assert _frequencies_distinct([Fraction(1), Fraction(37, 100)])
+    assert (2, -1) in _collisions([Fraction(1), Fraction(2)])
+    assert (1, 2) in _collisions([Fraction(1), Fraction(-1, 2)])
+    assert not _collisions([Fraction(1), Fraction(37, 100)])
+    # 0.3333 + 0.6667 = 1: one collision direction, two free angles left
+    ks = [Fraction(1), Fraction(3333, 10000), Fraction(6667, 10000)]
+    C = _collisions(ks)
+    assert set(C) == {(-1, 1, 1), (1, -1, -1), (-2, 2, 2), (2, -2, -2), (-3, 3, 3), (3, -3, -3), (-4, 4, 4), (4, -4, -4)}
+    M = _complement(C, 3)
+    assert len(M[0]) == 2 and all(sum(d * M[j][col] for j, d in enumerate(C[0])) == 0 for col in range(2))
     c, s = Fraction(3, 5), Fraction(4, 5)
-    for p in (-3, 0, 2, 5):  # (c + i s)^p against the angle-sum recursion done another way
+    for p in (-3, 0, 2, 5):
         cp, sp_ = _multiple_angle((c, s), p)
         assert cp * cp + sp_ * sp_ == 1
     c2, s2 = _multiple_angle((c, s), 2)
@@ -89,7 +96,9 @@ def test_coupled_plan_reads_the_coupling(tmp_path):
     names = chain.joint_names
     assert plan.k[names.index("j3")] == Fraction(37, 100) and plan.master[names.index("j3")] == names.index("j1")
     assert plan.k[names.index("s1")] == Fraction(1, 20)
-    assert plan.period == {names.index("j2"): 1}  # j2 with its k = 2 slave j4
+    joints, M = plan.lattice[names.index("j2")]  # j2 with its k = 2 slave j4: one angle and its double
+    assert joints == [names.index("j2"), names.index("j4")] and M in ([[1], [2]], [[-1], [-2]])
+    assert names.index("j1") not in plan.lattice  # j1 and its k = 0.37 slave j3: free angles
 
 
 def test_former_refusal_now_gives_a_set():
@@ -97,20 +106,16 @@ def test_former_refusal_now_gives_a_set():
     assert r["symbolic_verification"]["passed"] is True and not r.get("symbolic_notes")
 
 
-def test_multipliers_meeting_only_at_a_long_period_are_refused_fast(tmp_path):
-    # k = 0.3333 and 0.6667 on one master: 0.3333 + 0.6667 = 1, frequencies meet, period 10000
+def test_multipliers_meeting_at_a_long_period(tmp_path):
+    # k = 0.3333 and 0.6667 on one master: 0.3333 + 0.6667 = 1, so the angles θ2 = φ1, θ3 = φ2,
+    # θ1 = φ1 + φ2 (not one angle t with 10000 t, 3333 t, 6667 t)
     j = tm.joint
     joints = [
         j("j1", "revolute", "base", "l1", "0 0 0.3", "0 0 1"),
         j("j2", "revolute", "l1", "l2", "0.2 0 0.1", "0 1 0", mimic=("j1", 0.3333, 0)),
         j("j3", "revolute", "l2", "l3", "0.25 0 0.04", "1 0 0", mimic=("j1", 0.6667, 0)),
     ]
-    path = tm.write(tmp_path, "long_period", joints, ["base", "l1", "l2", "l3"])
-    r = derive_file(path, DeriveOptions(symbolic=True))
-    assert "base_parameters" in r and r["symbolic_verification"]["passed"] is False
-    (note,) = r["symbolic_notes"]
-    assert note.startswith("no symbolic set:") and "period of 10000" in note
-    assert r["symbolic_verification"]["elapsed_s"] < 2.0
+    _check(tm.write(tmp_path, "long_period", joints, ["base", "l1", "l2", "l3"]), DeriveOptions(symbolic=True, **ALL))
 
 
 def test_mimic_with_symbolic_numbers(tmp_path):
@@ -118,3 +123,26 @@ def test_mimic_with_symbolic_numbers(tmp_path):
     report, _ = _check(mixed_arm(tmp_path), DeriveOptions(symbolic_numbers=True))
     assert "s1_mimic_offset" in report["symbolic_numbers"] and "j3_mimic_offset" in report["symbols"]
     assert set(report["symbols"]) == {"j3_mimic_offset", "j4_roll", "g"}
+
+
+def parallelogram(tmp_path):
+    """j2 turns back what j1 turns (k = −1, parallel horizontal axes): link 2 keeps its orientation,
+    so its rotational columns and the gravity torque of its first moments vanish on the constraint
+    (cos(θ1 + θ2) = 1) but not for independent angles."""
+    j = tm.joint
+    joints = [
+        j("j0", "revolute", "base", "l0", "0 0 0.2", "0 0 1"),
+        j("j1", "revolute", "l0", "l1", "0 0 0.3", "0 1 0"),
+        j("j2", "revolute", "l1", "l2", "0.4 0 0", "0 1 0", mimic=("j1", -1, 0)),
+        j("j3", "revolute", "l2", "l3", "0.1 0.05 0", "1 0 0"),
+    ]
+    return tm.write(tmp_path, "parallelogram", joints, ["base", "l0", "l1", "l2", "l3"])
+
+
+def test_parallelogram_needs_the_coupled_angles(tmp_path, monkeypatch):
+    path = parallelogram(tmp_path)
+    _check(path, DeriveOptions(symbolic=True))
+    # the angles drawn independently (no lattice) give no set: the exact check catches it
+    monkeypatch.setattr("minparam_cli.base.symbolic_exact._collisions", lambda ks: [])
+    r = derive_file(path, DeriveOptions(symbolic=True))
+    assert r["symbolic_verification"]["passed"] is False

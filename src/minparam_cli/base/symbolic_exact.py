@@ -170,13 +170,16 @@ class Coupled:
 
     Float states (the structure decision) follow the constraint itself.  Exact states use, per
     master coordinate, one rational value u for every polynomial occurrence (q_j = k_j u: prismatic
-    positions, offset columns) and, for the cosines and sines of its revolute joints, either
-    independent rational points of the circle ("free") or one point t with joint j at the
-    multiple angle p_j t, p_j = k_j r ("period" r).  Both are exact (docs/methods/symbolic.md,
-    mimic joints): every energy coefficient has frequency at most 2 in each joint angle and is a
-    polynomial in the prismatic positions, so a relation holds on the constraint exactly when it
-    holds with the angles free, unless two distinct frequency vectors a, b ∈ [−2, 2]^m meet
-    (Σ (a_l − b_l) k_l = 0); then the angles are parameterised by t, exactly."""
+    positions, offset columns), and angles θ_j = Σ_l M_jl φ_l of its revolute joints (k_j ≠ 0) with
+    φ_l independent rational points of the circle and M an integer matrix: cos and sin of θ_j are
+    products of integer powers of (cos φ_l + i sin φ_l), exact.  Every energy coefficient has
+    frequency at most 2 in each joint angle and is a polynomial in the prismatic positions, so a
+    relation holds on the constraint exactly when it holds at these states if, for every integer
+    δ ∈ [−4, 4]^m, Σ δ_j k_j = 0 ⟺ Mᵀδ = 0 (two modes a, b of [−2, 2]^m then merge on the
+    constraint exactly when they merge in φ).  M spans the orthogonal complement of the
+    collisions C = {δ : Σ δ_j k_j = 0}: then δ ∈ C gives Mᵀδ = 0, and Mᵀδ = 0 puts δ in the span
+    of C, where Σ δ_j k_j = 0 (docs/methods/symbolic.md, mimic joints).  No collision: M = I (the
+    angles free); k = (1, 2): M = (1, 2)ᵀ, one angle and its double."""
 
     def __init__(self, chain, source: str):
         n = chain.n
@@ -189,15 +192,17 @@ class Coupled:
                 self.master[j] = coords[i] if i is not None else j
                 self.k[j] = Fraction(repr(float(G[j, i]))) if i is not None else Fraction(0)
         self.revolute = [t != PRISMATIC for t in chain.types]
-        self.period: dict[int, int] = {}
+        self.lattice: dict[int, tuple[list[int], list[list[int]]]] = {}
         for m in sorted(set(self.master)):
-            ks = [self.k[j] for j in range(n) if self.master[j] == m and self.revolute[j] and self.k[j]]
-            if len(ks) > 1 and not _frequencies_distinct(ks):
-                r = math.lcm(*(x.denominator for x in ks))
-                if max(abs(x * r) for x in ks) > 24:
-                    raise ComputationError(f"{source}: mimic multipliers {', '.join(str(x) for x in ks)} of one joint "
-                                           f"have coinciding frequencies at a period of {r}: too long for exact states")
-                self.period[m] = r
+            joints = [j for j in range(n) if self.master[j] == m and self.revolute[j] and self.k[j]]
+            if len(joints) < 2:
+                continue
+            if len(joints) > MAX_COUPLED:
+                raise ComputationError(f"{source}: {len(joints)} revolute joints move with one coordinate: exact states "
+                                       f"are drawn for at most {MAX_COUPLED}")
+            C = _collisions([self.k[j] for j in joints])
+            if C:
+                self.lattice[m] = (joints, _complement(C, len(joints)))
 
     def float_state(self, rng):
         n = len(self.master)
@@ -219,16 +224,21 @@ class Coupled:
 
         n = len(self.master)
         u, v = [r() for _ in range(n)], [r() for _ in range(n)]
-        point = {m: circle() for m in self.period}
+        point: dict = {}
+        for joints, lat in self.lattice.values():
+            phis = [circle() for _ in lat[0]]
+            for j, row in zip(joints, lat):
+                c, s = Fraction(1), Fraction(0)
+                for (pc, ps), e in zip(phis, row):
+                    ec, es = _multiple_angle((pc, ps), e)
+                    c, s = c * ec - s * es, c * es + s * ec
+                point[j] = (c, s)
         cq, sq = [], []
         for j in range(n):
-            m, k = self.master[j], self.k[j]
-            if not k:
+            if not self.k[j]:
                 c, s = Fraction(1), Fraction(0)
-            elif m in self.period and self.revolute[j]:
-                c, s = _multiple_angle(point[m], int(k * self.period[m]))
             else:
-                c, s = circle()
+                c, s = point.get(j) or circle()
             cq.append(ar.const(c))
             sq.append(ar.const(s))
         q = [ar.const(self.k[j] * u[self.master[j]]) for j in range(n)]
@@ -262,16 +272,36 @@ class Coupled:
         return out
 
 
-def _frequencies_distinct(ks) -> bool:
-    """No nonzero integer vector δ ∈ [−4, 4]^m with Σ δ_l k_l = 0 (checked exactly)."""
+MAX_COUPLED = 7  # revolute joints moved by one coordinate (the collision search is 9^m vectors)
+
+
+def _collisions(ks) -> list[tuple[int, ...]]:
+    """Nonzero integer δ ∈ [−4, 4]^m with Σ δ_j k_j = 0 (exactly: k_j = K_j / D, integers)."""
     import itertools
 
-    if len(ks) > 6:
-        return False
-    for delta in itertools.product(range(-4, 5), repeat=len(ks)):
-        if any(delta) and sum(d * k for d, k in zip(delta, ks)) == 0:
-            return False
-    return True
+    D = math.lcm(*(k.denominator for k in ks))
+    K = np.array([int(k * D) for k in ks], dtype=object)
+    out = []
+    for delta in itertools.product(range(-4, 5), repeat=len(ks) - 1):
+        # the last component is fixed by the others when it exists: δ_m = −Σ δ_j K_j / K_m
+        rest = -sum(d * x for d, x in zip(delta, K[:-1]))
+        if rest % K[-1] == 0 and abs(rest // K[-1]) <= 4:
+            full = (*delta, int(rest // K[-1]))
+            if any(full):
+                out.append(full)
+    return out
+
+
+def _complement(C, m: int) -> list[list[int]]:
+    """An integer m x L matrix whose columns span the vectors orthogonal to every δ of C."""
+    import sympy as sp
+
+    basis = sp.Matrix(C).nullspace()
+    cols = []
+    for b in basis:
+        scale = math.lcm(*(int(sp.fraction(x)[1]) for x in b))
+        cols.append([int(x * scale) for x in b])
+    return [[c[j] for c in cols] for j in range(m)]
 
 
 def _multiple_angle(point, p: int):
