@@ -146,3 +146,17 @@ def test_parallelogram_needs_the_coupled_angles(tmp_path, monkeypatch):
     monkeypatch.setattr("minparam_cli.base.symbolic_exact._collisions", lambda ks: [])
     r = derive_file(path, DeriveOptions(symbolic=True))
     assert r["symbolic_verification"]["passed"] is False
+
+
+def test_more_than_seven_joints_on_one_coordinate_are_refused(tmp_path):
+    j = tm.joint
+    joints = [j("j0", "revolute", "base", "l0", "0 0 0.2", "0 0 1")]
+    for i in range(1, 9):  # eight fingers' joints, all driven by j0
+        joints.append(j(f"j{i}", "revolute", f"l{i - 1}", f"l{i}", f"0.1 0.0{i} 0", "0 1 0", mimic=("j0", 0.5 + 0.1 * i, 0)))
+    path = tm.write(tmp_path, "hand", joints, ["base"] + [f"l{i}" for i in range(9)])
+    from minparam_cli.errors import ComputationError
+    from minparam_cli.pipeline import load_chain
+
+    _desc, chain = load_chain(path, DeriveOptions())  # (the numeric rank of this toy hand is too close to call)
+    with pytest.raises(ComputationError, match="9 revolute joints move with one coordinate"):
+        Coupled(chain, "hand")
