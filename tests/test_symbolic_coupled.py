@@ -25,7 +25,7 @@ ALL = dict(friction=("coulomb", "viscous", "offset"), rotor_inertia=True)
 
 def mixed_arm(tmp_path):
     """j3 follows j1 with k = 0.37 and offset 0.4 (free angles); the slide s1 follows j2 with
-    k = 0.05 m/rad (a prismatic slave of a revolute master); j4 mimics j2 with k = 2 (period)."""
+    k = 0.05 m/rad (a prismatic slave of a revolute master); j4 mimics j2 with k = 2 (a lattice: one angle and its double)."""
     j = tm.joint
     joints = [
         j("j1", "revolute", "base", "l1", "0 0 0.3", "0 0 1"),
@@ -56,7 +56,7 @@ def test_revolute_mimic_of_a_mimic_with_offsets(tmp_path):
     assert "j4_mimic_offset" in report["symbols"]
 
 
-def test_mixed_mimic_free_angles_period_and_prismatic_slave(tmp_path):
+def test_mixed_mimic_free_angles_lattice_and_prismatic_slave(tmp_path):
     report, _ = _check(mixed_arm(tmp_path), DeriveOptions(symbolic=True, **ALL))
     assert {"j3_mimic_offset", "s1_mimic_offset"} <= set(report["symbols"])
 
