@@ -8,9 +8,9 @@ turn, median of --repeats), the child's CPU time (user + sys: on a shared, loade
 wall time includes waiting for a core), peak RSS, and the symbolic stage's own time from the
 report (exact part / with the verification at fresh geometries).  Robots from robots/ and
 benchmarks/data/symbolic/ (skewed twists, prismatic joints, offsets, oblique URDF axes, joints
-after fixed joints, a refused mimic joint); rows marked --symbolic-numbers run that option instead.
+after fixed joints, mimic joints, a floating-base biped, CAD-exported numbers); rows marked --symbolic-numbers run that option instead.
 
-Run: python benchmarks/bench_symbolic.py [--repeats 3]
+Run: python benchmarks/bench_symbolic.py [--repeats 3] [--only NAME]
 """
 
 from __future__ import annotations
@@ -45,7 +45,11 @@ CASES = [  # (file, extra CLI args, dof class for the target)
     (f"{DATA}/oblique_fixed.urdf", ["--friction", "viscous", "--rotor-inertia"], 5),
     ("robots/ur5.urdf", ["--symbolic-numbers"], 6),
     (f"{DATA}/oblique_fixed.urdf", ["--symbolic-numbers"], 5),
-    (f"{DATA}/mimic_gripper.urdf", [], "refused"),
+    (f"{DATA}/mimic_gripper.urdf", [], 2),
+    (f"{DATA}/mixed_mimic.urdf", ["--friction", "viscous,offset"], 2),
+    (f"{DATA}/biped_floating.urdf", [], 12),
+    (f"{DATA}/cad_arm.urdf", [], 6),
+    (f"{DATA}/mimic_long_period.urdf", [], 1),
 ]
 SYMBOLIC_ONLY = ("--symbolic-numbers",)  # options of the symbolic run only
 TARGETS = {"panda": 5.0, 6: 10.0}
@@ -67,9 +71,12 @@ def timed(cmd: list[str]) -> tuple[float, float, float, str]:
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--repeats", type=int, default=3)
+    ap.add_argument("--only", default="", help="run only the cases whose file name contains this")
     args = ap.parse_args()
     rows = []
     for path, extra, klass in CASES:
+        if args.only not in path:
+            continue
         sym_extra = [a for a in extra if a in SYMBOLIC_ONLY] or ["--symbolic"]
         base_cmd = [sys.executable, "-m", "minparam_cli", "derive", path, *(a for a in extra if a not in SYMBOLIC_ONLY), "--format", "json"]
         sym, num = [], []

@@ -25,7 +25,7 @@ import math
 from dataclasses import dataclass
 from fractions import Fraction
 
-from minparam_cli.base.symbolic_urdf import AXIS_THETA, axis_rotation_oblique, is_frame_axis
+from minparam_cli.base.symbolic_urdf import AXIS_THETA, MIMIC_OFFSET, axis_rotation_oblique, is_frame_axis
 from minparam_cli.chain import PRISMATIC, REVOLUTE
 from minparam_cli.errors import UnsupportedError
 
@@ -82,10 +82,6 @@ def field_symbols(desc, symbols) -> FieldSymbols:
 
 def refuse_unsupported(desc, chain) -> None:
     """Raise UnsupportedError (a property of the robot) before any work."""
-    if chain.floating_base:
-        raise UnsupportedError("a floating base: --symbolic covers fixed-base arms", desc.source)
-    if chain.coupling is not None:
-        raise UnsupportedError("mimic joints: --symbolic covers arms whose joints are all independent coordinates", desc.source)
     for jr in desc.joints:
         if jr.dh is None and jr.pre_fixed is not None:  # symbolic_urdf.symbolic_description lifts these
             raise UnsupportedError(f"joint '{jr.name}': lumped fixed transforms not rewritten as symbols", desc.source)
@@ -213,8 +209,20 @@ def joint_transforms(desc, ar: Arith):
             Ru = axis_rotation_oblique(jr, ar)
         else:
             Ru = axis_rotation(jr.axis if jr.dh is None else (0.0, 0.0, 1.0), ar)
-        out.append((matmul(pre, Ru, ar.zero), matmul(transpose(Ru), post, ar.zero)))
+        P = matmul(pre, Ru, ar.zero)
+        if jr.origin is not None and MIMIC_OFFSET in jr.origin:  # q = m·q_master + o: Motion(o) joins P
+            P = matmul(P, _motion_z(jr, jr.origin[MIMIC_OFFSET], ar), ar.zero)
+        out.append((P, matmul(transpose(Ru), post, ar.zero)))
     return out
+
+
+def _motion_z(jr, gv, ar: Arith):
+    """Rz(o) (revolute) or Tz(o) (prismatic), 4x4, in the arithmetic ``ar``."""
+    o, z = ar.one, ar.zero
+    if jr.type == PRISMATIC:
+        return [[o, z, z, z], [z, o, z, z], [z, z, o, ar.length(gv)], [z, z, z, o]]
+    c, s = ar.cos_sin(gv)
+    return [[c, -s, z, z], [s, c, z, z], [z, z, o, z], [z, z, z, o]]
 
 
 class _RecordsOnly:

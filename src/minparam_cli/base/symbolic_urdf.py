@@ -28,6 +28,7 @@ import numpy as np
 from minparam_cli.describe.records import GeomValue
 
 AXIS_THETA, AXIS_PHI = "axis_theta", "axis_phi"
+MIMIC_OFFSET = "mimic_offset"
 _RPY = ("roll", "pitch", "yaw")
 
 
@@ -94,19 +95,28 @@ def symbolic_description(desc, right_angle_tol: float):
             theta, phi = math.acos(max(-1.0, min(1.0, u[2]))), math.atan2(u[1], u[0])
             origin[AXIS_THETA] = GeomValue(theta, f"{jr.name}_axis_theta", True)
             origin[AXIS_PHI] = GeomValue(phi, f"{jr.name}_axis_phi", True)
+        if jr.mimic is not None and jr.mimic[2] != 0.0:
+            o = float(jr.mimic[2])
+            exact = None if jr.type == "revolute" else Fraction(repr(o))
+            origin[MIMIC_OFFSET] = GeomValue(o, f"{jr.name}_mimic_offset", jr.type == "revolute", exact)
         joints.append(replace(jr, origin=origin, pre_fixed=None))
     return replace(desc, joints=tuple(joints))
 
 
 def axes_at(desc, values: dict):
-    """The rewritten description with each oblique axis at the values of its angle symbols."""
-    if desc.convention != "urdf" or not any(jr.origin and AXIS_THETA in jr.origin for jr in desc.joints):
+    """The rewritten description with each oblique axis at the values of its angle symbols and each
+    mimic joint's offset at the value of its symbol."""
+    if desc.convention != "urdf" or not any(jr.origin and (AXIS_THETA in jr.origin or MIMIC_OFFSET in jr.origin)
+                                            for jr in desc.joints):
         return desc
     joints = []
     for jr in desc.joints:
         if jr.origin and AXIS_THETA in jr.origin:
             th, ph = (values.get(jr.origin[k].symbol, jr.origin[k].value) for k in (AXIS_THETA, AXIS_PHI))
             jr = replace(jr, axis=(math.cos(ph) * math.sin(th), math.sin(ph) * math.sin(th), math.cos(th)))
+        if jr.origin and MIMIC_OFFSET in jr.origin:
+            gv = jr.origin[MIMIC_OFFSET]
+            jr = replace(jr, mimic=(jr.mimic[0], jr.mimic[1], float(values.get(gv.symbol, gv.value))))
         joints.append(jr)
     return replace(desc, joints=tuple(joints))
 
