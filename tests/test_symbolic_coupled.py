@@ -17,7 +17,7 @@ import test_floating_base as fb
 import test_mimic as tm
 from test_symbolic_exact import RTOL, compare_with_numeric
 
-from minparam_cli.base.symbolic_exact import Coupled, _collisions, _complement, _multiple_angle
+from minparam_cli.base.symbolic_coupled import Coupled, _collisions, _complement, _multiple_angle
 from minparam_cli.pipeline import DeriveOptions, derive_file
 
 ALL = dict(friction=("coulomb", "viscous", "offset"), rotor_inertia=True)
@@ -143,7 +143,7 @@ def test_parallelogram_needs_the_coupled_angles(tmp_path, monkeypatch):
     path = parallelogram(tmp_path)
     _check(path, DeriveOptions(symbolic=True))
     # the angles drawn independently (no lattice) give no set: the exact check catches it
-    monkeypatch.setattr("minparam_cli.base.symbolic_exact._collisions", lambda ks: [])
+    monkeypatch.setattr("minparam_cli.base.symbolic_coupled._collisions", lambda ks: [])
     r = derive_file(path, DeriveOptions(symbolic=True))
     assert r["symbolic_verification"]["passed"] is False
 

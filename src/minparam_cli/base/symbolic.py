@@ -259,7 +259,7 @@ def symbolic_base(desc, chain, base: BaseSet, seed: int = SYMBOLIC_SEED, numbers
     t0 = time.perf_counter()
     desc = symbolic_description(desc, RIGHT_ANGLE_TOL)
     refuse_unsupported(desc, chain)
-    from minparam_cli.base.symbolic_exact import Coupled
+    from minparam_cli.base.symbolic_coupled import Coupled
 
     Coupled(chain, desc.source)  # mimic multipliers it cannot draw exact states for: refused before any work
     rng = np.random.default_rng(seed)
