@@ -93,7 +93,7 @@ def unmark(name: str) -> str:
     return re.sub(r"R(\d+)$", r"\1", name)
 
 
-def compare_with_numeric(path, opts, n_geometries=2, seed=18):
+def compare_with_numeric(path, opts, n_geometries=2, seed=18, file_kept=False):
     """At random geometries and random gravity magnitudes: (1) the numeric QR route keeps the same
     parameters; (2) the symbolic β, evaluated there, annihilates the numeric regressor:
     W_dep − W_kept·β = 0 to rounding, relative to the columns' sizes; (3) it equals the QR
@@ -118,6 +118,9 @@ def compare_with_numeric(path, opts, n_geometries=2, seed=18):
         other = build_chain(axes_at(desc, {**pins, **values}), values={**pins, **values}, extras=chain.layout.extras)
         other = replace(other, gravity=chain.gravity * (g / g_file))
         num = derive_qr(other, seed=int(rng.integers(1 << 30)))
+        if file_kept:  # the report regroups on the file's kept set: the QR β of that set at this geometry
+            num = _on_kept(num, [names.index(unmark(b["name"])) for b in report["base_parameters"]],
+                           stacked_regressor(other, 60, sample_rng(int(rng.integers(1 << 30)))))
         # the same kept parameters (a name gains or loses its R where a coefficient is exactly 0 or,
         # as with CAD numbers of 1e-17, below the numeric route's cut at the file's values)
         report_names = [b["name"] for b in report["base_parameters"]]
@@ -138,6 +141,25 @@ def compare_with_numeric(path, opts, n_geometries=2, seed=18):
             worst_identity = max(worst_identity, float(np.linalg.norm(r) / scale))
         assert kept
     return report, coef, worst_identity, worst_beta
+
+
+def _on_kept(num, kept, W):
+    """The numeric base set ``num`` re-expressed on another kept set of the same rank (least squares
+    on the unit-scaled kept columns of W)."""
+    from minparam_cli.base.result import BaseSet
+
+    dropped = [c for c in range(W.shape[1]) if c not in set(kept) and c not in set(num.unidentifiable)]
+    norms = np.linalg.norm(W, axis=0)
+    Wk = W[:, kept] / norms[kept]
+    beta, *_ = np.linalg.lstsq(Wk, W[:, dropped] / norms[dropped], rcond=None)
+    beta[np.abs(beta) < 1e-10] = 0.0  # the QR route's cut of rounding-level entries (unit columns)
+    beta = beta * norms[dropped] / norms[kept][:, None]
+    P = W.shape[1]
+    K = np.zeros((len(kept), P))
+    for i, k in enumerate(kept):
+        K[i, k] = 1.0
+        K[i, dropped] = beta[i]
+    return BaseSet(num.standard_names, tuple(kept), K, tuple(num.unidentifiable), "qr", {})
 
 
 def test_skewed_dh_twists(tmp_path):

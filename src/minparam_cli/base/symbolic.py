@@ -254,7 +254,6 @@ def symbolic_base(desc, chain, base: BaseSet, seed: int = SYMBOLIC_SEED, numbers
     Raises UnsupportedError (a property of the robot) before any work when the route does not
     apply, ComputationError when the exact relations contradict the numeric structure."""
     from minparam_cli.base.symbolic_frames import refuse_unsupported
-    from minparam_cli.base.symbolic_render import field_to_sympy
 
     t0 = time.perf_counter()
     desc = symbolic_description(desc, RIGHT_ANGLE_TOL)
@@ -272,6 +271,26 @@ def symbolic_base(desc, chain, base: BaseSet, seed: int = SYMBOLIC_SEED, numbers
         exact_nums = exact_numbers(desc, symbols, _shift_symbols(desc))
         symbols = tuple(s for s in symbols if s.name not in exact_nums)
     kept, K, unident = generic_structure(desc, chain, symbols, pins, rng)
+    candidates = [(tuple(kept), K)]
+    if (base.n_base == len(kept) and tuple(base.kept) != tuple(kept)
+            and tuple(base.unidentifiable) == tuple(unident)):
+        # Same rank, another kept set (the keep rule weighs columns by their size, which gear ratios
+        # and the file's lengths change): the file's kept set is independent at the file's values, so
+        # its minor is a nonzero polynomial in the symbols and the set is a generic one too; regroup
+        # on it, so that the printed set is the file's (the generic one if its verification fails).
+        candidates.insert(0, (tuple(base.kept), base.K))
+    for i, (kept, K) in enumerate(candidates):
+        out = _exact_on(desc, chain, base, kept, K, unident, symbols, pins, exact_nums, rng, seed, t0)
+        if out["verification"]["passed"] or i == len(candidates) - 1:
+            return out
+    raise AssertionError("unreachable")
+
+
+def _exact_on(desc, chain, base: BaseSet, kept, K, unident, symbols, pins, exact_nums, rng, seed, t0) -> dict:
+    """The exact regrouping on the kept set ``kept`` (K: its numeric regrouping, for the names) and its
+    verification (``symbolic_base``)."""
+    from minparam_cli.base.symbolic_render import field_to_sympy
+
     generic = BaseSet(chain.layout.names, kept, K, unident, "qr", {})
     dependent = generic.dependent
     coef, fs, stats = exact_coefficients(desc, chain, symbols, pins, generic, rng, exact_nums)

@@ -86,8 +86,9 @@ def _apply(Xm, forms: list[dict]) -> list[dict]:
 
 class Column:
     """One grouped column: its form ℓ (linear in the standard parameters) and where its
-    energy function lives: ('link', j, kind), ('rotor', j), ('offset', j), or ('free', name)
-    for a column no energy term can produce (friction, revolute offset)."""
+    energy function lives: ('link', j, kind), ('rotor', j), ('offset', j), ('motor', k, N_k,
+    coordinates) for a motor's rotor, or ('free', name) for a column no energy term can produce
+    (friction, joint or motor side: base/symbolic_friction.py)."""
 
     def __init__(self, form: dict, where: tuple, label: str):
         self.form, self.where, self.label = form, where, label
@@ -126,6 +127,10 @@ def stage1(desc, chain, ar: Arith, transforms) -> list[Column]:
                 _axpy(acc[p][i], ar.one, moved[i])
     for j in range(n):
         cols += per_link[j]
+    from minparam_cli.base.symbolic_friction import exact_matrix
+    from minparam_cli.dynamics.transmission import motor_matrix
+
+    motor_rows = exact_matrix(motor_matrix(chain))
     for idx, (j, kind) in enumerate(layout.extra_columns):
         c = layout.n_inertial + idx
         name = layout.names[c]
@@ -133,13 +138,16 @@ def stage1(desc, chain, ar: Arith, transforms) -> list[Column]:
             cols.append(Column({c: ar.one}, ("rotor", j), name))
         elif kind == "offset":  # energy −q_j: a constant generalized force on joint j
             cols.append(Column({c: ar.one}, ("offset", j), name))
+        elif kind == "motor_inertia":  # energy ½ (N_j · q̇)² of motor j's rotor (base/symbolic_friction.py: N exact)
+            cols.append(Column({c: ar.one}, ("motor", j, tuple(motor_rows[j]), tuple(chain.coordinates)), name))
         else:
             cols.append(Column({c: ar.one}, ("free", name), name))
     return cols
 
 
 def _link_of(c: Column) -> int:
-    return c.where[1] if c.where[0] != "free" else -1
+    """The deepest link whose energy the column needs (-1: none)."""
+    return c.where[1] if c.where[0] not in ("free", "motor") else -1
 
 
 def column_values(desc, cols, ar: Arith, transforms, state, only=None) -> list:
@@ -159,6 +167,9 @@ def column_values(desc, cols, ar: Arith, transforms, state, only=None) -> list:
             out.append(half * qd[w[1]] * qd[w[1]])
         elif w[0] == "offset":
             out.append(-q[w[1]])
+        elif w[0] == "motor":
+            rate = sum((ar.const(x) * qd[j] for x, j in zip(w[2], w[3]) if x), ar.zero)
+            out.append(half * rate * rate)
         else:
             out.append(None)
     return out
@@ -274,8 +285,10 @@ def exact_relations(desc, chain, cols, ar: Arith, transforms, relations, rng, ra
                 if c:
                     _axpy(forms[k], c, forms[d])
         forms.pop(d)
-    for d, (k, f) in plan.free_relations(chain, cols).items():
-        if k is not None:
+    from minparam_cli.base.symbolic_friction import friction_relations
+
+    for d, support in friction_relations(chain, cols, plan).items():
+        for k, f in support:
             _axpy(forms[k], ar.const(f), forms[d])
         forms.pop(d)
     return forms
