@@ -101,32 +101,6 @@ class Coupled:
         qd = [ar.const(self.k[j] * v[self.master[j]]) for j in range(n)]
         return cq, sq, q, qd
 
-    def free_relations(self, chain, cols) -> dict:
-        """{friction or offset column d: (column it is a multiple of, factor)} among the joints one
-        coordinate drives: on the coordinate's row Fv_j = k_j² q̇, Fc_j = |k_j| sign q̇ (k_j tanh(k_j q̇/s)
-        when smoothed: equal for equal |k_j| only); revolute offsets are energy columns (stage 2)."""
-        smooth = chain.coulomb_smoothing > 0.0
-        groups: dict = {}
-        out: dict = {}
-        for d, c in enumerate(cols):
-            if c.where[0] != "free":
-                continue
-            j, kind = chain.layout.extra_columns[next(iter(c.form)) - chain.layout.n_inertial]
-            k = self.k[j]
-            if kind not in ("coulomb", "viscous") or chain.coupling is None:
-                continue
-            if not k:
-                out[d] = (None, Fraction(0))
-                continue
-            f = k * k if kind == "viscous" else (Fraction(1) if smooth else abs(k))
-            key = (self.master[j], kind, abs(k) if smooth and kind == "coulomb" else None)
-            if key in groups:
-                rep, f0 = groups[key]
-                out[d] = (rep, f / f0)
-            else:
-                groups[key] = (d, f)
-        return out
-
 
 MAX_COUPLED = 7  # revolute joints moved by one coordinate (the collision search is 9^m vectors)
 
