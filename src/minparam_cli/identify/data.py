@@ -180,6 +180,10 @@ def time_span(path: str | Path, opts: DataOptions) -> tuple[float, float]:
     record = lookup(path)  # data held in memory (the Python API)
     if record is None and is_bag(path):
         return bag_time_span(path, len(opts.joint_names), opts)
+    from minparam_cli.measured.recording import is_description, recording_time_span
+
+    if record is None and is_description(path):  # CSV files joined by a description (measured/recording.py)
+        return recording_time_span(path, opts)
     if record is not None:
         from minparam_cli.measured.arrays import time_span as record_span
 
