@@ -167,3 +167,13 @@ def test_broken_description_is_one_line_exit_2(files, tmp_path, case):
 def test_columns_option_with_a_description_is_refused(files):
     r = run("identify", ROBOT, files["desc"], "--columns", "q=pos", "--no-diagnose", "-q")
     assert r.exit_code == 2 and "--columns does not apply" in r.output.strip(), r.output
+
+
+def test_a_batch_manifest_row_may_be_a_description(files, tmp_path):
+    manifest = files["dir"] / "fleet.csv"
+    manifest.write_text("recording,robot\nrec.yaml,\nwhole.csv,\n")
+    r = run("identify", ROBOT, manifest, "-o", tmp_path / "out", "--no-diagnose", "-q")
+    assert r.exit_code == 0, r.output
+    a = json.loads((tmp_path / "out" / "rec.yaml.report.json").read_text())
+    b = json.loads((tmp_path / "out" / "whole.csv.report.json").read_text())
+    assert [p["value"] for p in a["parameters"].values()] == pytest.approx([p["value"] for p in b["parameters"].values()], rel=1e-9, abs=1e-12)

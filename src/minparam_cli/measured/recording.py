@@ -79,7 +79,9 @@ def read_description(path: Path) -> Recording:
         raise DataError(f"{src}: 'files' must be a list of {{path, columns}} entries")
     if len(files) > MAX_FILES:
         raise DataError(f"{src}: {len(files)} files, at most {MAX_FILES}")
-    parts, named, seen = [], {}, set()
+    parts: list[Part] = []
+    named: dict[str, int] = {}
+    seen: set[Path] = set()
     for i, entry in enumerate(files):
         where = f"{src}: files[{i}]"
         if not isinstance(entry, dict) or set(entry) - {"path", "columns"} or "path" not in entry or "columns" not in entry:
