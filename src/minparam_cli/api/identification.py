@@ -102,7 +102,7 @@ def identify(robot: Robot | str | Path, data: Any, *, validate: Any = None, test
              split: Sequence[float] = (0.6, 0.2, 0.2), columns: str | dict[str, str] | None = None,
              time_unit: str = "s", topic: str | None = None, cutoff: float = 5.0, filter: bool = False,
              rate: float | None = None, decimate: int | None = None, trim_still: float | None = None,
-             still_speed: float = 0.01, friction: str | Iterable[str] | None = None, rotor_inertia: bool | None = None,
+             still_speed: float = 0.01, rest_below_still: bool = True, friction: str | Iterable[str] | None = None, rotor_inertia: bool | None = None,
              coulomb_smoothing: float | None = None, gravity: Any = None, effects: str | Iterable[str] | None = None,
              diagnose: bool = True, min_gain: float = 0.02, physical: bool = False, prior: str = "none",
              prior_weight: float = 1e-3, ols: bool = False, seed: int = 0, mimic: str | None = None,
@@ -205,6 +205,7 @@ def identify(robot: Robot | str | Path, data: Any, *, validate: Any = None, test
     opts = IdentifyOptions(
         data=DataOptions(columns=column_map, cutoff_hz=cutoff, force_filter=filter, decimate=decimate,
                          step_s=(1.0 / rate if rate else None), trim_still_s=trim_still, still_speed=still_speed,
+                         rest_below_still=bool(rest_below_still),
                          time_unit=unit, topic=topic, joint_names=coordinate_names(chain), motor_side=motor_side),
         split=(shares[0], shares[1], shares[2]),
         validate=validate_name,

@@ -105,6 +105,7 @@ def identify(
     decimate: Optional[int] = typer.Option(None, "--decimate", min=1, help="Keep one sample in K (default: about 10x the cut-off)."),
     trim_still: Optional[float] = typer.Option(None, "--trim-still", help="Cut every segment longer than this many seconds in which all joints stand still (|dq| < --still-speed)."),
     still_speed: float = typer.Option(0.01, "--still-speed", help="Speed below which a joint counts as still (rad/s or m/s)."),
+    rest_below_still: bool = typer.Option(True, "--rest-below-still/--keep-slow-velocity", help="A velocity derived by the filter below --still-speed is set to 0: the joint is at rest (sign(dq) of the noise would put its Coulomb friction at ±Fc). Velocities read from the file are never changed."),
     friction: str = typer.Option("", "--friction", help="Declare friction in the model: any of coulomb,viscous,offset."),
     rotor_inertia: bool = typer.Option(False, "--rotor-inertia", help="Declare rotor inertia in the model."),
     coulomb_smoothing: float = typer.Option(0.0, "--coulomb-smoothing", help="Smooth Coulomb friction: tanh(dq/V) for sign(dq), V in rad/s (m/s), in the declared Fc columns and the diagnosis' friction effects; 0: sign."),
@@ -152,6 +153,7 @@ def _split(text: str) -> tuple[float, float, float]:
 
 @guarded
 def _identify(robot, data, validate, test, split, columns, time_unit, topic, cutoff, force_filter, rate, decimate, trim_still, still_speed,
+              rest_below_still,
               friction, rotor_inertia, coulomb_smoothing, gravity, effects, no_diagnose, min_gain, physical, prior,
               prior_weight, sigma, block_length, replicates, consistency, essential, essential_bound, ols, fmt, output, plot, seed, save_model, export_urdf, export_yaml, mimic, quiet, jobs=1, scheduler=None,
               side="joint", current=False, payload_data=None, payload_mass=None, payload_com=None, payload_inertia=None):
@@ -216,7 +218,8 @@ def _identify(robot, data, validate, test, split, columns, time_unit, topic, cut
     opts = IdentifyOptions(
         data=DataOptions(columns=_columns(columns), cutoff_hz=cutoff, force_filter=force_filter,
                          decimate=decimate, step_s=(1.0 / rate if rate else None),
-                         trim_still_s=trim_still, still_speed=still_speed, time_unit=TimeUnit(time_unit).value,
+                         trim_still_s=trim_still, still_speed=still_speed, rest_below_still=rest_below_still,
+                         time_unit=TimeUnit(time_unit).value,
                          topic=topic, joint_names=coordinate_names(chain), motor_side=motor_side),
         split=shares,
         validate=str(validate) if validate else None,

@@ -50,6 +50,9 @@ class DataOptions:
     step_s: float | None = None  # sampling step; None: from the steps of the first chunk (see sampling_step)
     still_speed: float = 0.01  # rad/s or m/s: joint j is still at a sample when |dq_j| < still_speed
     trim_still_s: float | None = None  # drop every run of all-joints-still samples longer than this (s); None: keep all
+    # a velocity derived by the filter (not read from the file) below still_speed is set to 0: the joint
+    # is at rest as far as the data can tell, and sign(q̇) of the noise would put its Coulomb friction at ±Fc
+    rest_below_still: bool = True
     time_unit: str = "s"  # unit of a CSV or .npz time column: s, ms, us or ns (measured.columns.TIME_UNITS)
     topic: str | None = None  # a ROS bag's JointState topic; None: the bag's only one
     joint_names: tuple[str, ...] = ()  # names of the independent coordinates, in order (ROS bags match by name)
@@ -93,6 +96,7 @@ class DataReport:
     still_share: list = field(default_factory=list)  # per joint: share of the samples (before trimming) in which it is still
     still_all_share: float = 0.0  # share of the samples (before trimming) in which every joint is still
     trimmed_segments: int = 0  # standstills dropped by trim_still_s (their samples: dropped["standstill"])
+    rest_below: float | None = None  # derived |q̇| below this speed was set to 0 (DataOptions.rest_below_still); None: not
 
     def as_dict(self) -> dict:
         return {
@@ -107,6 +111,7 @@ class DataReport:
             "still_share": [float(x) for x in self.still_share],
             "still_all_share": float(self.still_all_share),
             "trimmed_segments": self.trimmed_segments,
+            "rest_below": self.rest_below,
         }
 
 
@@ -180,6 +185,10 @@ def time_span(path: str | Path, opts: DataOptions) -> tuple[float, float]:
     record = lookup(path)  # data held in memory (the Python API)
     if record is None and is_bag(path):
         return bag_time_span(path, len(opts.joint_names), opts)
+    from minparam_cli.measured.recording import is_description, recording_time_span
+
+    if record is None and is_description(path):  # CSV files joined by a description (measured/recording.py)
+        return recording_time_span(path, opts)
     if record is not None:
         from minparam_cli.measured.arrays import time_span as record_span
 
@@ -303,6 +312,8 @@ class Standstill:
     def __init__(self, n: int, opts: DataOptions, report: DataReport):
         self.speed = opts.still_speed
         self.trim = opts.trim_still_s
+        self.rest = opts.rest_below_still and "dq" in report.derived
+        report.rest_below = self.speed if self.rest else None
         self.report = report
         self.seen = 0
         self.still = np.zeros(n, dtype=np.int64)
@@ -330,7 +341,10 @@ class Standstill:
     def push(self, b: Block):
         if not len(b):
             return
-        every = self._stats(np.abs(b.dq) < self.speed, b)
+        mask = np.abs(b.dq) < self.speed
+        every = self._stats(mask, b)
+        if self.rest and mask.any():
+            b.dq[mask] = 0.0  # derived velocity below the noise floor: at rest (sign 0, no Coulomb torque)
         if self.trim is None:
             yield b
             return

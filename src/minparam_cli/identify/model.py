@@ -116,6 +116,9 @@ class SavedModel:
         }
         if self.uncertainty is not None:
             out["uncertainty"] = self.uncertainty
+        # derived velocities below still_speed read as rest (identify's default since issue 16); a model
+        # without the key was saved before and is evaluated as it was fitted, with the plain sign(q̇)
+        out["data"]["rest_below_still"] = bool(self.data.rest_below_still)
         if self.data.motor_side is not None:  # identify --side motor: the conversion the data were read with
             rows, zero, gains = self.data.motor_side
             out["data"]["motor_side"] = {"matrix": [list(r) for r in rows], "zero": list(zero),
@@ -374,6 +377,7 @@ def parse_model(text: str, source: str) -> SavedModel:
         still_speed=r.number(da["still_speed"], "data.still_speed"),
         trim_still_s=r.number(da["trim_still_s"], "data.trim_still_s", allow_none=True),
         motor_side=_motor_side(r, da.get("motor_side")),
+        rest_below_still=r.flag(da.get("rest_below_still", False), "data.rest_below_still"),
     )
     figures = doc.get("figures") or {}
     if not isinstance(figures, dict):

@@ -133,6 +133,11 @@ def fit_payload(design, unloaded, loaded, spec: PayloadSpec, gains_unknown: bool
     x, std, r = _wls(A[:, :, keep], b)
     tau = np.concatenate([unloaded.tau, loaded.tau])
     method = "weighted least squares"
+    tls = None
+    if gains_unknown:  # Gautier & Briot's total least squares, reported beside (an independent computation)
+        gi = [keep.index(i) for i in range(p + len(unknown), A.shape[2])]
+        xt, st = _tls(A[:, :, keep], b, r)
+        tls = {"method": TLS_METHOD, "drive_gains": {f"motor {k + 1}": _entry(xt[j], st[j]) for k, j in enumerate(gi)}}
     if gains_unknown:  # the currents sit in the regressor: refine on the currents themselves (no errors-in-variables bias)
         from minparam_cli.dynamics.transmission import motor_matrix
 
@@ -155,9 +160,7 @@ def fit_payload(design, unloaded, loaded, spec: PayloadSpec, gains_unknown: bool
     sigma_j = np.sqrt(np.mean(r**2, axis=0))
     full = dict(zip([names[i] for i in keep], zip(x, std)))
 
-    def entry(value, s):
-        return {"value": float(value), "std": float(s), "std_percent": float(100 * s / abs(value)) if value != 0 else float("inf")}
-
+    entry = _entry
     out = {"method": method, "known": {k: float(v) for k, v in known.items()}, "frame": f"link {chain.n} ({chain.link_names[-1]})",
            "parameters": {}, "not_identifiable": [k[:-1] for k in dropped_payload],
            "samples": [len(unloaded), len(loaded)], "relative_error": rel, "sigma_per_joint": sigma_j.tolist()}
@@ -170,7 +173,46 @@ def fit_payload(design, unloaded, loaded, spec: PayloadSpec, gains_unknown: bool
     if gains_unknown:  # the gains and the model in the unit the known mass fixed (N·m)
         out["drive_gains"] = {f"motor {k + 1}": entry(*full[f"g{k + 1}"]) for k in range(n)}
         out["base_parameters"] = {name: entry(*full[name]) for name in design.names if name in full}
+        out["total_least_squares"] = tls
     return out
+
+
+def _entry(value, s) -> dict:
+    return {"value": float(value), "std": float(s), "std_percent": float(100 * s / abs(value)) if value != 0 else float("inf")}
+
+
+TLS_METHOD = ("total least squares of the stacked unloaded and loaded recordings, [W, -C | -Y_k phi_k] "
+              "(Gautier & Briot 2014), rows weighted per joint, columns equilibrated; σ first-order")
+
+
+def _tls(A: np.ndarray, b: np.ndarray, r_wls: np.ndarray):
+    """Total least squares of A x ≈ b (A (S, n, P), b (S, n)): Gautier & Briot's global identification
+    of drive gains, where the currents sit in A (the columns −C g) and the known payload's torque is
+    the right-hand side. Rows are weighted by 1/σ_j of joint j (from the least-squares residuals
+    ``r_wls``), the columns of [A_w | b_w] scaled to unit norm (TLS assumes errors of one size in every
+    column); x from the right singular vector v of the smallest singular value s, x = −v[:P] / v[P]
+    (unscaled). σ from the first-order TLS covariance (Van Huffel & Vandewalle 1991, §8):
+    cov(z) ≈ σ̂² (1 + ‖z‖²) (A'ᵀA' − s² I)⁻¹, σ̂² = s² / (rows − P), in the scaled unknowns z."""
+    S, n, P = A.shape
+    sigma_j = np.sqrt(np.mean(r_wls**2, axis=0))
+    sigma_j = np.where(sigma_j > 0, sigma_j, 1.0)
+    M = np.concatenate([(A / sigma_j[None, :, None]).reshape(-1, P), (b / sigma_j[None, :]).reshape(-1, 1)], axis=1)
+    d = np.linalg.norm(M, axis=0)
+    d = np.where(d > 0, d, 1.0)
+    Ms = M / d
+    _, sv, vt = np.linalg.svd(Ms, full_matrices=False)
+    v = vt[-1]
+    if abs(v[P]) < np.finfo(float).eps:
+        raise ComputationError("total least squares: the payload's torque is not in the data's model (no unique solution)")
+    z = -v[:P] / v[P]
+    smin = sv[-1]
+    s2 = smin**2 / max(Ms.shape[0] - P, 1)
+    As = Ms[:, :P]
+    cov_z = s2 * (1.0 + z @ z) * np.linalg.pinv(As.T @ As - smin**2 * np.eye(P))
+    scale = d[P] / d[:P]  # A x = b  <=>  A' z = b' with z_i = x_i d_i / d_b
+    x = z * scale
+    std = np.sqrt(np.maximum(np.diag(cov_z), 0.0)) * scale
+    return x, std
 
 
 def _motor_to_joint(Ninv: np.ndarray) -> np.ndarray:

@@ -63,7 +63,11 @@ def raw_chunks(path: Path, n: int, opts: DataOptions) -> Iterator[tuple[np.ndarr
             yield table, layout
         return
     divisor = TIME_UNITS[opts.time_unit]
-    if record is not None:
+    from minparam_cli.measured.recording import is_description, recording_chunks
+
+    if record is None and is_description(path):  # several CSV files joined row by row, time in seconds
+        source, divisor = recording_chunks(path, n, opts), 1.0
+    elif record is not None:
         from minparam_cli.measured.arrays import chunks
 
         source = chunks(record, n, opts)
@@ -111,6 +115,25 @@ def _file_chunks(path: Path, n: int, opts: DataOptions) -> Iterator[tuple[np.nda
                 raise DataError(f"{src}: cannot read .npz ({_short(e)})") from None
         yield from array_chunks(arrays, src, n, opts)
         return
+    tables = csv_tables(path, opts.chunk_rows)
+    header = next(tables)
+    idx = column_indices(header, n, opts.columns, src)
+    layout = _layout({k: ix is not None for k, ix in idx.items()}, n)
+    used = [c for k in KEYS if idx[k] is not None for c in idx[k]]
+    try:
+        for chunk in tables:
+            yield (chunk if used == list(range(chunk.shape[1])) else chunk[:, used]), layout
+            del chunk  # not alive while the next chunk is parsed
+    finally:
+        tables.close()
+
+
+def csv_tables(path: Path, rows: int) -> Iterator:
+    """A CSV file read in chunks of ``rows`` rows, every column: yields its header (a list of names)
+    first, then the chunks (a file of exactly k chunks ends after them, without an empty one).  The
+    one-line errors of a bad header or a bad row (with its line) are raised from here."""
+    src = str(path)
+    require_data_file(path)
     try:
         fh = open(path, encoding="utf-8", errors="strict")
     except OSError as e:
@@ -128,10 +151,8 @@ def _file_chunks(path: Path, n: int, opts: DataOptions) -> Iterator[tuple[np.nda
         if not header_line.strip():
             raise DataError(f"{src}: empty file, expected a header row")
         header = header_line.strip().split(",")
-        idx = column_indices(header, n, opts.columns, src)
-        layout = _layout({k: ix is not None for k, ix in idx.items()}, n)
-        used = [c for k in KEYS if idx[k] is not None for c in idx[k]]
-        chunks = _csv_chunks(path, fh, header_line, len(header), opts.chunk_rows)
+        yield header
+        chunks = _csv_chunks(path, fh, header_line, len(header), rows)
         line_no = 1
         try:
             while True:
@@ -144,9 +165,9 @@ def _file_chunks(path: Path, n: int, opts: DataOptions) -> Iterator[tuple[np.nda
                 if chunk.shape[1] != len(header):
                     raise DataError(f"{src}: rows have {chunk.shape[1]} values, the header has {len(header)}")
                 line_no += len(chunk)
-                last = len(chunk) < opts.chunk_rows
-                yield (chunk if used == list(range(chunk.shape[1])) else chunk[:, used]), layout
-                del chunk  # not alive while the next chunk is parsed
+                last = len(chunk) < rows
+                yield chunk
+                del chunk
                 if last:
                     break
         finally:

@@ -113,27 +113,29 @@ def column_indices(header: list[str], n: int, columns: dict[str, str], src: str)
     names = [h.strip() for h in header]
     idx: dict[str, list[int] | None] = {"t": [time_index(names, n, columns, src)]}
     for key in KEYS[1:]:
-        spec = columns.get(key, key)
-        if LIST_SEP in spec:
-            idx[key] = _listed(names, spec, key, n, src)
-            continue
-        before, after = spec.split(NUMBER, 1) if NUMBER in spec else (spec, "")
-        numbered = re.compile(re.escape(before) + r"(0|[1-9][0-9]*)" + re.escape(after))
-        found = {int(m.group(1)): i for i, m in enumerate(map(numbered.fullmatch, names)) if m}
-        joints = sorted(found)
-        shown = before + "{}" + after
-        if not joints:
-            if key in ("q", "tau"):
-                first, last = shown.replace("{}", "1"), shown.replace("{}", str(n))
-                raise DataError(f"{src}: missing columns {first}..{last} "
-                                f"(use --columns {key}=PREFIX, {key}=PATTERN_{{}} or {key}=NAME1|NAME2|...)")
-            idx[key] = None
-            continue
-        if joints == list(range(1, n + 1)) or joints == list(range(0, n)):
-            idx[key] = [found[j] for j in joints]
-            continue
-        raise DataError(f"{src}: {_joint_mismatch(before, after, joints, n)}")
+        idx[key] = key_indices(names, key, columns.get(key, key), n, src, required=key in ("q", "tau"))
     return idx
+
+
+def key_indices(names: list[str], key: str, spec: str, n: int, src: str, required: bool = True) -> list[int] | None:
+    """The column index of every joint's ``key`` (q, dq, ddq or tau) named by ``spec`` (a prefix, a
+    pattern with {} or a | list) among ``names``; None when no column matches and not ``required``."""
+    if LIST_SEP in spec:
+        return _listed(names, spec, key, n, src)
+    before, after = spec.split(NUMBER, 1) if NUMBER in spec else (spec, "")
+    numbered = re.compile(re.escape(before) + r"(0|[1-9][0-9]*)" + re.escape(after))
+    found = {int(m.group(1)): i for i, m in enumerate(map(numbered.fullmatch, names)) if m}
+    joints = sorted(found)
+    shown = before + "{}" + after
+    if not joints:
+        if required:
+            first, last = shown.replace("{}", "1"), shown.replace("{}", str(n))
+            raise DataError(f"{src}: missing columns {first}..{last} "
+                            f"(use --columns {key}=PREFIX, {key}=PATTERN_{{}} or {key}=NAME1|NAME2|...)")
+        return None
+    if joints == list(range(1, n + 1)) or joints == list(range(0, n)):
+        return [found[j] for j in joints]
+    raise DataError(f"{src}: {_joint_mismatch(before, after, joints, n)}")
 
 
 def _listed(names: list[str], spec: str, key: str, n: int, src: str) -> list[int]:

@@ -74,7 +74,8 @@ def render_identify(r: dict) -> str:
         ("decimation", f"keep 1 sample in {pre['decimation']}"),
     ]
     if pre.get("still_share") is not None:
-        head.append(("standstill", " ".join(f"{100 * s:.0f}%" for s in pre["still_share"]) + " of samples per joint"))
+        rest = f"; derived |dq| < {pre['rest_below']:g} read as rest (dq = 0)" if pre.get("rest_below") else ""
+        head.append(("standstill", " ".join(f"{100 * s:.0f}%" for s in pre["still_share"]) + " of samples per joint" + rest))
     head += [
         ("fit", f"{r['method'].upper()}, condition number {r['condition_number']:.4g} "
                 f"(column-scaled {r['condition_number_scaled']:.3g})"),

@@ -16,6 +16,10 @@ def render_payload(p: dict) -> str:
         lines.append("  not identifiable from torques on this robot (regrouped): " + ", ".join(p["not_identifiable"]))
     for k, e in (p.get("drive_gains") or {}).items():
         lines.append(f"  gain {k:<8} {e['value']:.6g}  (σ {e['std']:.3g}, {e['std_percent']:.3g} %)")
+    tls = p.get("total_least_squares")
+    if tls:
+        lines.append("  gains by total least squares (Gautier & Briot 2014; beside the fit above, see docs/methods/transmission.md):")
+        lines.append("    " + ", ".join(f"{k.split()[-1]}: {e['value']:.6g} (σ {e['std']:.2g})" for k, e in tls["drive_gains"].items()))
     if p.get("base_parameters"):
         lines.append("  (the model's parameters in the unit the known mass fixes: 'payload.base_parameters' in --format json)")
     return "\n".join(lines) + "\n"
