@@ -5,7 +5,7 @@ Two steps, two interpreters (FIGAROH is never a dependency of minparam, and noth
 1. In a throwaway environment that has FIGAROH (see the report for the versions), run FIGAROH's
    example class on the recording and save its arrays:
 
-       /tmp/figvenv07/bin/python benchmarks/data/figaroh_tx40_compare.py --run-figaroh EXAMPLE_DIR OUT.npz
+       /tmp/figvenv07/bin/python benchmarks/data/figaroh_tx40_compare.py --models MODELS --run-figaroh EXAMPLE_DIR OUT.npz
 
    EXAMPLE_DIR is a copy of figaroh-examples' examples/staubli_TX40 importable as
    ``examples.staubli_tx40`` (its identification.py imports that module name) with the URDF's meshes
@@ -156,6 +156,13 @@ def compare(npz: str, mp_json: str, robot_file: str = "robots/tx40.yaml") -> Non
         print(f"| {nm} | {fmt(b_all[k])} | {fmt(b_fit[k])} | {fmt(m['value'])} | {m['std_percent']:.3g} | "
               f"{m['value'] / b_fit[k]:.3f} | {z:+.2f} |")
     print(f"\n{within} of {len(mnames)} within 2 σ (minparam's hac σ) of FIGAROH's fit on t < 5.4 s")
+    keep = [k for k, nm in enumerate(names) if not nm.startswith("off_")]
+    p_no, *_ = np.linalg.lstsq(W[rf][:, keep], tau[rf], rcond=None)
+    p_full = np.zeros(len(names))
+    p_full[keep] = p_no
+    b_no = T @ p_full[fcols]
+    print("FIGAROH's columns without its offsets, fit t < 5.4 s, in minparam's base: "
+          + ", ".join(f"{nm} {fmt(b_no[mnames.index(nm)])}" for nm in ("ZZR1", "XXR2", "ZZR2", "MXR2", "MYR3", "ZZR3", "Ia3")))
 
     # held-out block
     print("\n## Test block t ≥ 7.2 s, rms per joint [N·m] on FIGAROH's own torque samples")
