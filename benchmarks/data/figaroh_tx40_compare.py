@@ -212,12 +212,14 @@ def compare(npz: str, mp_json: str, robot_file: str = "robots/tx40.yaml") -> Non
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--run-figaroh", nargs=2, metavar=("EXAMPLE_DIR", "OUT"))
-    ap.add_argument("--models", default="/tmp/figrun/models")
+    ap.add_argument("--models", help="folder holding staubli_tx40_description/ (the URDF's meshes); needed by --run-figaroh")
     ap.add_argument("files", nargs="*", help="OUT.npz MINPARAM.json")
     a = ap.parse_args()
     if a.run_figaroh:
+        if not a.models:
+            ap.error("--run-figaroh needs --models")
         ex = os.path.abspath(a.run_figaroh[0])
-        run_figaroh(os.path.dirname(os.path.dirname(ex)), ex, a.models, os.path.abspath(a.run_figaroh[1]))
+        run_figaroh(os.path.dirname(os.path.dirname(ex)), ex, os.path.abspath(a.models), os.path.abspath(a.run_figaroh[1]))
     elif len(a.files) == 2:
         compare(*a.files)
     else:
