@@ -61,14 +61,21 @@ class _Thinned:
         self.cap, self.stride, self.seen, self.blocks = cap, 1, 0, []
 
     def add(self, b: Block) -> None:
-        idx = np.flatnonzero((self.seen + np.arange(len(b))) % self.stride == 0)
-        self.seen += len(b)
+        # the samples held are those of index i % stride == 0 (ceil(seen / stride) of them): the
+        # stride after this block is known before anything is copied, so a chunk of 200 000
+        # samples is never copied whole only to be halved again and again
+        total = self.seen + len(b)
+        stride = self.stride
+        while -(-total // stride) > self.cap:
+            stride *= 2
+        if stride != self.stride and self.blocks:
+            merged = Block.concat(self.blocks)
+            self.blocks = [merged.take(slice(0, None, stride // self.stride))]
+        self.stride = stride
+        idx = np.flatnonzero((self.seen + np.arange(len(b))) % stride == 0)
+        self.seen = total
         if len(idx):
             self.blocks.append(b.take(idx))
-        while sum(len(x) for x in self.blocks) > self.cap:
-            merged = Block.concat(self.blocks)
-            self.blocks = [merged.take(slice(0, None, 2))]
-            self.stride *= 2
 
     def block(self) -> Block | None:
         return Block.concat(self.blocks) if self.blocks else None
@@ -77,40 +84,60 @@ class _Thinned:
 def _stream(design: Design, sources: list[Source], n: int, opts: IdentifyOptions, keep: bool, slots=(), grams=None):
     """One pass over the data: per-joint factors of [design columns | slot columns | τ] for every part
     (fit, selection, test1, ...), the thinned diagnosis samples (fit and selection), the motion of
-    the fit part, the data reports, and the design with its drift origin set."""
+    the fit part, the data reports, and the design with its drift origin set.
+
+    Two threads (``identify.ahead``): one reads, filters and builds the rows of the regressor, the
+    other (this one) folds them into the factors; the kernel, the parser and BLAS release the GIL,
+    so on two cores the two halves overlap.  The rows reach the factors in the same order as on
+    one thread, so every number is the same."""
+    from minparam_cli.identify.ahead import ahead
+
     width = source_columns(slots, design.p)[1]
     acc = {k: Accumulator(n, width) for k in parts(sources)}
     thin = {FIT: _Thinned(opts.diagnosis_cap), SELECTION: _Thinned(opts.diagnosis_cap // 2)}
     motion = Motion(n)
-    reports = []
+    reports: list[DataReport] = []
+    state = {"design": design}
+    for piece, sub, rows in ahead(_rows(state, sources, n, opts, slots, reports)):
+        if rows is not None:  # sub: the times of the rows
+            acc[piece.part].add_rows(rows)
+            if grams is not None and piece.part == FIT:  # per time block, for σ with correlated residuals
+                grams.add(sub, rows)
+        else:  # a piece's samples, before its rows
+            if piece.role == FIT:
+                motion.add(sub)
+            motion.count_still(piece.part, sub, opts.data.still_speed)
+            if keep and piece.part in thin:
+                thin[piece.part].add(sub)
+        sub = rows = None  # not alive while the next rows are folded in
+    return acc, thin, motion, reports, state["design"]
+
+
+def _rows(state: dict, sources: list[Source], n: int, opts: IdentifyOptions, slots, reports: list):
+    """The producing half of ``_stream``: per piece of each block, (piece, its samples, None), then
+    (piece, times, rows) for its sub-blocks of REGRESSOR_ROWS samples (the full regressor
+    is n·10n numbers a sample).  Sets state["design"]'s drift origin at the first sample."""
     for src in sources:
         rep = DataReport(str(src.path))
         cuts = src.cuts()
         for b in iter_blocks(src.path, n, opts.data, rep):
             if not len(b):
                 continue
-            if design.t0 is None:  # drift is measured from the first sample, in every block and every part
-                design = replace(design, t0=float(b.t[0]))
+            if state["design"].t0 is None:  # drift is measured from the first sample, in every block and every part
+                state["design"] = replace(state["design"], t0=float(b.t[0]))
+            design = state["design"]
             edges = [0] + [int(np.searchsorted(b.t, c)) for c in cuts] + [len(b)]  # times increase
             for piece, k0, k1 in zip(src.pieces, edges[:-1], edges[1:]):
                 if k1 <= k0:
                     continue
                 sub_block = b.take(slice(k0, k1))
-                # the full regressor is n·10n numbers a sample: build it a few thousand samples at a time
+                yield piece, sub_block, None
                 for s0 in range(0, len(sub_block), REGRESSOR_ROWS):
                     sub = sub_block.take(slice(s0, s0 + REGRESSOR_ROWS))
-                    rows = _finite_rows(design, slots, sub, src.path)
-                    acc[piece.part].add_rows(rows)
-                    if grams is not None and piece.part == FIT:  # per time block, for σ with correlated residuals
-                        grams.add(sub.t, rows)
-                if piece.role == FIT:
-                    motion.add(sub_block)
-                motion.count_still(piece.part, sub_block, opts.data.still_speed)
-                if keep and piece.part in thin:
-                    thin[piece.part].add(sub_block)
+                    # its times copied: a view would keep the whole chunk alive while the rows wait
+                    yield piece, sub.t.copy(), _finite_rows(design, slots, sub, src.path)
             b = sub_block = sub = None  # not alive while the next block is read
         reports.append(rep)
-    return acc, thin, motion, reports, design
 
 
 class Motion:
@@ -145,6 +172,10 @@ def _finite_rows(design: Design, slots, b: Block, path: Path) -> np.ndarray:
     value (a corrupt dq of 1e200, say) would otherwise turn the whole fit into NaN."""
     with np.errstate(over="ignore", invalid="ignore"):
         rows = block_rows(design, slots, b)
+        # a sum is finite only if every term is: one pass without a boolean array; the exact test only
+        # when it is not (it may just have overflowed)
+        if np.isfinite(rows.reshape(len(rows), -1).sum(axis=1)).all():
+            return rows
     ok = np.isfinite(rows).all(axis=(1, 2))
     if not ok.all():
         i = int(np.argmin(ok))

@@ -90,16 +90,20 @@ class BlockGrams:
             self.t0 = float(t[0])
         self.t_last = float(t[-1])
         k = np.floor((t - self.t0) / self.length).astype(np.int64)
-        for b in np.unique(k):
-            sel = rows[k == b]
-            A = np.ascontiguousarray(sel.transpose(1, 0, 2))  # (n, N_b, w)
-            G = np.matmul(A.transpose(0, 2, 1), A)
-            b = int(b)
+        # runs of equal block index (one run per block: the times increase): slices, not copies, and
+        # each joint's rows rows[s:e, j] a strided matrix BLAS takes as it is (AᵀA: one syrk)
+        starts = np.flatnonzero(np.concatenate([[True], k[1:] != k[:-1]]))
+        for s, e in zip(starts, np.append(starts[1:], len(k))):
+            G = np.empty((rows.shape[1], rows.shape[2], rows.shape[2]))
+            for j in range(rows.shape[1]):
+                A = rows[s:e, j]
+                np.matmul(A.T, A, out=G[j])
+            b = int(k[s])
             if b in self.G:
                 self.G[b] += G
-                self.rows[b] += len(sel)
+                self.rows[b] += int(e - s)
             else:
-                self.G[b], self.rows[b] = G, len(sel)
+                self.G[b], self.rows[b] = G, int(e - s)
         while len(self.G) > self.max_blocks:
             self._merge()
 
@@ -109,7 +113,7 @@ class BlockGrams:
         for b in sorted(self.G):
             h = b // 2
             if h in G:
-                G[h] = G[h] + self.G[b]
+                G[h] += self.G[b]  # in place: the pair's first Gram is not used elsewhere
                 rows[h] += self.rows[b]
             else:
                 G[h], rows[h] = self.G[b], self.rows[b]
