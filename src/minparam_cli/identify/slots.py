@@ -50,19 +50,20 @@ def all_joints(effect: str, s: Signals, n: int, hyper: float | None = None) -> n
 
 
 def block_rows(design: Design, sources, b: Block) -> np.ndarray:
-    """Rows of a block for the accumulators: (N, n, design.p + slots + 1), joint j's
-    [design columns | slot columns of joint j | τ_j] in [:, j]."""
+    """Rows of a block for the accumulators, joint-major: (n, design.p + slots + 1, N), joint j's
+    rows [design columns | slot columns of joint j | τ_j] transposed in [j] (C-contiguous: the
+    layout ``Accumulator.add_columns`` and ``BlockGrams.add_columns`` take without a copy)."""
     n, N = design.chain.dof, len(b)
-    out = np.empty((N, n, source_columns(sources, design.p)[1] + 1))
-    X = out[:, :, : design.p]
-    X[...] = design.columns(b)
-    out[:, :, -1] = b.tau
+    out = np.empty((n, source_columns(sources, design.p)[1] + 1, N))
+    X = design.columns(b)
+    out[:, : design.p] = X.transpose(1, 2, 0)
+    out[:, -1] = b.tau.T
     if sources:
         s = design.signals(b, X[:, :, : len(design.kept)])
         c = design.p
         for e, h in sources:
             m = len(EFFECTS[e].column_names)
-            out[:, :, c : c + m] = all_joints(e, s, n, h)
+            out[:, c : c + m] = all_joints(e, s, n, h).transpose(1, 2, 0)
             c += m
     return out
 

@@ -100,9 +100,9 @@ def _stream(design: Design, sources: list[Source], n: int, opts: IdentifyOptions
     state = {"design": design}
     for piece, sub, rows in ahead(_rows(state, sources, n, opts, slots, reports)):
         if rows is not None:  # sub: the times of the rows
-            acc[piece.part].add_rows(rows)
+            acc[piece.part].add_columns(rows)
             if grams is not None and piece.part == FIT:  # per time block, for σ with correlated residuals
-                grams.add(sub, rows)
+                grams.add_columns(sub, rows)
         else:  # a piece's samples, before its rows
             if piece.role == FIT:
                 motion.add(sub)
@@ -174,9 +174,9 @@ def _finite_rows(design: Design, slots, b: Block, path: Path) -> np.ndarray:
         rows = block_rows(design, slots, b)
         # a sum is finite only if every term is: one pass without a boolean array; the exact test only
         # when it is not (it may just have overflowed)
-        if np.isfinite(rows.reshape(len(rows), -1).sum(axis=1)).all():
+        if np.isfinite(rows.reshape(-1, len(b)).sum(axis=0)).all():
             return rows
-    ok = np.isfinite(rows).all(axis=(1, 2))
+    ok = np.isfinite(rows).all(axis=(0, 1))
     if not ok.all():
         i = int(np.argmin(ok))
         raise DataError(

@@ -84,6 +84,10 @@ class BlockGrams:
 
     def add(self, t: np.ndarray, rows: np.ndarray) -> None:
         """t: (N,) times, rows: (N, n, w) as given to the accumulators."""
+        self.add_columns(t, np.ascontiguousarray(rows.transpose(1, 2, 0)))
+
+    def add_columns(self, t: np.ndarray, cols: np.ndarray) -> None:
+        """t: (N,) times, cols: (n, w, N) the same rows joint-major (``Accumulator.add_columns``)."""
         if not len(t):
             return
         if self.t0 is None:
@@ -91,13 +95,14 @@ class BlockGrams:
         self.t_last = float(t[-1])
         k = np.floor((t - self.t0) / self.length).astype(np.int64)
         # runs of equal block index (one run per block: the times increase): slices, not copies, and
-        # each joint's rows rows[s:e, j] a strided matrix BLAS takes as it is (AᵀA: one syrk)
+        # each joint's rows cols[j, :, s:e] a matrix BLAS takes as it is (A Aᵀ: one syrk)
         starts = np.flatnonzero(np.concatenate([[True], k[1:] != k[:-1]]))
+        n, w = cols.shape[:2]
         for s, e in zip(starts, np.append(starts[1:], len(k))):
-            G = np.empty((rows.shape[1], rows.shape[2], rows.shape[2]))
-            for j in range(rows.shape[1]):
-                A = rows[s:e, j]
-                np.matmul(A.T, A, out=G[j])
+            G = np.empty((n, w, w))
+            for j in range(n):
+                A = cols[j, :, s:e]
+                np.matmul(A, A.T, out=G[j])
             b = int(k[s])
             if b in self.G:
                 self.G[b] += G
