@@ -11,7 +11,7 @@ import pytest
 from minparam_cli.errors import DataError
 from minparam_cli.identify.ahead import ahead
 from minparam_cli.identify.data import Block
-from minparam_cli.identify.stage import _Thinned
+from minparam_cli.identify.kept import _Thinned
 
 
 def test_items_in_order_and_bounded():

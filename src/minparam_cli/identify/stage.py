@@ -31,6 +31,7 @@ from minparam_cli.identify.physical import PhysicalOptions
 from minparam_cli.identify.quality import COND_LIMIT, check_excitation, flags, keep_physical
 from minparam_cli.identify.roles import DEFAULT_SPLIT, FIT, SELECTION, TEST, Source, describe, parts, plan
 from minparam_cli.identify.slots import block_rows, final_maps, slot_sources
+from minparam_cli.identify.kept import Motion, _Thinned
 from minparam_cli.identify.uncertainty import BlockGrams, UncertaintyOptions, block_length, estimate, relative_percent
 
 DIAGNOSIS_CAP = 12_000  # samples kept for the diagnosis (fit part; half as many of the selection part)
@@ -52,33 +53,6 @@ class IdentifyOptions:
     physical: PhysicalOptions | None = None  # --physical: the convex fit over the full parameters as well
     uncertainty: UncertaintyOptions = field(default_factory=UncertaintyOptions)  # --sigma: which σ the report shows
     essential: float | None = None  # --essential: bound (%) on the relative σ of the essential parameters (essential.py)
-
-
-class _Thinned:
-    """Keeps every stride-th sample, doubling the stride whenever more than ``cap`` are held."""
-
-    def __init__(self, cap: int):
-        self.cap, self.stride, self.seen, self.blocks = cap, 1, 0, []
-
-    def add(self, b: Block) -> None:
-        # the samples held are those of index i % stride == 0 (ceil(seen / stride) of them): the
-        # stride after this block is known before anything is copied, so a chunk of 200 000
-        # samples is never copied whole only to be halved again and again
-        total = self.seen + len(b)
-        stride = self.stride
-        while -(-total // stride) > self.cap:
-            stride *= 2
-        if stride != self.stride and self.blocks:
-            merged = Block.concat(self.blocks)
-            self.blocks = [merged.take(slice(0, None, stride // self.stride))]
-        self.stride = stride
-        idx = np.flatnonzero((self.seen + np.arange(len(b))) % stride == 0)
-        self.seen = total
-        if len(idx):
-            self.blocks.append(b.take(idx))
-
-    def block(self) -> Block | None:
-        return Block.concat(self.blocks) if self.blocks else None
 
 
 def _stream(design: Design, sources: list[Source], n: int, opts: IdentifyOptions, keep: bool, slots=(), grams=None):
@@ -138,33 +112,6 @@ def _rows(state: dict, sources: list[Source], n: int, opts: IdentifyOptions, slo
                     yield piece, sub.t.copy(), _finite_rows(design, slots, sub, src.path)
             b = sub_block = sub = None  # not alive while the next block is read
         reports.append(rep)
-
-
-class Motion:
-    """Range of every joint's position over the fit data (names the joints an excitation missed), and
-    per part the samples in which every joint stands still (a test block that mostly stands measures
-    standstill, where the model has no static friction)."""
-
-    def __init__(self, n: int):
-        self.lo, self.hi = np.full(n, np.inf), np.full(n, -np.inf)
-        self.still: dict[str, list[int]] = {}
-
-    def count_still(self, part: str, b: Block, speed: float) -> None:
-        c = self.still.setdefault(part, [0, 0])
-        c[0] += int(np.all(np.abs(b.dq) < speed, axis=1).sum())
-        c[1] += len(b)
-
-    def still_share(self, part: str) -> float | None:
-        still, total = self.still.get(part, (0, 0))
-        return still / total if total else None
-
-    def add(self, b: Block) -> None:
-        self.lo = np.minimum(self.lo, b.q.min(axis=0))
-        self.hi = np.maximum(self.hi, b.q.max(axis=0))
-
-    @property
-    def range(self) -> np.ndarray:
-        return np.where(self.hi >= self.lo, self.hi - self.lo, 0.0)
 
 
 def _finite_rows(design: Design, slots, b: Block, path: Path) -> np.ndarray:
