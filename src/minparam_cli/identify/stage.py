@@ -30,7 +30,7 @@ from minparam_cli.identify.explain import describe_rejected, describe_terms, nom
 from minparam_cli.identify.physical import PhysicalOptions
 from minparam_cli.identify.quality import COND_LIMIT, check_excitation, flags, keep_physical
 from minparam_cli.identify.roles import DEFAULT_SPLIT, FIT, SELECTION, TEST, Source, describe, parts, plan
-from minparam_cli.identify.slots import block_rows, final_maps, slot_sources
+from minparam_cli.identify.slots import block_rows, fill_slots, final_maps, slot_sources
 from minparam_cli.identify.kept import Motion, _Thinned
 from minparam_cli.identify.uncertainty import BlockGrams, UncertaintyOptions, block_length, estimate, relative_percent
 
@@ -73,10 +73,14 @@ def _stream(design: Design, sources: list[Source], n: int, opts: IdentifyOptions
     reports: list[DataReport] = []
     state = {"design": design}
     for piece, sub, rows in ahead(_rows(state, sources, n, opts, slots, reports)):
-        if rows is not None:  # sub: the times of the rows
+        if rows is not None:  # sub: (the samples of the rows, their design, the file)
+            sub, design_used, path = sub
+            if slots:  # the slot columns are built here: the first thread has the more work
+                fill_slots(design_used, slots, sub, rows)
+            rows = _finite_or_refuse(rows, sub, path)
             acc[piece.part].add_columns(rows)
             if grams is not None and piece.part == FIT:  # per time block, for σ with correlated residuals
-                grams.add_columns(sub, rows)
+                grams.add_columns(sub.t, rows)
         else:  # a piece's samples, before its rows
             if piece.role == FIT:
                 motion.add(sub)
@@ -89,8 +93,9 @@ def _stream(design: Design, sources: list[Source], n: int, opts: IdentifyOptions
 
 def _rows(state: dict, sources: list[Source], n: int, opts: IdentifyOptions, slots, reports: list):
     """The producing half of ``_stream``: per piece of each block, (piece, its samples, None), then
-    (piece, times, rows) for its sub-blocks of REGRESSOR_ROWS samples (the full regressor
-    is n·10n numbers a sample).  Sets state["design"]'s drift origin at the first sample."""
+    (piece, (samples, design, path), rows) for its sub-blocks of REGRESSOR_ROWS samples (the full
+    regressor is n·10n numbers a sample), the rows without their slot columns (``_stream`` fills
+    them).  Sets state["design"]'s drift origin at the first sample."""
     for src in sources:
         rep = DataReport(str(src.path))
         cuts = src.cuts()
@@ -108,17 +113,19 @@ def _rows(state: dict, sources: list[Source], n: int, opts: IdentifyOptions, slo
                 yield piece, sub_block, None
                 for s0 in range(0, len(sub_block), REGRESSOR_ROWS):
                     sub = sub_block.take(slice(s0, s0 + REGRESSOR_ROWS))
-                    # its times copied: a view would keep the whole chunk alive while the rows wait
-                    yield piece, sub.t.copy(), _finite_rows(design, slots, sub, src.path)
+                    with np.errstate(over="ignore", invalid="ignore"):
+                        rows = block_rows(design, slots, sub, with_slots=False)
+                    # the samples copied: a view would keep the whole chunk alive while the rows wait
+                    own = Block(*(np.array(getattr(sub, k)) for k in ("t", "q", "dq", "ddq", "tau")))
+                    yield piece, (own, design, src.path), rows
             b = sub_block = sub = None  # not alive while the next block is read
         reports.append(rep)
 
 
-def _finite_rows(design: Design, slots, b: Block, path: Path) -> np.ndarray:
-    """block_rows, refused with the time of the first sample whose row overflowed: a finite but huge
-    value (a corrupt dq of 1e200, say) would otherwise turn the whole fit into NaN."""
+def _finite_or_refuse(rows: np.ndarray, b: Block, path: Path) -> np.ndarray:
+    """The rows, or a DataError with the time of the first sample whose row overflowed: a finite but
+    huge value (a corrupt dq of 1e200, say) would otherwise turn the whole fit into NaN."""
     with np.errstate(over="ignore", invalid="ignore"):
-        rows = block_rows(design, slots, b)
         # a sum is finite only if every term is: one pass without a boolean array; the exact test only
         # when it is not (it may just have overflowed)
         if np.isfinite(rows.reshape(-1, len(b)).sum(axis=0)).all():
