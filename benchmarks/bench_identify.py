@@ -15,7 +15,10 @@ and numpy's loadtxt, forced with MINPARAM_CSV_READER=numpy) [issue 20 target:
 1 M samples x 7 joints <= 6 s end to end, peak <= 300 MB], and the table of
 parse throughput compares the readers alone (in this process, MB/s of CSV).
 A CPU calibration (a fixed numpy + Python loop, in s) is printed with the
-tables: on a shared machine, times scale with it.
+tables: on a shared machine, times scale with it.  The CPU time column (user +
+system seconds of the identify process, all its threads) moves less with the
+machine's load than the wall time: identify's streaming pass runs on two
+threads, so on an idle 2-core machine the wall time is below the CPU time.
 
 Run: python benchmarks/bench_identify.py [--sizes 100000,300000,1000000] [--physical] [--readers pyarrow,numpy]
 """
@@ -65,6 +68,15 @@ def write_data(path: Path, samples: int, seed: int = 0) -> None:
             np.savetxt(fh, np.hstack([t[:, None], q, dq, ddq, tau]), delimiter=",", fmt="%.9g")
 
 
+def _children_cpu() -> float:
+    """User + system CPU seconds of the finished child processes (and theirs): on a shared machine
+    the CPU a run took varies less than its wall time, which waits for the other jobs."""
+    import resource
+
+    r = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return r.ru_utime + r.ru_stime
+
+
 def calibration() -> float:
     """Seconds of a fixed CPU task (numpy and Python): a slower figure means a busier machine."""
     t0 = time.perf_counter()
@@ -108,15 +120,17 @@ def main() -> None:
                 for extra in ([], ["--physical"]) if args.physical else ([],):
                     cmd = minparam_cmd() + ["identify", "robots/panda.yaml", str(data), "--format", "json", "--quiet",
                                             "-o", str(report), *extra]
+                    before_cpu = _children_cpu()
                     t, peak = run_process(cmd, repeats=1)
+                    cpu = _children_cpu() - before_cpu
                     solve = json.loads(report.read_text())["physical"]["elapsed_s"] if extra else None
-                    rows.append([f"{n:,}", f"{size_mb:.0f} MB", reader, "physical" if extra else "least squares", f"{t:.1f} s",
+                    rows.append([f"{n:,}", f"{size_mb:.0f} MB", reader, "physical" if extra else "least squares", f"{t:.1f} s", f"{cpu:.1f} s",
                                  "-" if solve is None else f"{solve:.2f} s", f"{peak:.0f} MB"])
             data.unlink()
     os.environ.pop("MINPARAM_CSV_READER", None)
     after = calibration()
     print("minparam identify, Panda (7 joints), CSV with q, dq, ddq, tau; Coulomb + viscous hidden; diagnosis on")
-    print(tabulate(rows, headers=["samples", "file", "CSV reader", "fit", "wall time", "convex solve", "peak RSS"], tablefmt="github"))
+    print(tabulate(rows, headers=["samples", "file", "CSV reader", "fit", "wall time", "CPU time", "convex solve", "peak RSS"], tablefmt="github"))
     print("\nCSV parsing alone (identify.reading.raw_chunks, all columns to float64), MB of CSV per second")
     print(tabulate(rates, headers=["samples", "file"] + readers, tablefmt="github"))
     print(f"\nCPU calibration (a fixed numpy + Python task; larger on a busier machine): {before:.2f} s before, {after:.2f} s after")

@@ -87,19 +87,26 @@ class Accumulator:
 
     def add_rows(self, rows: np.ndarray) -> None:
         """rows: (N, n, p + 1), joint j's rows [X_j | y_j] in rows[:, j]."""
+        self.add_columns(np.ascontiguousarray(rows.transpose(1, 2, 0)))
+
+    def add_columns(self, cols: np.ndarray) -> None:
+        """The same rows joint-major: cols (n, p + 1, N) C-contiguous, joint j's rows transposed in
+        cols[j] (the layout ``slots.block_rows`` builds): a joint's active columns are then a gather
+        of contiguous lines, and their transpose the Fortran-ordered block the update takes."""
         for j in range(self.n):
-            cols = self._cols[j]
-            if len(cols) <= self.p:
-                rest = np.setdiff1d(np.arange(self.p + 1), cols, assume_unique=True)
-                seen = rest[rows[:, j, rest].any(axis=0)]
-            if len(cols) <= self.p and len(seen):  # columns non-zero for the first time: widen the factor
-                new = np.union1d(cols, seen)
+            cj = cols[j]
+            active = self._cols[j]
+            if len(active) <= self.p:
+                rest = np.setdiff1d(np.arange(self.p + 1), active, assume_unique=True)
+                seen = rest[cj[rest].any(axis=1)]
+            if len(active) <= self.p and len(seen):  # columns non-zero for the first time: widen the factor
+                new = np.union1d(active, seen)
                 R = np.zeros((self._R[j].shape[0], len(new)))
-                R[:, np.searchsorted(new, cols)] = self._R[j]
-                self._cols[j], self._R[j], cols = new, R, new
-            if len(cols):
-                self._R[j] = update(self._R[j], np.asfortranarray(rows[:, j, cols]))
-            self.rows[j] += len(rows)
+                R[:, np.searchsorted(new, active)] = self._R[j]
+                self._cols[j], self._R[j], active = new, R, new
+            if len(active):
+                self._R[j] = update(self._R[j], cj[active].T)
+            self.rows[j] += cols.shape[2]
 
     @property
     def R(self) -> list[np.ndarray]:

@@ -290,7 +290,10 @@ def iter_blocks(path: str | Path, n: int, opts: DataOptions, report: DataReport 
             still = Standstill(n, opts, report)
         for b in processor.push(clean):
             yield from still.push(b)
-        del table, clean  # not alive while the next chunk is read: memory is one chunk, not two
+        # not alive while the next chunk is read: memory is one chunk, not two (an unfiltered block
+        # is a view of the chunk's table, so b would keep that alive too)
+        del table, clean
+        b = None
     if processor is None:
         raise DataError(f"{path}: no usable samples (every row was dropped or the file has no data)")
     for b in processor.finish():

@@ -49,22 +49,31 @@ def all_joints(effect: str, s: Signals, n: int, hyper: float | None = None) -> n
     return out[:, :, None] if out.ndim == 2 else out.transpose(0, 2, 1)
 
 
-def block_rows(design: Design, sources, b: Block) -> np.ndarray:
-    """Rows of a block for the accumulators: (N, n, design.p + slots + 1), joint j's
-    [design columns | slot columns of joint j | τ_j] in [:, j]."""
+def block_rows(design: Design, sources, b: Block, with_slots: bool = True) -> np.ndarray:
+    """Rows of a block for the accumulators, joint-major: (n, design.p + slots + 1, N), joint j's
+    rows [design columns | slot columns of joint j | τ_j] transposed in [j] (C-contiguous: the
+    layout ``Accumulator.add_columns`` and ``BlockGrams.add_columns`` take without a copy).
+    ``with_slots`` False leaves the slot columns unset, for ``fill_slots`` (on another thread)."""
     n, N = design.chain.dof, len(b)
-    out = np.empty((N, n, source_columns(sources, design.p)[1] + 1))
-    X = out[:, :, : design.p]
-    X[...] = design.columns(b)
-    out[:, :, -1] = b.tau
-    if sources:
-        s = design.signals(b, X[:, :, : len(design.kept)])
-        c = design.p
-        for e, h in sources:
-            m = len(EFFECTS[e].column_names)
-            out[:, :, c : c + m] = all_joints(e, s, n, h)
-            c += m
+    out = np.empty((n, source_columns(sources, design.p)[1] + 1, N))
+    X = design.columns(b)
+    out[:, : design.p] = X.transpose(1, 2, 0)
+    out[:, -1] = b.tau.T
+    if sources and with_slots:
+        fill_slots(design, sources, b, out, X)
     return out
+
+
+def fill_slots(design: Design, sources, b: Block, out: np.ndarray, X: np.ndarray | None = None) -> None:
+    """The slot columns of ``block_rows``' rows ``out``, in place (X: the block's design columns,
+    if at hand; the model torque of load effects is computed from them, else again)."""
+    n = design.chain.dof
+    s = design.signals(b, None if X is None else X[:, :, : len(design.kept)])
+    c = design.p
+    for e, h in sources:
+        m = len(EFFECTS[e].column_names)
+        out[:, c : c + m] = all_joints(e, s, n, h).transpose(1, 2, 0)
+        c += m
 
 
 def final_maps(design: Design, sources) -> list[np.ndarray] | None:

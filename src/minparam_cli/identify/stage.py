@@ -30,7 +30,8 @@ from minparam_cli.identify.explain import describe_rejected, describe_terms, nom
 from minparam_cli.identify.physical import PhysicalOptions
 from minparam_cli.identify.quality import COND_LIMIT, check_excitation, flags, keep_physical
 from minparam_cli.identify.roles import DEFAULT_SPLIT, FIT, SELECTION, TEST, Source, describe, parts, plan
-from minparam_cli.identify.slots import block_rows, final_maps, slot_sources
+from minparam_cli.identify.slots import block_rows, fill_slots, final_maps, slot_sources
+from minparam_cli.identify.kept import Motion, _Thinned
 from minparam_cli.identify.uncertainty import BlockGrams, UncertaintyOptions, block_length, estimate, relative_percent
 
 DIAGNOSIS_CAP = 12_000  # samples kept for the diagnosis (fit part; half as many of the selection part)
@@ -54,98 +55,82 @@ class IdentifyOptions:
     essential: float | None = None  # --essential: bound (%) on the relative σ of the essential parameters (essential.py)
 
 
-class _Thinned:
-    """Keeps every stride-th sample, doubling the stride whenever more than ``cap`` are held."""
-
-    def __init__(self, cap: int):
-        self.cap, self.stride, self.seen, self.blocks = cap, 1, 0, []
-
-    def add(self, b: Block) -> None:
-        idx = np.flatnonzero((self.seen + np.arange(len(b))) % self.stride == 0)
-        self.seen += len(b)
-        if len(idx):
-            self.blocks.append(b.take(idx))
-        while sum(len(x) for x in self.blocks) > self.cap:
-            merged = Block.concat(self.blocks)
-            self.blocks = [merged.take(slice(0, None, 2))]
-            self.stride *= 2
-
-    def block(self) -> Block | None:
-        return Block.concat(self.blocks) if self.blocks else None
-
-
 def _stream(design: Design, sources: list[Source], n: int, opts: IdentifyOptions, keep: bool, slots=(), grams=None):
     """One pass over the data: per-joint factors of [design columns | slot columns | τ] for every part
     (fit, selection, test1, ...), the thinned diagnosis samples (fit and selection), the motion of
-    the fit part, the data reports, and the design with its drift origin set."""
+    the fit part, the data reports, and the design with its drift origin set.
+
+    Two threads (``identify.ahead``): one reads, filters and builds the rows of the regressor, the
+    other (this one) folds them into the factors; the kernel, the parser and BLAS release the GIL,
+    so on two cores the two halves overlap.  The rows reach the factors in the same order as on
+    one thread, so every number is the same."""
+    from minparam_cli.identify.ahead import ahead
+
     width = source_columns(slots, design.p)[1]
     acc = {k: Accumulator(n, width) for k in parts(sources)}
     thin = {FIT: _Thinned(opts.diagnosis_cap), SELECTION: _Thinned(opts.diagnosis_cap // 2)}
     motion = Motion(n)
-    reports = []
+    reports: list[DataReport] = []
+    state = {"design": design}
+    for piece, sub, rows in ahead(_rows(state, sources, n, opts, slots, reports)):
+        if rows is not None:  # sub: (the samples of the rows, their design, the file)
+            sub, design_used, path = sub
+            if slots:  # the slot columns are built here: the first thread has the more work
+                fill_slots(design_used, slots, sub, rows)
+            rows = _finite_or_refuse(rows, sub, path)
+            acc[piece.part].add_columns(rows)
+            if grams is not None and piece.part == FIT:  # per time block, for σ with correlated residuals
+                grams.add_columns(sub.t, rows)
+        else:  # a piece's samples, before its rows
+            if piece.role == FIT:
+                motion.add(sub)
+            motion.count_still(piece.part, sub, opts.data.still_speed)
+            if keep and piece.part in thin:
+                thin[piece.part].add(sub)
+        sub = rows = None  # not alive while the next rows are folded in
+    return acc, thin, motion, reports, state["design"]
+
+
+def _rows(state: dict, sources: list[Source], n: int, opts: IdentifyOptions, slots, reports: list):
+    """The producing half of ``_stream``: per piece of each block, (piece, its samples, None), then
+    (piece, (samples, design, path), rows) for its sub-blocks of REGRESSOR_ROWS samples (the full
+    regressor is n·10n numbers a sample), the rows without their slot columns (``_stream`` fills
+    them).  Sets state["design"]'s drift origin at the first sample."""
     for src in sources:
         rep = DataReport(str(src.path))
         cuts = src.cuts()
         for b in iter_blocks(src.path, n, opts.data, rep):
             if not len(b):
                 continue
-            if design.t0 is None:  # drift is measured from the first sample, in every block and every part
-                design = replace(design, t0=float(b.t[0]))
+            if state["design"].t0 is None:  # drift is measured from the first sample, in every block and every part
+                state["design"] = replace(state["design"], t0=float(b.t[0]))
+            design = state["design"]
             edges = [0] + [int(np.searchsorted(b.t, c)) for c in cuts] + [len(b)]  # times increase
             for piece, k0, k1 in zip(src.pieces, edges[:-1], edges[1:]):
                 if k1 <= k0:
                     continue
                 sub_block = b.take(slice(k0, k1))
-                # the full regressor is n·10n numbers a sample: build it a few thousand samples at a time
+                yield piece, sub_block, None
                 for s0 in range(0, len(sub_block), REGRESSOR_ROWS):
                     sub = sub_block.take(slice(s0, s0 + REGRESSOR_ROWS))
-                    rows = _finite_rows(design, slots, sub, src.path)
-                    acc[piece.part].add_rows(rows)
-                    if grams is not None and piece.part == FIT:  # per time block, for σ with correlated residuals
-                        grams.add(sub.t, rows)
-                if piece.role == FIT:
-                    motion.add(sub_block)
-                motion.count_still(piece.part, sub_block, opts.data.still_speed)
-                if keep and piece.part in thin:
-                    thin[piece.part].add(sub_block)
+                    with np.errstate(over="ignore", invalid="ignore"):
+                        rows = block_rows(design, slots, sub, with_slots=False)
+                    # the samples copied: a view would keep the whole chunk alive while the rows wait
+                    own = Block(*(np.array(getattr(sub, k)) for k in ("t", "q", "dq", "ddq", "tau")))
+                    yield piece, (own, design, src.path), rows
             b = sub_block = sub = None  # not alive while the next block is read
         reports.append(rep)
-    return acc, thin, motion, reports, design
 
 
-class Motion:
-    """Range of every joint's position over the fit data (names the joints an excitation missed), and
-    per part the samples in which every joint stands still (a test block that mostly stands measures
-    standstill, where the model has no static friction)."""
-
-    def __init__(self, n: int):
-        self.lo, self.hi = np.full(n, np.inf), np.full(n, -np.inf)
-        self.still: dict[str, list[int]] = {}
-
-    def count_still(self, part: str, b: Block, speed: float) -> None:
-        c = self.still.setdefault(part, [0, 0])
-        c[0] += int(np.all(np.abs(b.dq) < speed, axis=1).sum())
-        c[1] += len(b)
-
-    def still_share(self, part: str) -> float | None:
-        still, total = self.still.get(part, (0, 0))
-        return still / total if total else None
-
-    def add(self, b: Block) -> None:
-        self.lo = np.minimum(self.lo, b.q.min(axis=0))
-        self.hi = np.maximum(self.hi, b.q.max(axis=0))
-
-    @property
-    def range(self) -> np.ndarray:
-        return np.where(self.hi >= self.lo, self.hi - self.lo, 0.0)
-
-
-def _finite_rows(design: Design, slots, b: Block, path: Path) -> np.ndarray:
-    """block_rows, refused with the time of the first sample whose row overflowed: a finite but huge
-    value (a corrupt dq of 1e200, say) would otherwise turn the whole fit into NaN."""
+def _finite_or_refuse(rows: np.ndarray, b: Block, path: Path) -> np.ndarray:
+    """The rows, or a DataError with the time of the first sample whose row overflowed: a finite but
+    huge value (a corrupt dq of 1e200, say) would otherwise turn the whole fit into NaN."""
     with np.errstate(over="ignore", invalid="ignore"):
-        rows = block_rows(design, slots, b)
-    ok = np.isfinite(rows).all(axis=(1, 2))
+        # a sum is finite only if every term is: one pass without a boolean array; the exact test only
+        # when it is not (it may just have overflowed)
+        if np.isfinite(rows.reshape(-1, len(b)).sum(axis=0)).all():
+            return rows
+    ok = np.isfinite(rows).all(axis=(0, 1))
     if not ok.all():
         i = int(np.argmin(ok))
         raise DataError(

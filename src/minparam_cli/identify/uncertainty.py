@@ -84,22 +84,31 @@ class BlockGrams:
 
     def add(self, t: np.ndarray, rows: np.ndarray) -> None:
         """t: (N,) times, rows: (N, n, w) as given to the accumulators."""
+        self.add_columns(t, np.ascontiguousarray(rows.transpose(1, 2, 0)))
+
+    def add_columns(self, t: np.ndarray, cols: np.ndarray) -> None:
+        """t: (N,) times, cols: (n, w, N) the same rows joint-major (``Accumulator.add_columns``)."""
         if not len(t):
             return
         if self.t0 is None:
             self.t0 = float(t[0])
         self.t_last = float(t[-1])
         k = np.floor((t - self.t0) / self.length).astype(np.int64)
-        for b in np.unique(k):
-            sel = rows[k == b]
-            A = np.ascontiguousarray(sel.transpose(1, 0, 2))  # (n, N_b, w)
-            G = np.matmul(A.transpose(0, 2, 1), A)
-            b = int(b)
+        # runs of equal block index (one run per block: the times increase): slices, not copies, and
+        # each joint's rows cols[j, :, s:e] a matrix BLAS takes as it is (A Aᵀ: one syrk)
+        starts = np.flatnonzero(np.concatenate([[True], k[1:] != k[:-1]]))
+        n, w = cols.shape[:2]
+        for s, e in zip(starts, np.append(starts[1:], len(k))):
+            G = np.empty((n, w, w))
+            for j in range(n):
+                A = cols[j, :, s:e]
+                np.matmul(A, A.T, out=G[j])
+            b = int(k[s])
             if b in self.G:
                 self.G[b] += G
-                self.rows[b] += len(sel)
+                self.rows[b] += int(e - s)
             else:
-                self.G[b], self.rows[b] = G, len(sel)
+                self.G[b], self.rows[b] = G, int(e - s)
         while len(self.G) > self.max_blocks:
             self._merge()
 
@@ -109,7 +118,7 @@ class BlockGrams:
         for b in sorted(self.G):
             h = b // 2
             if h in G:
-                G[h] = G[h] + self.G[b]
+                G[h] += self.G[b]  # in place: the pair's first Gram is not used elsewhere
                 rows[h] += self.rows[b]
             else:
                 G[h], rows[h] = self.G[b], self.rows[b]

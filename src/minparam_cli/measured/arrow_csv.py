@@ -17,7 +17,11 @@ from collections.abc import Iterator
 import numpy as np
 
 READ_BYTES = 2**20
-BLOCK_BYTES = 2**20  # pyarrow's streaming block: 1 MB keeps its read-ahead buffers small (4 MB: +120 MB peak)
+# pyarrow's streaming block, parsed on the calling thread: its memory pool then holds about 10 MB
+# (with use_threads its read-ahead held 40 blocks: 40 MB at 1 MB, 160 MB at 4 MB), and on the
+# 2-core benchmark machine one thread parsed no slower (1.1 s of CPU for the 351 MB Panda file, vs
+# 1.3 s threaded) while identify's streaming pass has the other core building regressor rows
+BLOCK_BYTES = 2**18
 ENV = "MINPARAM_CSV_READER"  # "numpy" forces the numpy reader (benchmarks, tests, a suspected difference)
 
 
@@ -44,7 +48,7 @@ def _options(pacsv, width: int):
 
     names = [f"c{j}" for j in range(width)]
     return {
-        "read_options": pacsv.ReadOptions(column_names=names, use_threads=True, block_size=BLOCK_BYTES),
+        "read_options": pacsv.ReadOptions(column_names=names, use_threads=False, block_size=BLOCK_BYTES),
         "parse_options": pacsv.ParseOptions(delimiter=",", quote_char=False, double_quote=False, escape_char=False,
                                             newlines_in_values=False, ignore_empty_lines=False),
         "convert_options": pacsv.ConvertOptions(column_types={c: pa.float64() for c in names}, null_values=[],
@@ -81,10 +85,12 @@ def tables(pacsv, path, offset: int, rows: int, width: int) -> Iterator[tuple[in
                 yield after_lines(path, offset, done), None
                 return
             k, n = 0, batch.num_rows
+            cols = np.empty((width, n))  # the batch's columns side by side (contiguous copies), then
+            for j in range(width):  # one transposing copy into the row-major table: fewer strided writes
+                cols[j] = batch.column(j).to_numpy(zero_copy_only=True)
             while k < n:
                 take = min(rows - filled, n - k)
-                for j in range(width):  # straight into the row-major table: one copy
-                    out[filled : filled + take, j] = batch.column(j).to_numpy(zero_copy_only=True)[k : k + take]
+                out[filled : filled + take] = cols[:, k : k + take].T
                 filled, k = filled + take, k + take
                 if filled == rows:
                     yield -1, out
