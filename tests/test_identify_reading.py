@@ -77,7 +77,8 @@ def test_a_parsing_process_that_dies_mid_message_is_an_error_not_a_hang(tmp_path
     from minparam_cli.identify import reading
     from minparam_cli.identify.data import DataOptions, load_all
 
-    def dying_worker(path, rows, out):
+    def dying_worker(path, rows, out, theirs):  # the real worker's signature: dies of the cut, not of a TypeError
+        theirs.close()
         os.write(out.fileno(), struct.pack("!i", 50_000_000) + b"x" * 1000)  # a message cut short
         os.kill(os.getpid(), signal.SIGKILL)
 

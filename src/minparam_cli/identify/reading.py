@@ -415,6 +415,9 @@ def _background(path: Path, rows: int) -> Iterator[np.ndarray]:
     """
     import multiprocessing as mp
 
+    # fork, from identify's reading thread (identify.ahead) when it takes its first chunk: the other
+    # thread is then waiting for that chunk, holding no lock, and the child runs only the file read
+    # and numpy's parser (forkserver would also lose the tests' stand-in workers)
     ctx = mp.get_context("fork")
     recv, send = ctx.Pipe(duplex=False)  # the child's send waits until the last chunk is taken
     proc = ctx.Process(target=_parse_worker, args=(str(path), rows, send, recv), daemon=True)
