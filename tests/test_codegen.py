@@ -410,7 +410,7 @@ MODEL_ROBOT = ROOT / "robots" / "puma560_mdh.yaml"
 def saved_model_file(tmp_path, robot, smoothing):
     """A model file as identify --save-model writes it (random θ, every effect with a code form, a drift)."""
     from minparam_cli.base.qr import derive_qr
-    from minparam_cli.identify.data import DataOptions
+    from minparam_cli.measured.records import DataOptions
     from minparam_cli.identify.design import Design, Term
     from minparam_cli.identify.model import LoadSettings, SavedModel, dumps, sha256_hex
     from minparam_cli.pipeline import load_chain
@@ -435,7 +435,7 @@ def saved_model_file(tmp_path, robot, smoothing):
 
 def model_reference(design, theta, q, qd, qdd):
     """τ by identify's own design matrix, the drift column left out (its time is not a state)."""
-    from minparam_cli.identify.data import Block
+    from minparam_cli.measured.records import Block
 
     t = np.zeros(len(q))  # drift column t − t0 = 0: the generated code leaves the drift out
     X = design.columns(Block(t, q, qd, qdd, np.zeros_like(q)))

@@ -13,7 +13,7 @@ from typer.testing import CliRunner
 
 from minparam_cli.cli.app import app
 from minparam_cli.errors import DataError
-from minparam_cli.identify.data import DataOptions
+from minparam_cli.measured.records import DataOptions
 from minparam_cli.identify.reading import raw_chunks
 
 pytest.importorskip("pyarrow.csv")
@@ -83,12 +83,12 @@ def test_the_same_values_bit_for_bit_and_the_same_chunks(tmp_path, monkeypatch, 
 
 
 def test_a_clean_file_is_read_by_pyarrow_alone(tmp_path, monkeypatch):
-    from minparam_cli.identify import reading
+    from minparam_cli.measured import tables
 
     rows = [[f"{i / 100:.2f}"] + ["1.5"] * 8 for i in range(2000)]
     path = write(tmp_path / "d.csv", rows, newline="\r\n")
     calls = []
-    monkeypatch.setattr(reading, "_sequential", lambda fh, rows: calls.append(1) or iter(()))
+    monkeypatch.setattr(tables, "_sequential", lambda fh, rows: calls.append(1) or iter(()))
     got = chunks(path, monkeypatch, "pyarrow")
     assert not calls and sum(len(c) for c in got) == 2000
 

@@ -10,7 +10,7 @@ import pytest
 
 from minparam_cli.errors import DataError
 from minparam_cli.identify.ahead import ahead
-from minparam_cli.identify.data import Block
+from minparam_cli.measured.records import Block
 from minparam_cli.identify.kept import _Thinned
 
 

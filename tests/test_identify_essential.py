@@ -41,7 +41,7 @@ def test_reduced_fit_is_the_least_squares_fit_of_the_kept_columns(tmp_path):
     """Independent check: the essential values equal a weighted least-squares fit on the raw samples of the
     fit part with the dropped columns removed (regressor built directly, weights the report's σ_j)."""
     from minparam_cli.base.qr import derive_qr
-    from minparam_cli.identify.data import Block
+    from minparam_cli.measured.records import Block
     from minparam_cli.identify.design import Design
 
     path = ud.write(tmp_path / "c.csv", 40.0, 3, 2.0)

@@ -54,7 +54,7 @@ def _bad_copy(path, line_no, new_line):
 @pytest.mark.parametrize("no", [2, 1500, 3001])  # first row, inside the third chunk, last row
 def test_a_bad_row_is_named_by_its_file_line_in_both_readers(tmp_path, monkeypatch, line, expected, no):
     from minparam_cli.errors import DataError
-    from minparam_cli.identify import reading
+    from minparam_cli.measured import tables
     from minparam_cli.identify.data import DataOptions, load_all
 
     N = 3000
@@ -63,7 +63,7 @@ def test_a_bad_row_is_named_by_its_file_line_in_both_readers(tmp_path, monkeypat
     _write_rows(path, t)
     _bad_copy(path, no, line)
     for reader, limit in (("numpy", 1 << 40), ("numpy", 0), ("pyarrow", 1 << 40)):  # sequential, second process, pyarrow
-        monkeypatch.setattr(reading, "BACKGROUND_BYTES", limit)
+        monkeypatch.setattr(tables, "BACKGROUND_BYTES", limit)
         monkeypatch.setenv("MINPARAM_CSV_READER", reader)
         with pytest.raises(DataError) as err:
             load_all(path, 2, DataOptions(chunk_rows=700))
@@ -74,7 +74,7 @@ def test_a_bad_row_is_named_by_its_file_line_in_both_readers(tmp_path, monkeypat
 def test_a_parsing_process_that_dies_mid_message_is_an_error_not_a_hang(tmp_path, monkeypatch):
     """The child killed while it sends a chunk (out of memory, kill -9): the read ends with EOF."""
     from minparam_cli.errors import ComputationError
-    from minparam_cli.identify import reading
+    from minparam_cli.measured import tables
     from minparam_cli.identify.data import DataOptions, load_all
 
     def dying_worker(path, rows, out, theirs):  # the real worker's signature: dies of the cut, not of a TypeError
@@ -85,8 +85,8 @@ def test_a_parsing_process_that_dies_mid_message_is_an_error_not_a_hang(tmp_path
     N = 2000
     path = tmp_path / "d.csv"
     _write_rows(path, np.arange(N) / 100.0)
-    monkeypatch.setattr(reading, "BACKGROUND_BYTES", 0)
-    monkeypatch.setattr(reading, "_parse_worker", dying_worker)
+    monkeypatch.setattr(tables, "BACKGROUND_BYTES", 0)
+    monkeypatch.setattr(tables, "_parse_worker", dying_worker)
     signal.alarm(60)  # a hang fails the test instead of the suite
     try:
         with pytest.raises(ComputationError, match="the parsing process ended unexpectedly"):
@@ -98,8 +98,8 @@ def test_a_parsing_process_that_dies_mid_message_is_an_error_not_a_hang(tmp_path
 ORPHAN_PROBE = """
 import os, sys, time
 import numpy as np
-from minparam_cli.identify import reading
-from minparam_cli.identify.data import DataOptions
+from minparam_cli.measured import tables
+from minparam_cli.measured.records import DataOptions
 from minparam_cli.identify.reading import raw_chunks
 
 def slow(fh, rows):
@@ -107,8 +107,8 @@ def slow(fh, rows):
         time.sleep(0.05)
         yield np.ones((rows, 9))
 
-reading.BACKGROUND_BYTES = 0
-reading._sequential = slow  # the child parses forever, slowly
+tables.BACKGROUND_BYTES = 0
+tables._sequential = slow  # the child parses forever, slowly
 chunks = raw_chunks(__import__("pathlib").Path(sys.argv[1]), 2, DataOptions(chunk_rows=10))
 import multiprocessing
 try:
@@ -182,7 +182,8 @@ def test_a_last_row_the_cleaning_drops_does_not_move_the_hold_out_split(tmp_path
 
 def test_the_tail_window_never_reads_a_cut_line_as_a_row(tmp_path):
     """The last 64 KiB start inside a line: '3.123456789,...' cut to '23456789,...' is not a time."""
-    from minparam_cli.identify.data import TAIL_BYTES, DataOptions, time_span
+    from minparam_cli.identify.data import DataOptions, time_span
+    from minparam_cli.measured.spans import TAIL_BYTES
 
     t = 0.001 + np.arange(3000) / 100.0
     for k in range(200):  # trailing blank lines shift the window a byte at a time
@@ -223,12 +224,14 @@ def test_reading_goes_on_after_the_thread_that_started_it_ends(tmp_path, monkeyp
     import threading
 
     from minparam_cli.identify import reading
-    from minparam_cli.identify.data import DataOptions
+
+    from minparam_cli.measured import tables
+    from minparam_cli.measured.records import DataOptions
 
     N = 3000
     path = tmp_path / "d.csv"
     _write_rows(path, np.arange(N) / 100.0)
-    monkeypatch.setattr(reading, "BACKGROUND_BYTES", 0)
+    monkeypatch.setattr(tables, "BACKGROUND_BYTES", 0)
     chunks = reading.raw_chunks(path, 2, DataOptions(chunk_rows=700))
     first = []
     worker = threading.Thread(target=lambda: first.append(next(chunks)))

@@ -170,7 +170,7 @@ def test_diagnosis_finds_the_hidden_effects_and_drift_has_one_origin(panda_setup
 
 def test_background_parsing_gives_the_same_chunks_and_errors(tmp_path, monkeypatch):
     from minparam_cli.errors import DataError
-    from minparam_cli.identify import reading
+    from minparam_cli.measured import tables
     from minparam_cli.identify.data import DataOptions, DataReport, load_all
 
     rng = np.random.default_rng(2)
@@ -184,7 +184,7 @@ def test_background_parsing_gives_the_same_chunks_and_errors(tmp_path, monkeypat
     opts = DataOptions(chunk_rows=700)
     runs = []
     for limit in (1 << 40, 0):  # sequential, then in the second process
-        monkeypatch.setattr(reading, "BACKGROUND_BYTES", limit)
+        monkeypatch.setattr(tables, "BACKGROUND_BYTES", limit)
         rep = DataReport(str(path))
         runs.append((load_all(path, 2, opts, rep), rep.as_dict()))
     (a, ra), (b, rb) = runs
@@ -194,7 +194,7 @@ def test_background_parsing_gives_the_same_chunks_and_errors(tmp_path, monkeypat
     path.write_text("\n".join(lines) + "\n")
     messages = []
     for limit in (1 << 40, 0):
-        monkeypatch.setattr(reading, "BACKGROUND_BYTES", limit)
+        monkeypatch.setattr(tables, "BACKGROUND_BYTES", limit)
         with pytest.raises(DataError) as err:
             load_all(path, 2, opts)
         messages.append(str(err.value))

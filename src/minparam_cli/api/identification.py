@@ -23,7 +23,7 @@ from minparam_cli.errors import InputError
 if TYPE_CHECKING:
     import numpy as np
 
-    from minparam_cli.identify.data import DataOptions
+    from minparam_cli.measured.records import DataOptions
     from minparam_cli.identify.design import Design
     from minparam_cli.identify.model import SavedModel
 
@@ -125,7 +125,7 @@ def identify(robot: Robot | str | Path, data: Any, *, validate: Any = None, test
     optionally ``payload_com`` and ``payload_inertia``) adds the payload's identification
     (docs/methods/transmission.md).
     """
-    from minparam_cli.identify.data import DataOptions
+    from minparam_cli.measured.records import DataOptions
     from minparam_cli.identify.uncertainty import UncertaintyOptions, check_options
     from minparam_cli.identify.diagnose import DiagnosisOptions
     from minparam_cli.identify.effects import EFFECT_IDS

@@ -222,7 +222,7 @@ class Model:
         import numpy as np
 
         from minparam_cli.errors import InputError
-        from minparam_cli.identify.data import Block
+        from minparam_cli.measured.records import Block
         from minparam_cli.identify.evaluation import predict as run
 
         n = self.design.chain.dof

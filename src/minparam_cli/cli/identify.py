@@ -157,7 +157,7 @@ def _identify(robot, data, validate, test, split, columns, time_unit, topic, cut
               friction, rotor_inertia, coulomb_smoothing, gravity, effects, no_diagnose, min_gain, physical, prior,
               prior_weight, sigma, block_length, replicates, consistency, essential, essential_bound, ols, fmt, output, plot, seed, save_model, export_urdf, export_yaml, mimic, quiet, jobs=1, scheduler=None,
               side="joint", current=False, payload_data=None, payload_mass=None, payload_com=None, payload_inertia=None):
-    from minparam_cli.identify.data import DataOptions
+    from minparam_cli.measured.records import DataOptions
     from minparam_cli.identify.diagnose import DiagnosisOptions
     from minparam_cli.identify.effects import EFFECT_IDS
     from minparam_cli.identify.stage import IdentifyOptions, identify as run

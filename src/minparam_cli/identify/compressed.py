@@ -19,7 +19,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from minparam_cli.identify.data import Block
+from minparam_cli.measured.records import Block
 from minparam_cli.identify.design import Design, Term
 from minparam_cli.identify.effects import EFFECTS, source_columns
 

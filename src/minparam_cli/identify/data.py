@@ -22,8 +22,6 @@ Everything dropped is counted and reported, with the reason.
 
 from __future__ import annotations
 
-import math
-from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Iterator
 
@@ -31,88 +29,18 @@ import numpy as np
 
 from minparam_cli.errors import DataError
 
-DEFAULT_CUTOFF_HZ = 5.0
-FILTER_ORDER = 4
-CHUNK_ROWS = 200_000
-KEYS = ("t", "q", "dq", "ddq", "tau")
-# a time step that differs from the sampling step by more than this share (longer or shorter) is irregular
-IRREGULAR_TOL = 0.1
-STAMP_ULPS = 2  # two time stamps' steps that differ by at most this many units in the last place are the same step
-
-
-@dataclass(frozen=True)
-class DataOptions:
-    columns: dict[str, str] = field(default_factory=dict)  # key -> column name (t) or spec (q, dq, ...: measured/columns.py)
-    cutoff_hz: float = DEFAULT_CUTOFF_HZ
-    force_filter: bool = False
-    chunk_rows: int = CHUNK_ROWS
-    decimate: int | None = None  # None: automatic (about 10x the cut-off)
-    step_s: float | None = None  # sampling step; None: from the steps of the first chunk (see sampling_step)
-    still_speed: float = 0.01  # rad/s or m/s: joint j is still at a sample when |dq_j| < still_speed
-    trim_still_s: float | None = None  # drop every run of all-joints-still samples longer than this (s); None: keep all
-    # a velocity derived by the filter (not read from the file) below still_speed is set to 0: the joint
-    # is at rest as far as the data can tell, and sign(q̇) of the noise would put its Coulomb friction at ±Fc
-    rest_below_still: bool = True
-    time_unit: str = "s"  # unit of a CSV or .npz time column: s, ms, us or ns (measured.columns.TIME_UNITS)
-    topic: str | None = None  # a ROS bag's JointState topic; None: the bag's only one
-    joint_names: tuple[str, ...] = ()  # names of the independent coordinates, in order (ROS bags match by name)
-    # motor-side data (identify --side motor): (N rows, zero, gains or None); q = N⁻¹θ + zero,
-    # τ = Nᵀ diag(gains) τ_m, applied as the rows are read (dynamics/transmission.py); None: joint side
-    motor_side: tuple | None = None
-
-
-@dataclass
-class Block:
-    t: np.ndarray
-    q: np.ndarray
-    dq: np.ndarray
-    ddq: np.ndarray
-    tau: np.ndarray
-
-    def __len__(self) -> int:
-        return len(self.t)
-
-    def take(self, idx) -> "Block":
-        return Block(self.t[idx], self.q[idx], self.dq[idx], self.ddq[idx], self.tau[idx])
-
-    @staticmethod
-    def concat(blocks: list["Block"]) -> "Block":
-        return Block(*(np.concatenate([getattr(b, k) for b in blocks]) for k in KEYS))
-
-
-@dataclass
-class DataReport:
-    """What happened to the file: counts and choices, for the report."""
-
-    path: str
-    rows_read: int = 0
-    dropped: dict = field(default_factory=lambda: {"nan": 0, "time_not_increasing": 0, "repeated_sample": 0})
-    irregular_steps: int = 0
-    median_step_s: float | None = None
-    derived: list = field(default_factory=list)
-    filter: str | None = None
-    decimation: int = 1
-    samples: int = 0  # samples yielded (after decimation and standstill trimming)
-    still_share: list = field(default_factory=list)  # per joint: share of the samples (before trimming) in which it is still
-    still_all_share: float = 0.0  # share of the samples (before trimming) in which every joint is still
-    trimmed_segments: int = 0  # standstills dropped by trim_still_s (their samples: dropped["standstill"])
-    rest_below: float | None = None  # derived |q̇| below this speed was set to 0 (DataOptions.rest_below_still); None: not
-
-    def as_dict(self) -> dict:
-        return {
-            "rows_read": self.rows_read,
-            "dropped": dict(self.dropped),
-            "irregular_steps": self.irregular_steps,
-            "median_step_s": self.median_step_s,
-            "derived": list(self.derived),
-            "filter": self.filter,
-            "decimation": self.decimation,
-            "samples": self.samples,
-            "still_share": [float(x) for x in self.still_share],
-            "still_all_share": float(self.still_all_share),
-            "trimmed_segments": self.trimmed_segments,
-            "rest_below": self.rest_below,
-        }
+from minparam_cli.measured.records import (  # noqa: F401  (re-exported: the records' former home)
+    CHUNK_ROWS,
+    DEFAULT_CUTOFF_HZ,
+    FILTER_ORDER,
+    IRREGULAR_TOL,
+    KEYS,
+    STAMP_ULPS,
+    Block,
+    DataOptions,
+    DataReport,
+    sampling_step,
+)
 
 
 def _clean(table: np.ndarray, last: np.ndarray | None, report: DataReport) -> tuple[np.ndarray, np.ndarray | None]:
@@ -145,30 +73,6 @@ def _clean(table: np.ndarray, last: np.ndarray | None, report: DataReport) -> tu
     return table, new_last
 
 
-def sampling_step(t: np.ndarray) -> float | None:
-    """The sampling step of time stamps ``t`` (NaN and non-increasing steps ignored), or None.
-
-    The median step, refined as the mean of the steps that equal it up to the rounding of the
-    stamps (STAMP_ULPS units in the last place of the largest stamp).  The median alone carries
-    that rounding: a double resolves raw controller stamps (t ≈ 1.7e9 s) to 0.24 µs, so a 2 ms step
-    reads 1.99986 or 2.00010 ms and the median is one of them, which moves a long resampling grid
-    by samples; the mean over those steps is the true step to the stamps' resolution divided by
-    their count, so that a record and its re-zeroed copy are resampled alike.  Jitter larger than
-    the rounding (logged stamps) is left out of the mean, which stays the median then.
-    """
-    t = t[np.isfinite(t)]
-    d = np.diff(t)
-    d = d[d > 0]
-    if not len(d):
-        return None
-    med = float(np.median(d))
-    same = d[np.abs(d - med) <= STAMP_ULPS * float(np.spacing(np.max(np.abs(t))))]
-    return float(same.mean()) if len(same) else med
-
-
-TAIL_BYTES = 65536  # how much of the head and of the tail time_span reads
-
-
 def time_span(path: str | Path, opts: DataOptions) -> tuple[float, float]:
     """First and last usable time stamp of a data file without reading it all (CSV: its head and tail).
 
@@ -189,80 +93,16 @@ def time_span(path: str | Path, opts: DataOptions) -> tuple[float, float]:
 
     if record is None and is_description(path):  # CSV files joined by a description (measured/recording.py)
         return recording_time_span(path, opts)
+    from minparam_cli.measured.spans import file_time_span
+
     if record is not None:
         from minparam_cli.measured.arrays import time_span as record_span
 
         first, last = record_span(record, len(opts.joint_names), opts)
     else:
-        first, last = _file_time_span(path, name, opts)
+        first, last = file_time_span(path, name, opts)
     divisor = TIME_UNITS[opts.time_unit]
     return first / divisor, last / divisor
-
-
-def _file_time_span(path: Path, name: str, opts: DataOptions) -> tuple[float, float]:
-    """time_span of an .npz or CSV file, in the file's time unit."""
-    from minparam_cli.identify.reading import _short, open_npz, require_data_file
-    from minparam_cli.measured.columns import time_index
-
-    if path.suffix.lower() == ".parquet":
-        from minparam_cli.measured.parquet import parquet_time_span
-
-        return parquet_time_span(path, name)
-    require_data_file(path)
-    if path.suffix.lower() == ".npz":
-        with open_npz(path) as z:
-            try:
-                t = np.asarray(z[name], dtype=float)
-            except MemoryError:
-                raise
-            except Exception as e:  # noqa: BLE001 - a missing or damaged member
-                raise DataError(f"{path}: cannot read time array '{name}' ({_short(e)})") from None
-        t = t[np.isfinite(t)]
-        if len(t) < 2:
-            raise DataError(f"{path}: fewer than two time stamps")
-        return float(t.min()), float(t.max())
-    try:
-        with open(path, "rb") as fh:
-            raw = fh.read(TAIL_BYTES)
-            head = _lines(raw)
-            if len(raw) == TAIL_BYTES:
-                head = head[:-1]  # it may be cut
-            header = (head[0] if head else "").strip().split(",")
-            head = head[1:]
-            fh.seek(0, 2)
-            size = fh.tell()
-            start = max(0, size - TAIL_BYTES)
-            fh.seek(start)
-            tail = _lines(fh.read())
-    except OSError as e:
-        raise DataError(f"{path}: cannot read file ({e.strerror})") from e
-    if start > 0:
-        tail = tail[1:]  # the window starts inside a line: its first fragment is not a row
-    k = time_index(header, len(opts.joint_names), opts.columns, str(path))
-    first = next((t for t in (_time_of(line, k) for line in head) if t is not None), None)
-    last = max((t for t in (_time_of(line, k) for line in tail) if t is not None), default=None)
-    if first is None or last is None:
-        raise DataError(f"{path}: cannot read the first and last time stamps (no row with a finite time)")
-    return first, last
-
-
-def _lines(raw: bytes) -> list[str]:
-    """Lines split at \\n, \\r\\n or \\r, as the reader's universal newlines (str.splitlines would also
-    split at \\x1c, \\x85 or U+2028 inside a row)."""
-    return [line.decode("utf-8", "replace") for line in raw.splitlines()]
-
-
-def _time_of(line: str, k: int) -> float | None:
-    """The finite time stamp of a data row, or None (blank, comment, too short, not a number); a row
-    of the wrong width is the reader's to report, with its line."""
-    values = line.split("#", 1)[0].split(",")
-    if len(values) <= k:
-        return None
-    try:
-        t = float(values[k])
-    except ValueError:
-        return None
-    return t if math.isfinite(t) else None
 
 
 def iter_blocks(path: str | Path, n: int, opts: DataOptions, report: DataReport | None = None) -> Iterator[Block]:

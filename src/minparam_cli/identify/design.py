@@ -8,7 +8,7 @@ import numpy as np
 
 from minparam_cli.chain import Chain
 from minparam_cli.dynamics.regressor import regressor
-from minparam_cli.identify.data import Block
+from minparam_cli.measured.records import Block
 from minparam_cli.identify.effects import EFFECTS, Signals
 
 

@@ -41,7 +41,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from minparam_cli.identify.compressed import Compressed
-from minparam_cli.identify.data import Block
+from minparam_cli.measured.records import Block
 from minparam_cli.identify.design import Design, Term
 from minparam_cli.identify.effects import EFFECT_IDS, EFFECTS, in_bounds
 from minparam_cli.identify.scoring import score

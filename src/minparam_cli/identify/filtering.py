@@ -26,7 +26,7 @@ import math
 import numpy as np
 
 from minparam_cli.errors import DataError
-from minparam_cli.identify.data import FILTER_ORDER, IRREGULAR_TOL, KEYS, Block, DataOptions, DataReport, sampling_step
+from minparam_cli.measured.records import FILTER_ORDER, IRREGULAR_TOL, KEYS, Block, DataOptions, DataReport, sampling_step
 
 RATE_TOL = 1e-3
 GRID_TOL = 1e-3

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from minparam_cli.identify.data import Block
+from minparam_cli.measured.records import Block
 
 
 class _Thinned:

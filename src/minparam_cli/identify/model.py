@@ -30,7 +30,7 @@ from pathlib import Path
 import numpy as np
 
 from minparam_cli.errors import InputError
-from minparam_cli.identify.data import DataOptions
+from minparam_cli.measured.records import DataOptions
 from minparam_cli.identify.design import Design, Term
 from minparam_cli.identify.effects import EFFECTS
 

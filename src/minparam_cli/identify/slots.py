@@ -21,7 +21,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from minparam_cli.identify.data import Block
+from minparam_cli.measured.records import Block
 from minparam_cli.identify.design import Design, Term
 from minparam_cli.identify.effects import EFFECTS, Signals, source_columns
 

@@ -108,7 +108,7 @@ def lookup(path: object) -> Record | None:
 def chunks(record: Record, n: int, opts) -> Iterator[tuple[np.ndarray, dict]]:
     """``reading.raw_chunks`` of a record (time in the record's unit): the .npz route for arrays, the
     CSV column rules (``measured.columns.column_indices``) for a table."""
-    from minparam_cli.identify.reading import _layout, array_chunks
+    from minparam_cli.measured.tables import _layout, array_chunks
     from minparam_cli.measured.columns import column_indices
 
     if record.kind == "arrays":

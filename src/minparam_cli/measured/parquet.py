@@ -17,7 +17,7 @@ def is_parquet(path: Path) -> bool:
 
 
 def _open(path: Path):
-    from minparam_cli.identify.reading import _short, require_data_file
+    from minparam_cli.measured.tables import _short, require_data_file
     from minparam_cli.optional import import_optional
 
     pq = import_optional("pyarrow.parquet", "arrow", "reading Parquet files")
@@ -44,8 +44,8 @@ def _floats(column, name: str, src: str) -> np.ndarray:
 
 def parquet_chunks(path: Path, n: int, opts) -> Iterator[tuple[np.ndarray, dict]]:
     """Chunks of opts.chunk_rows rows: the used columns (t, q, [dq], [ddq], tau), time in the file's unit."""
-    from minparam_cli.identify.data import KEYS
-    from minparam_cli.identify.reading import _layout
+    from minparam_cli.measured.records import KEYS
+    from minparam_cli.measured.tables import _layout
     from minparam_cli.measured.columns import column_indices
 
     src = str(path)

@@ -156,7 +156,7 @@ def _indices(header: list[str], part: Part, n: int, src: str) -> dict[str, list[
 def recording_chunks(path: Path, n: int, opts) -> Iterator[tuple[np.ndarray, dict]]:
     """Chunks of ``opts.chunk_rows`` rows of the joined files: the used columns (t, q, [dq], [ddq],
     tau) and their layout, as ``identify.reading.raw_chunks`` yields them, time in seconds."""
-    from minparam_cli.identify.reading import _layout, csv_tables
+    from minparam_cli.measured.tables import _layout, csv_tables
 
     rec = read_description(path)
     if opts.columns:
@@ -199,16 +199,16 @@ def recording_chunks(path: Path, n: int, opts) -> Iterator[tuple[np.ndarray, dic
 def recording_time_span(path: Path, opts) -> tuple[float, float]:
     """First and last time stamp (s) of a described recording: from the row count and the rate, or
     from the time column's file (its head and tail)."""
-    from minparam_cli.identify.reading import require_data_file
+    from minparam_cli.measured.tables import require_data_file
 
     rec = read_description(path)
     for i, part in enumerate(rec.parts):
         if "t" in part.columns:
             from dataclasses import replace
 
-            from minparam_cli.identify.data import _file_time_span
+            from minparam_cli.measured.spans import file_time_span
 
-            first, last = _file_time_span(part.path, part.columns["t"], replace(opts, columns={"t": part.columns["t"]}))
+            first, last = file_time_span(part.path, part.columns["t"], replace(opts, columns={"t": part.columns["t"]}))
             return first / TIME_UNITS[rec.time_unit], last / TIME_UNITS[rec.time_unit]
     first_file = rec.parts[0].path
     require_data_file(first_file)

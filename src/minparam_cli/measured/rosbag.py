@@ -24,7 +24,7 @@ from typing import Iterator
 import numpy as np
 
 from minparam_cli.errors import DataError
-from minparam_cli.identify.data import DataOptions
+from minparam_cli.measured.records import DataOptions
 
 JOINT_STATE = "sensor_msgs/msg/JointState"
 BAG_SUFFIXES = (".mcap", ".db3", ".bag")
@@ -152,7 +152,7 @@ class _Bag:
 
 def bag_chunks(path: Path, n: int, opts: DataOptions) -> Iterator[tuple[np.ndarray, dict]]:
     """Chunks of opts.chunk_rows messages: a table of t, q, [dq], tau and its layout (``reading._layout``)."""
-    from minparam_cli.identify.reading import _layout
+    from minparam_cli.measured.tables import _layout
 
     names = tuple(opts.joint_names)
     if len(names) != n:
