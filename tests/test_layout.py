@@ -1,0 +1,63 @@
+"""The code's map holds (STYLE.md, ARCHITECTURE.md): no two modules import each other, at module
+level or inside a function (a lazy import is still a dependency), and the stages never import the
+command line."""
+
+from __future__ import annotations
+
+import ast
+from pathlib import Path
+
+SRC = Path(__file__).resolve().parents[1] / "src"
+
+
+def _modules() -> dict[str, Path]:
+    out = {}
+    for p in SRC.rglob("*.py"):
+        parts = p.relative_to(SRC).with_suffix("").parts
+        name = ".".join(parts[:-1] if parts[-1] == "__init__" else parts)
+        out[name] = p
+    return out
+
+
+def _imports(name: str, path: Path, modules: dict[str, Path]) -> set[str]:
+    package = name if path.name == "__init__.py" else name.rpartition(".")[0]
+    found = set()
+    for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+        if isinstance(node, ast.ImportFrom):
+            base = node.module or ""
+            if node.level:
+                parts = package.split(".")[: len(package.split(".")) - (node.level - 1)]
+                base = ".".join(parts + ([base] if base else []))
+            for alias in node.names:
+                full = f"{base}.{alias.name}"
+                found.add(full if full in modules else base)
+        elif isinstance(node, ast.Import):
+            found.update(a.name for a in node.names)
+    return {m for m in found if m in modules and m != name}
+
+
+def test_no_two_modules_import_each_other():
+    modules = _modules()
+    edges = {m: _imports(m, p, modules) for m, p in modules.items()}
+    pairs = sorted({tuple(sorted((a, b))) for a in edges for b in edges[a] if a in edges.get(b, ())})
+    assert not pairs, pairs
+
+
+def test_stages_never_import_the_command_line():
+    modules = _modules()
+    below = [m for m in modules if m.startswith("minparam_cli.") and not m.startswith(("minparam_cli.cli", "minparam_cli.__main__"))]
+    offenders = {m: sorted(i for i in _imports(m, modules[m], modules) if i.startswith("minparam_cli.cli")) for m in below}
+    assert not {m: v for m, v in offenders.items() if v}
+
+
+def test_the_checker_sees_a_lazy_import_pair(tmp_path, monkeypatch):
+    """The check can fail: two modules that import each other inside functions are found."""
+    pkg = tmp_path / "pkg"
+    pkg.mkdir()
+    (pkg / "__init__.py").write_text("")
+    (pkg / "a.py").write_text("def f():\n    from pkg.b import g\n")
+    (pkg / "b.py").write_text("def g():\n    from . import a\n")
+    monkeypatch.setattr(__import__(__name__), "SRC", tmp_path)
+    modules = _modules()
+    assert _imports("pkg.a", modules["pkg.a"], modules) == {"pkg.b"}
+    assert _imports("pkg.b", modules["pkg.b"], modules) == {"pkg.a"}
