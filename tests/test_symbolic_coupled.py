@@ -148,15 +148,18 @@ def test_parallelogram_needs_the_coupled_angles(tmp_path, monkeypatch):
     assert r["symbolic_verification"]["passed"] is False
 
 
-def test_more_than_seven_joints_on_one_coordinate_are_refused(tmp_path):
+def test_more_than_seven_joints_on_one_coordinate(tmp_path):
+    """Nine revolute joints on one coordinate (beyond the collision search's MAX_COUPLED = 7): the
+    angles are drawn as the constraint itself, θ_j = K_j φ, and the set is exact."""
     j = tm.joint
     joints = [j("j0", "revolute", "base", "l0", "0 0 0.2", "0 0 1")]
-    for i in range(1, 9):  # eight fingers' joints, all driven by j0
-        joints.append(j(f"j{i}", "revolute", f"l{i - 1}", f"l{i}", f"0.1 0.0{i} 0", "0 1 0", mimic=("j0", 0.5 + 0.1 * i, 0)))
-    path = tm.write(tmp_path, "hand", joints, ["base"] + [f"l{i}" for i in range(9)])
-    from minparam_cli.errors import ComputationError
+    for i in range(1, 9):  # a planar chain: eight joints about parallel axes, all driven by j0
+        joints.append(j(f"j{i}", "revolute", f"l{i - 1}", f"l{i}", "0.3 0 0", "0 0 1", mimic=("j0", i / 2, 0)))
+    path = tm.write(tmp_path, "snake", joints, ["base"] + [f"l{i}" for i in range(9)])
     from minparam_cli.pipeline import load_chain
 
-    _desc, chain = load_chain(path, DeriveOptions())  # (the numeric rank of this toy hand is too close to call)
-    with pytest.raises(ComputationError, match="9 revolute joints move with one coordinate"):
-        Coupled(chain, "hand")
+    _desc, chain = load_chain(path, DeriveOptions())
+    plan = Coupled(chain, "snake")
+    (coupled, M), = plan.lattice.values()
+    assert len(coupled) == 9 and M == [[2], [1], [2], [3], [4], [5], [6], [7], [8]]  # k = 1, 1/2, 1, ..., 4
+    _check(path, DeriveOptions(symbolic=True))

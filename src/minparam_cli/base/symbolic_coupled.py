@@ -17,7 +17,6 @@ import numpy as np
 
 from minparam_cli.base.symbolic_frames import Arith
 from minparam_cli.chain import PRISMATIC
-from minparam_cli.errors import ComputationError
 
 
 class Coupled:
@@ -53,9 +52,9 @@ class Coupled:
             joints = [j for j in range(n) if self.master[j] == m and self.revolute[j] and self.k[j]]
             if len(joints) < 2:
                 continue
-            if len(joints) > MAX_COUPLED:
-                raise ComputationError(f"{source}: {len(joints)} revolute joints move with one coordinate: exact states "
-                                       f"are drawn for at most {MAX_COUPLED}")
+            if len(joints) > MAX_COUPLED:  # the box search is 9^m vectors: take the constraint itself
+                self.lattice[m] = (joints, _constraint_column([self.k[j] for j in joints]))
+                continue
             C = _collisions([self.k[j] for j in joints])
             if C:
                 self.lattice[m] = (joints, _complement(C, len(joints)))
@@ -102,7 +101,18 @@ class Coupled:
         return cq, sq, q, qd
 
 
-MAX_COUPLED = 7  # revolute joints moved by one coordinate (the collision search is 9^m vectors)
+MAX_COUPLED = 7  # revolute joints moved by one coordinate for the collision search (9^m vectors)
+
+
+def _constraint_column(ks) -> list[list[int]]:
+    """M = K / gcd(K) with K_j = k_j·D integers (D the common denominator): θ_j = K_j φ is the mimic
+    constraint θ_j = k_j q itself (q = D φ / gcd), so Σ δ_j k_j = 0 ⟺ Mᵀδ = 0 for every integer δ.
+    Exact for any number of joints; the angles are all multiples of one circle point, which makes the
+    rationals larger than the collision search's M (used up to MAX_COUPLED joints)."""
+    D = math.lcm(*(k.denominator for k in ks))
+    K = [int(k * D) for k in ks]
+    g = math.gcd(*K)
+    return [[x // g] for x in K]
 
 
 def _collisions(ks) -> list[tuple[int, ...]]:
