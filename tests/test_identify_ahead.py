@@ -142,3 +142,19 @@ def test_block_grams_equal_the_grams_of_each_time_block(shuffle):
         for j in range(n):
             ref = sel[:, j].T @ sel[:, j]
             assert np.allclose(G[j], ref, rtol=1e-12, atol=1e-12 * np.abs(ref).max())
+
+
+def test_the_producer_sees_the_callers_context_variables():
+    """The Python API registers in-memory arrays in a context variable; the reading thread must see them."""
+    import contextvars
+
+    from minparam_cli.identify.ahead import ahead
+
+    var: contextvars.ContextVar[str] = contextvars.ContextVar("probe", default="unset")
+    var.set("caller's")
+
+    def gen():
+        for _ in range(3):
+            yield var.get()
+
+    assert list(ahead(gen())) == ["caller's"] * 3

@@ -16,6 +16,7 @@ its ``finally`` clauses) and the thread is joined before this returns.
 
 from __future__ import annotations
 
+import contextvars
 import queue
 import threading
 from collections.abc import Iterator
@@ -54,7 +55,10 @@ def ahead(gen: Iterator[T], depth: int = 2) -> Iterator[T]:
             if close is not None:
                 close()
 
-    worker = threading.Thread(target=produce, name="minparam-ahead", daemon=True)
+    # the producer runs in a copy of the caller's context: context variables (the Python API's arrays
+    # registered by name, measured.arrays) are seen by the reader on the other thread too
+    context = contextvars.copy_context()
+    worker = threading.Thread(target=context.run, args=(produce,), name="minparam-ahead", daemon=True)
     worker.start()
     try:
         while True:
