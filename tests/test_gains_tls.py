@@ -4,44 +4,18 @@ one recording without and one with a known 2.8 kg payload (the set-up of test_pa
 
 from __future__ import annotations
 
-import json
-
 import numpy as np
 import pytest
-import yaml
-from conftest import ROBOTS
-from typer.testing import CliRunner
+from test_payload_gains import GAINS, MASS, identify, recordings  # noqa: F401  (recordings: that module's fixture, the same set-up)
 
-from minparam_cli.cli.app import app
 from minparam_cli.identify.payload import _tls
-
-GAINS = [0.8, 0.9, 1.1, 0.7, 1.3, 0.6]
-MASS, COM, INERTIA = 2.8, (0.02, -0.01, 0.05), (0.01, 0.0, 0.0, 0.012, 0.0, 0.008)
-
-
-def ok(*args):
-    r = CliRunner().invoke(app, [str(a) for a in args])
-    assert r.exit_code == 0, r.output
-    return r
 
 
 @pytest.fixture(scope="module")
-def report(tmp_path_factory):
-    tmp = tmp_path_factory.mktemp("tls")
-    doc = yaml.safe_load((ROBOTS / "puma560_mdh.yaml").read_text())
-    doc["transmission"] = {"ratios": [62.6, 107.8, 53.7, 76.0, 71.9, 76.7], "coupling": [[6, 5, 13.25]], "drive_gains": GAINS}
-    with_gains = tmp / "puma_gains.yaml"
-    with_gains.write_text(yaml.safe_dump(doc))
-    doc["transmission"].pop("drive_gains")
-    without = tmp / "puma.yaml"
-    without.write_text(yaml.safe_dump(doc))
-    payload = ["--payload-mass", MASS, "--payload-com", ",".join(map(str, COM)), "--payload-inertia", ",".join(map(str, INERTIA))]
-    common = ["--noise", "0.02", "--duration", "10", "-q", "--side", "motor", "--current"]
-    ok("simulate", with_gains, *common, "--seed", "1", "-o", tmp / "a.csv")
-    ok("simulate", with_gains, *common, "--seed", "2", *payload, "-o", tmp / "b.csv")
-    r = ok("identify", without, tmp / "a.csv", "--no-diagnose", "-q", "-f", "json", "--side", "motor", "--current",
-           "--payload-data", tmp / "b.csv", "--payload-mass", MASS)
-    return json.loads(r.output)["payload"]
+def report(recordings):  # noqa: F811
+    _, _, without, f = recordings
+    return identify(without, f["a_cur"], "--side", "motor", "--current", "--payload-data", f["b_cur"],
+                    "--payload-mass", MASS)["payload"]
 
 
 def test_tls_gains_within_2_percent_and_beside_gauss_newton(report):

@@ -179,3 +179,28 @@ def integer_rref(rows: list[list[int]], ncols: int) -> tuple[list[int], list[lis
         basis.append(r)
     order = sorted(range(len(pivots)), key=lambda i: pivots[i])
     return [pivots[i] for i in order], [basis[i] for i in order]
+
+
+def solve_dense(rows: list[list], rhs: list, zero):
+    """Exact solution of a tall consistent system (rows x unknowns); None if inconsistent or
+    not of full column rank."""
+    m = len(rows[0]) if rows else 0
+    A = [list(r) + [b] for r, b in zip(rows, rhs)]
+    piv_rows = []
+    r = 0
+    for c in range(m):
+        p = next((i for i in range(r, len(A)) if A[i][c]), None)
+        if p is None:
+            return None
+        A[r], A[p] = A[p], A[r]
+        inv = 1 / A[r][c] if not isinstance(A[r][c], float) else 1.0 / A[r][c]
+        A[r] = [x * inv for x in A[r]]
+        for i in range(len(A)):
+            if i != r and A[i][c]:
+                f = A[i][c]
+                A[i] = [x - f * y for x, y in zip(A[i], A[r])]
+        piv_rows.append(r)
+        r += 1
+    if any(A[i][m] for i in range(r, len(A))):
+        return None
+    return [A[i][m] for i in range(m)]

@@ -189,17 +189,23 @@ def _generator_values(symbols, gravity_values, x) -> dict:
     return out
 
 
-def verify(exprs, exact, symbols, gravity_values, beta_of, X) -> float:
-    """Largest error of the printed expressions against numeric β at points X (gravity at the
-    file's value), relative to the size of the exact coefficient's terms there (so that a
-    coefficient that happens to vanish at a point is measured against its parts); an entry the
-    exact set lacks counts as error 1."""
+def _evaluator(exprs, symbols, gravity_values):
+    """(keys, f): f(*x) gives the printed expressions' values, in the order of keys, at the values x
+    of the symbols (gravity at the file's value)."""
     import sympy as sp
 
     names = [sp.Symbol(s.name) for s in symbols]
     gsubs = {sp.Symbol(k): v for k, v in gravity_values.items()}
     keys = list(exprs)
-    f = sp.lambdify(names, [exprs[k].subs(gsubs) for k in keys], "math")
+    return keys, sp.lambdify(names, [exprs[k].subs(gsubs) for k in keys], "math")
+
+
+def verify(exprs, exact, symbols, gravity_values, beta_of, X) -> float:
+    """Largest error of the printed expressions against numeric β at points X (gravity at the
+    file's value), relative to the size of the exact coefficient's terms there (so that a
+    coefficient that happens to vanish at a point is measured against its parts); an entry the
+    exact set lacks counts as error 1."""
+    keys, f = _evaluator(exprs, symbols, gravity_values)
     worst = 0.0
     for x in X:
         B = beta_of(x)
@@ -225,12 +231,7 @@ def identity_error(exprs, symbols, gravity_values, W_of, kept, dependent, X) -> 
     the columns' conditioning allows), this measures whether the expressions regroup the
     regressor, to the rounding of one evaluation: the check used at the file's values, where CAD
     numbers (5.55e−17 m, 1.57079 rad) give true coefficients of 1e−17 or 5e−7."""
-    import sympy as sp
-
-    names = [sp.Symbol(s.name) for s in symbols]
-    gsubs = {sp.Symbol(k): v for k, v in gravity_values.items()}
-    keys = list(exprs)
-    f = sp.lambdify(names, [exprs[k].subs(gsubs) for k in keys], "math")
+    keys, f = _evaluator(exprs, symbols, gravity_values)
     worst = 0.0
     for x in X:
         W = W_of(x)

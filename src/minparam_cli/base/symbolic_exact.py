@@ -49,6 +49,7 @@ from minparam_cli.base.symbolic_frames import (
     energy_coefficients,
     transfer_matrix,
 )
+from minparam_cli.base.echelon import solve_dense
 from minparam_cli.base.symbolic_coupled import Coupled
 from minparam_cli.chain import PRISMATIC
 from minparam_cli.errors import ComputationError
@@ -212,31 +213,6 @@ def numeric_relations(desc, chain, cols, far: Arith, ftrans, rng, plan: Coupled)
         relations[k] = [indep[m][0] for m in range(len(indep)) if size[m] > COEF_RTOL * norms[i]]
     free = [k for k, c in enumerate(cols) if c.where[0] == "free"]
     return sorted([k for k, _ in indep] + free), relations
-
-
-def solve_dense(rows: list[list], rhs: list, zero):
-    """Exact solution of a tall consistent system (rows x unknowns); None if inconsistent or
-    not of full column rank."""
-    m = len(rows[0]) if rows else 0
-    A = [list(r) + [b] for r, b in zip(rows, rhs)]
-    piv_rows = []
-    r = 0
-    for c in range(m):
-        p = next((i for i in range(r, len(A)) if A[i][c]), None)
-        if p is None:
-            return None
-        A[r], A[p] = A[p], A[r]
-        inv = 1 / A[r][c] if not isinstance(A[r][c], float) else 1.0 / A[r][c]
-        A[r] = [x * inv for x in A[r]]
-        for i in range(len(A)):
-            if i != r and A[i][c]:
-                f = A[i][c]
-                A[i] = [x - f * y for x, y in zip(A[i], A[r])]
-        piv_rows.append(r)
-        r += 1
-    if any(A[i][m] for i in range(r, len(A))):
-        return None
-    return [A[i][m] for i in range(m)]
 
 
 def exact_relations(desc, chain, cols, ar: Arith, transforms, relations, rng, rat: Arith, rat_transforms, plan: Coupled):

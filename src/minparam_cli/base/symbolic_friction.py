@@ -94,28 +94,9 @@ def friction_relations(chain, cols, plan) -> dict[int, list[tuple[int, Fraction]
 
 def _combination(basis: list[list[Fraction]], target: list[Fraction]) -> list[Fraction] | None:
     """x with Σ x_i basis_i = target exactly, or None (the basis is independent by construction)."""
+    from minparam_cli.base.echelon import solve_dense
+
     if not basis:
         return None if any(target) else []
-    m = len(basis)
-    A = [[basis[i][r] for i in range(m)] + [target[r]] for r in range(len(target))]
-    row = 0
-    pivots = []
-    for col in range(m):
-        p = next((r for r in range(row, len(A)) if A[r][col]), None)
-        if p is None:
-            continue
-        A[row], A[p] = A[p], A[row]
-        inv = 1 / A[row][col]
-        A[row] = [x * inv for x in A[row]]
-        for r in range(len(A)):
-            if r != row and A[r][col]:
-                f = A[r][col]
-                A[r] = [x - f * y for x, y in zip(A[r], A[row])]
-        pivots.append(col)
-        row += 1
-    if any(A[r][m] for r in range(row, len(A))):
-        return None
-    x = [Fraction(0)] * m
-    for r, col in enumerate(pivots):
-        x[col] = A[r][m]
-    return x
+    rows = [[b[r] for b in basis] for r in range(len(target))]
+    return solve_dense(rows, target, Fraction(0))
