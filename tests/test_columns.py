@@ -11,7 +11,8 @@ from typer.testing import CliRunner
 
 from minparam_cli.cli.app import app
 from minparam_cli.errors import DataError
-from minparam_cli.identify.data import DataOptions, time_span
+from minparam_cli.identify.data import time_span
+from minparam_cli.measured.records import DataOptions
 from minparam_cli.identify.reading import raw_chunks
 from minparam_cli.measured.columns import parse_columns
 

@@ -9,7 +9,8 @@ from typer.testing import CliRunner
 
 from minparam_cli.cli.app import app
 from minparam_cli.errors import DataError
-from minparam_cli.identify.data import DataOptions, DataReport, load_all
+from minparam_cli.identify.data import load_all
+from minparam_cli.measured.records import DataOptions, DataReport
 from minparam_cli.identify.fit import Accumulator, errors, solve
 
 PANDA_CSV = SHARED / "data" / "panda-gaz2019" / "panda_exciting_traj_1.csv"

@@ -171,7 +171,8 @@ def test_diagnosis_finds_the_hidden_effects_and_drift_has_one_origin(panda_setup
 def test_background_parsing_gives_the_same_chunks_and_errors(tmp_path, monkeypatch):
     from minparam_cli.errors import DataError
     from minparam_cli.measured import tables
-    from minparam_cli.identify.data import DataOptions, DataReport, load_all
+    from minparam_cli.identify.data import load_all
+    from minparam_cli.measured.records import DataOptions, DataReport
 
     rng = np.random.default_rng(2)
     N = 3000

@@ -19,7 +19,7 @@ from minparam_cli.describe import RobotDescription, load_description  # noqa: E4
 from minparam_cli.describe.bodies import body_verdicts  # noqa: E402
 from minparam_cli.describe.platform_yaml import PlatformDescription, load_platform  # noqa: E402
 from minparam_cli.errors import InputError  # noqa: E402
-from minparam_cli.identify.data import DataOptions  # noqa: E402
+from minparam_cli.measured.records import DataOptions  # noqa: E402
 from minparam_cli.identify.reading import raw_chunks  # noqa: E402
 
 ROBOTS = Path(__file__).resolve().parents[1] / "robots"

@@ -13,7 +13,8 @@ import pytest
 from typer.testing import CliRunner
 
 from minparam_cli.cli.app import app
-from minparam_cli.identify.data import Block, DataOptions, DataReport, iter_blocks
+from minparam_cli.identify.data import iter_blocks
+from minparam_cli.measured.records import Block, DataOptions, DataReport
 
 ROOT = Path(__file__).resolve().parents[1]
 ROBOT = ROOT / "robots" / "planar3r.yaml"

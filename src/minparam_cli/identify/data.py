@@ -28,19 +28,7 @@ from typing import Iterator
 import numpy as np
 
 from minparam_cli.errors import DataError
-
-from minparam_cli.measured.records import (  # noqa: F401  (re-exported: the records' former home)
-    CHUNK_ROWS,
-    DEFAULT_CUTOFF_HZ,
-    FILTER_ORDER,
-    IRREGULAR_TOL,
-    KEYS,
-    STAMP_ULPS,
-    Block,
-    DataOptions,
-    DataReport,
-    sampling_step,
-)
+from minparam_cli.measured.records import KEYS, Block, DataOptions, DataReport, sampling_step
 
 
 def _clean(table: np.ndarray, last: np.ndarray | None, report: DataReport) -> tuple[np.ndarray, np.ndarray | None]:
@@ -108,7 +96,8 @@ def time_span(path: str | Path, opts: DataOptions) -> tuple[float, float]:
 def iter_blocks(path: str | Path, n: int, opts: DataOptions, report: DataReport | None = None) -> Iterator[Block]:
     """Clean, filter and differentiate the file chunk by chunk; memory bounded by the chunk size."""
     from minparam_cli.identify.filtering import Processor
-    from minparam_cli.identify.reading import raw_chunks, split
+    from minparam_cli.identify.reading import raw_chunks
+    from minparam_cli.measured.tables import split
 
     path = Path(path)
     report = report if report is not None else DataReport(str(path))

@@ -14,7 +14,8 @@ from typing import Callable
 import numpy as np
 
 from minparam_cli.errors import DataError
-from minparam_cli.identify.data import DataOptions, DataReport, iter_blocks
+from minparam_cli.identify.data import iter_blocks
+from minparam_cli.measured.records import DataOptions, DataReport
 from minparam_cli.identify.design import Design
 
 REGRESSOR_ROWS = 4096  # samples per regressor evaluation: the full regressor is n·10n numbers a sample

@@ -16,15 +16,13 @@ import numpy as np
 from minparam_cli.errors import DataError
 from minparam_cli.measured.records import KEYS, DataOptions
 from minparam_cli.measured.columns import TIME_UNITS, column_indices
-from minparam_cli.measured.tables import (  # noqa: F401  (split, _layout, MAX_LINE_CHARS: re-exported for callers)
-    MAX_LINE_CHARS,
+from minparam_cli.measured.tables import (
     _layout,
     _short,
     array_chunks,
     csv_tables,
     open_npz,
     require_data_file,
-    split,
 )
 
 def raw_chunks(path: Path, n: int, opts: DataOptions) -> Iterator[tuple[np.ndarray, dict]]:

@@ -21,7 +21,8 @@ import numpy as np
 
 from minparam_cli.chain import Chain
 from minparam_cli.errors import DataError
-from minparam_cli.identify.data import Block, DataOptions, DataReport, iter_blocks, time_span
+from minparam_cli.identify.data import iter_blocks, time_span
+from minparam_cli.measured.records import Block, DataOptions, DataReport
 from minparam_cli.identify.design import Design
 from minparam_cli.identify.diagnose import DiagnosisOptions, diagnose
 from minparam_cli.identify.effects import source_columns
