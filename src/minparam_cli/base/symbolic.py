@@ -153,15 +153,10 @@ def _rational_values(fs, rng) -> dict:
     return out
 
 
-def exact_coefficients(desc, chain, symbols, pins, generic: BaseSet, rng, numbers=None):
-    """{(base row, index into generic.dependent): field element} and the field's symbols."""
-    from minparam_cli.base.symbolic_exact import (
-        Coupled,
-        exact_relations,
-        numeric_relations,
-        regrouping,
-        stage1,
-    )
+def exact_forms(desc, chain, symbols, pins, rng, numbers=None):
+    """Stages 1 and 2 (``symbolic_exact``): the grouped forms with every exact relation applied,
+    independent of the kept set; (forms, arithmetic, field symbols, stats)."""
+    from minparam_cli.base.symbolic_exact import Coupled, exact_relations, numeric_relations, stage1
     from minparam_cli.base.symbolic_frames import Arith, field_symbols, joint_transforms
 
     fs = field_symbols(desc, [s for s in symbols if s.name not in (numbers or {})])
@@ -173,10 +168,9 @@ def exact_coefficients(desc, chain, symbols, pins, generic: BaseSet, rng, number
     _, relations = numeric_relations(desc, chain, cols, far, joint_transforms(desc, far), rng, plan)
     rat = Arith(fs, pins, _rational_values(fs, rng), rational=True, numbers=numbers)
     forms = exact_relations(desc, chain, cols, ar, transforms, relations, rng, rat, joint_transforms(desc, rat), plan)
-    coef = regrouping(forms, generic.kept, generic.dependent, generic.unidentifiable, ar, desc.source)
     stats = {"grouped_columns": len(cols), "relations": len(relations),
              "largest_relation": max((len(v) for v in relations.values()), default=0)}
-    return coef, fs, stats
+    return forms, ar, fs, stats
 
 
 def _generator_values(symbols, gravity_values, x) -> dict:
@@ -272,29 +266,33 @@ def symbolic_base(desc, chain, base: BaseSet, seed: int = SYMBOLIC_SEED, numbers
         exact_nums = exact_numbers(desc, symbols, _shift_symbols(desc))
         symbols = tuple(s for s in symbols if s.name not in exact_nums)
     kept, K, unident = generic_structure(desc, chain, symbols, pins, rng)
-    candidates = [(tuple(kept), K)]
+    forms, ar, fs, stats = exact_forms(desc, chain, symbols, pins, rng, exact_nums)
+    generic = BaseSet(chain.layout.names, tuple(kept), K, unident, "qr", {})
     if (base.n_base == len(kept) and tuple(base.kept) != tuple(kept)
             and tuple(base.unidentifiable) == tuple(unident)):
         # Same rank, another kept set (the keep rule weighs columns by their size, which gear ratios
         # and the file's lengths change): the file's kept set is independent at the file's values, so
         # its minor is a nonzero polynomial in the symbols and the set is a generic one too; regroup
-        # on it, so that the printed set is the file's (the generic one if its verification fails).
-        candidates.insert(0, (tuple(base.kept), base.K))
-    for i, (kept, K) in enumerate(candidates):
-        out = _exact_on(desc, chain, base, kept, K, unident, symbols, pins, exact_nums, rng, seed, t0)
-        if out["verification"]["passed"] or i == len(candidates) - 1:
-            return out
-    raise AssertionError("unreachable")
+        # on it, so that the printed set is the file's (the generic one if that fails or does not verify).
+        on_file = BaseSet(chain.layout.names, tuple(base.kept), base.K, unident, "qr", {})
+        try:
+            out = _exact_on(desc, chain, base, on_file, forms, ar, fs, stats, symbols, pins, exact_nums, rng, seed, t0)
+            if out["verification"]["passed"]:
+                return out
+        except ComputationError:
+            pass
+    return _exact_on(desc, chain, base, generic, forms, ar, fs, stats, symbols, pins, exact_nums, rng, seed, t0)
 
 
-def _exact_on(desc, chain, base: BaseSet, kept, K, unident, symbols, pins, exact_nums, rng, seed, t0) -> dict:
-    """The exact regrouping on the kept set ``kept`` (K: its numeric regrouping, for the names) and its
+def _exact_on(desc, chain, base: BaseSet, generic: BaseSet, forms, ar, fs, stats, symbols, pins, exact_nums, rng, seed,
+              t0) -> dict:
+    """Stage 3 on the kept set of ``generic`` (its K: the numeric regrouping, for the names) and the
     verification (``symbolic_base``)."""
+    from minparam_cli.base.symbolic_exact import regrouping
     from minparam_cli.base.symbolic_render import field_to_sympy
 
-    generic = BaseSet(chain.layout.names, kept, K, unident, "qr", {})
-    dependent = generic.dependent
-    coef, fs, stats = exact_coefficients(desc, chain, symbols, pins, generic, rng, exact_nums)
+    kept, dependent = generic.kept, generic.dependent
+    coef = regrouping(forms, kept, dependent, generic.unidentifiable, ar, desc.source)
     exprs = {idx: field_to_sympy(v, fs) for idx, v in coef.items()}
     t_exact = time.perf_counter() - t0
     sampler = BetaSampler(desc, chain, symbols, pins, kept, dependent, seed)
