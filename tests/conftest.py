@@ -60,3 +60,19 @@ def arm(tmp_path, j1: str = "", j2: str = "", name: str = "arm.yaml") -> str:
     p = tmp_path / name
     p.write_text(ARM.format(j1=j1, j2=j2))
     return str(p)
+
+
+def cli(*args):
+    """The real entry point (``minparam ARGS``) in this process; arguments may be paths or numbers."""
+    from typer.testing import CliRunner
+
+    from minparam_cli.cli.app import app
+
+    return CliRunner().invoke(app, [str(a) for a in args])
+
+
+def cli_ok(*args):
+    """``cli`` that must succeed (exit 0), its output shown otherwise."""
+    r = cli(*args)
+    assert r.exit_code == 0, r.output
+    return r

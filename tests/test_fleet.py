@@ -10,9 +10,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from typer.testing import CliRunner
+from conftest import cli as run
 
-from minparam_cli.cli.app import app
 
 distributed = pytest.importorskip("distributed")
 
@@ -20,9 +19,6 @@ N_ROBOTS = 200
 N_RECORDINGS = 20
 ELAPSED = re.compile(r'"elapsed_s": [-+0-9.eE]+')
 
-
-def run(*args):
-    return CliRunner().invoke(app, [str(a) for a in args])
 
 
 def timeless(text: str) -> str:

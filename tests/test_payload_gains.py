@@ -7,23 +7,13 @@ import json
 
 import pytest
 import yaml
-from conftest import ROBOTS
-from typer.testing import CliRunner
+from conftest import ROBOTS, cli as run, cli_ok as ok
 
-from minparam_cli.cli.app import app
 
 GAINS = [0.8, 0.9, 1.1, 0.7, 1.3, 0.6]
 MASS, COM, INERTIA = 2.8, (0.02, -0.01, 0.05), (0.01, 0.0, 0.0, 0.012, 0.0, 0.008)
 
 
-def run(*args):
-    return CliRunner().invoke(app, [str(a) for a in args])
-
-
-def ok(*args):
-    r = run(*args)
-    assert r.exit_code == 0, r.output
-    return r
 
 
 @pytest.fixture(scope="module")

@@ -10,9 +10,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from typer.testing import CliRunner
+from conftest import cli as run
 
-from minparam_cli.cli.app import app
 from minparam_cli.errors import DataError
 from minparam_cli.identify.data import time_span
 from minparam_cli.measured.records import DataOptions
@@ -26,9 +25,6 @@ STEP = 0.004
 TX40 = next((p / "shared" / "data" / "staubli-tx40" for p in (ROOT.parent, ROOT.parent.parent)
              if (p / "shared" / "data" / "staubli-tx40" / "curr_data.csv").exists()), ROOT.parent / "shared" / "data" / "staubli-tx40")
 
-
-def run(*args):
-    return CliRunner().invoke(app, [str(a) for a in args])
 
 
 def write(path: Path, names: list[str], table: np.ndarray) -> Path:

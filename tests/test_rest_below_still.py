@@ -10,9 +10,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from typer.testing import CliRunner
+from conftest import cli as run
 
-from minparam_cli.cli.app import app
 from minparam_cli.identify.data import iter_blocks
 from minparam_cli.measured.records import Block, DataOptions, DataReport
 
@@ -22,9 +21,6 @@ N = 3
 TX40 = next((p / "shared" / "data" / "staubli-tx40" for p in (ROOT.parent, ROOT.parent.parent)
              if (p / "shared" / "data" / "staubli-tx40" / "curr_data.csv").exists()), None)
 
-
-def run(*args):
-    return CliRunner().invoke(app, [str(a) for a in args])
 
 
 @pytest.fixture(scope="module")

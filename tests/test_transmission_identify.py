@@ -8,23 +8,13 @@ import json
 import numpy as np
 import pytest
 import yaml
-from conftest import ROBOTS
-from typer.testing import CliRunner
+from conftest import ROBOTS, cli as run, cli_ok as ok
 
-from minparam_cli.cli.app import app
 
 TRUE_MOTOR = {"Fcm6": 0.06, "Fvm6": 6e-4, "Iam6": 1e-5}
 GAINS = [0.8, 0.9, 1.1, 0.7, 1.3, 0.6]
 
 
-def run(*args):
-    return CliRunner().invoke(app, [str(a) for a in args])
-
-
-def ok(*args):
-    r = run(*args)
-    assert r.exit_code == 0, r.output
-    return r
 
 
 def tx40_variant(tmp_path, name, motor_columns=True, gains=None):
