@@ -34,6 +34,16 @@ def _body(prog, outputs, casadi: bool) -> tuple[list[str], list[str]]:
     return [f"    t{k} = {expr}" for k, expr in assigns], outs
 
 
+def _assignments(outs: list[str], cols: int, target) -> list[str]:
+    """One line per nonzero output entry k (row-major, ``cols`` columns): ``target(row, col) = expr``."""
+    lines = []
+    for k, e in enumerate(outs):
+        if e != "0.0":
+            r, c = divmod(k, cols)
+            lines.append(f"    {target(r, c)} = {e}")
+    return lines
+
+
 def _numpy_function(prog, f) -> list[str]:
     lines, outs = _body(prog, f.outputs, casadi=False)
     shape = f"(N, DOF, {f.cols})" if f.cols > 1 else "(N, DOF)"
@@ -43,11 +53,7 @@ def _numpy_function(prog, f) -> list[str]:
            "    q, qd, qdd, single = _states(q, qd, qdd)", "    N = q.shape[0]"]
     src += lines
     src.append(f"    {f.out_name} = np.zeros({shape})")
-    for k, e in enumerate(outs):
-        if e == "0.0":
-            continue
-        r, c = divmod(k, f.cols)
-        src.append(f"    {f.out_name}[:, {r}, {c}] = {e}" if f.cols > 1 else f"    {f.out_name}[:, {r}] = {e}")
+    src += _assignments(outs, f.cols, lambda r, c: f"{f.out_name}[:, {r}, {c}]" if f.cols > 1 else f"{f.out_name}[:, {r}]")
     src += [f"    return {single} if single else {f.out_name}", "", ""]
     return src
 
@@ -58,11 +64,7 @@ def _casadi_function(prog, f) -> list[str]:
            '    q, qd, qdd = ca.SX.sym("q", DOF), ca.SX.sym("qd", DOF), ca.SX.sym("qdd", DOF)']
     src += lines
     src.append(f"    {f.out_name} = ca.SX({f.rows}, {f.cols})")
-    for k, e in enumerate(outs):
-        if e == "0.0":
-            continue
-        r, c = divmod(k, f.cols)
-        src.append(f"    {f.out_name}[{r}, {c}] = {e}")
+    src += _assignments(outs, f.cols, lambda r, c: f"{f.out_name}[{r}, {c}]")
     src += [f'    return ca.Function("{f.name}", [q, qd, qdd], [{f.out_name}], ["q", "qd", "qdd"], ["{f.out_name}"])', "", ""]
     return src
 
