@@ -238,7 +238,7 @@ def platform_fk(platform: str | Path, lengths: Sequence[float], *, method: str =
 
     desc = _platform(platform)
     if desc.structure == "truss":
-        return _truss_fk(platform, desc, lengths, frame, seed, rtol)
+        return truss_fk_result(platform, desc, lengths, frame, seed, rtol)
     if frame is not None:
         raise InputError("frame: for a 12-leg truss")
     method = choice(method, ("auto", "exact", "pso", "multistart"), "method")
@@ -267,7 +267,7 @@ def platform_fk(platform: str | Path, lengths: Sequence[float], *, method: str =
     return PlatformResult("fk", lengths=tuple(d["lengths"]), poses=poses, _report=d)
 
 
-def _truss_fk(platform: str | Path, desc, lengths: Sequence[float], frame: Sequence[str] | None, seed: int,
+def truss_fk_result(platform: str | Path, desc, lengths: Sequence[float], frame: Sequence[str] | None, seed: int,
               rtol: float) -> PlatformResult:
     """The truss branch of ``minparam platform fk`` (the command calls it too: same checks, same report)."""
     import numpy as np

@@ -182,10 +182,10 @@ def _fk(file, lengths, method, starts, particles, iterations, seed, side, rtol, 
     if np.any(target <= 0):
         raise typer.BadParameter("leg lengths must be positive", param_hint="--lengths")
     if desc.structure == "truss":  # the API's truss branch: the same checks and report
-        from minparam_cli.api.kinematics import _truss_fk
+        from minparam_cli.api.kinematics import truss_fk_result
 
         with option_errors():
-            result = _truss_fk(file, desc, target, None if frame is None else frame.split(","), seed, rtol)
+            result = truss_fk_result(file, desc, target, None if frame is None else frame.split(","), seed, rtol)
         write_output(_render(result.to_dict(), fmt, rep.truss_fk_table), output)
         return
     if frame is not None:
