@@ -1,4 +1,4 @@
-"""`-o PATH` and every other output file: one function (common.atomic_write) for every command.
+"""`-o PATH` and every other output file: one function (output.atomic_write) for every command.
 
 Regular files are replaced atomically (temporary file + rename in the same folder) and keep their
 permission bits; a symlink is followed and its target replaced; a FIFO (or another special file)
@@ -18,7 +18,7 @@ import numpy as np
 import pytest
 from typer.testing import CliRunner
 
-from minparam_cli.cli.common import atomic_write, write_output
+from minparam_cli.output import atomic_write, write_output
 from minparam_cli.errors import ComputationError, InputError
 
 runner = CliRunner()

@@ -12,7 +12,8 @@ from typing import Optional
 
 import typer
 
-from minparam_cli.cli.common import MimicMode, floating_base_option, guarded, is_stdout, mimic_option, option_errors, warning_line
+from minparam_cli.cli.common import MimicMode, floating_base_option, guarded, mimic_option, option_errors, warning_line
+from minparam_cli.output import is_stdout
 
 HELP = ("Write the base regressor Y_b(q, qd, qdd) of a robot, and with --model the identified inverse dynamics, "
         "as self-contained C99, NumPy or CasADi code.")

@@ -16,9 +16,7 @@ import typer
 import typer.core
 
 from minparam_cli.errors import MinparamError
-from minparam_cli.output import (  # noqa: F401  (re-exported: the commands import them from here)
-    Progress, atomic_write, check_output_path, is_stdout, output_folder, write_output,
-)
+from minparam_cli.output import atomic_write
 
 
 class Format(str, Enum):

@@ -9,7 +9,17 @@ from typing import List, Optional
 import typer
 
 from minparam_cli.cli.batch import expand_paths, run_batch
-from minparam_cli.cli.common import Format, MimicMode, Progress, error_line, floating_base_option, guarded, mimic_option, parse_floats, warning_line, write_output
+from minparam_cli.cli.common import (
+    Format,
+    MimicMode,
+    error_line,
+    floating_base_option,
+    guarded,
+    mimic_option,
+    parse_floats,
+    warning_line,
+)
+from minparam_cli.output import Progress, write_output
 from minparam_cli.cli.executor import scheduler_option
 from minparam_cli.params import FRICTION_KINDS
 

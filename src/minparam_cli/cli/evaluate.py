@@ -9,7 +9,8 @@ from typing import List, Optional
 
 import typer
 
-from minparam_cli.cli.common import guarded, write_output
+from minparam_cli.cli.common import guarded
+from minparam_cli.output import write_output
 from minparam_cli.cli.identify import Fmt, TimeUnit, time_unit_option, topic_option
 
 HELP = ("Predict joint torques with a model saved by 'identify --save-model' and report the errors on data files: "
@@ -101,7 +102,7 @@ def _with_predictions(path: Path, design, theta, data, m, kind, run, band=None):
     """Evaluate while streaming every block's predictions into a temporary file renamed at the end."""
     import numpy as np
 
-    from minparam_cli.cli.common import atomic_write
+    from minparam_cli.output import atomic_write
 
     n = design.chain.dof
     header = ",".join(["t"] + [f"tau_meas{j}" for j in range(1, n + 1)] + [f"tau_pred{j}" for j in range(1, n + 1)])

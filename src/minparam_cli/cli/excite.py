@@ -17,8 +17,8 @@ import numpy as np
 import typer
 
 from minparam_cli.api.common import friction_option
-from minparam_cli.cli.common import (MimicMode, Progress, check_output_path, guarded, mimic_option, option_errors, parse_floats,
-                                     save_png, write_output)
+from minparam_cli.cli.common import MimicMode, guarded, mimic_option, option_errors, parse_floats, save_png
+from minparam_cli.output import Progress, check_output_path, write_output
 from minparam_cli.errors import InputError
 
 HELP = (

@@ -10,7 +10,8 @@ from typing import List, Optional
 
 import typer
 
-from minparam_cli.cli.common import MimicMode, Progress, guarded, mimic_option, parse_floats, save_png, write_output
+from minparam_cli.cli.common import MimicMode, guarded, mimic_option, parse_floats, save_png
+from minparam_cli.output import Progress, write_output
 from minparam_cli.cli.executor import scheduler_option
 
 HELP = (
@@ -187,7 +188,7 @@ def _identify(robot, data, validate, test, split, columns, time_unit, topic, cut
     if not (math.isfinite(coulomb_smoothing) and coulomb_smoothing >= 0):
         raise typer.BadParameter("must be a finite velocity >= 0 (0: sign)", param_hint="--coulomb-smoothing")
     if plot is not None:
-        from minparam_cli.cli.common import output_folder
+        from minparam_cli.output import output_folder
 
         output_folder(plot, "--plot")  # created when missing
     if not (math.isfinite(prior_weight) and prior_weight > 0):

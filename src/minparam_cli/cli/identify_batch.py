@@ -145,12 +145,8 @@ def run_identify_batch(recordings: list[Recording], load, opts, nominal_prior: b
     import typer
 
     from minparam_cli.cli.batch import absolute, run_batch
-    from minparam_cli.cli.common import (
-        Progress,
-        error_line,
-        output_folder,
-        write_output,
-    )
+    from minparam_cli.cli.common import error_line
+    from minparam_cli.output import Progress, output_folder, write_output
 
     folder = output_folder(output, "--output")
     bar = Progress(len(recordings), "identify", quiet)

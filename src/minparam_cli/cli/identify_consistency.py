@@ -5,7 +5,8 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
-from minparam_cli.cli.common import Progress, save_png, write_output
+from minparam_cli.cli.common import save_png
+from minparam_cli.output import Progress, write_output
 from minparam_cli.errors import InputError
 
 

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from minparam_cli.cli.common import write_output
+from minparam_cli.output import write_output
 
 
 def read_robot_bytes(robot: Path) -> bytes:

@@ -11,7 +11,8 @@ from typing import Optional
 
 import typer
 
-from minparam_cli.cli.common import Progress, check_output_path, guarded, option_errors, parse_floats, save_png, write_output
+from minparam_cli.cli.common import guarded, option_errors, parse_floats, save_png
+from minparam_cli.output import Progress, check_output_path, write_output
 from minparam_cli.errors import DescriptionError
 
 HELP = "Kinematics of parallel platforms: hexapods and the dodekapod (Dang 2013). Inverse, forward (every assembly mode), workspace."

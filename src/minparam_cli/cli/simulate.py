@@ -14,8 +14,8 @@ from typing import Optional
 import numpy as np
 import typer
 
-from minparam_cli.cli.common import (MimicMode, Progress, atomic_write, check_output_path, guarded, is_stdout, mimic_option,
-                                     option_errors, warning_line, write_output)
+from minparam_cli.cli.common import MimicMode, guarded, mimic_option, option_errors, warning_line
+from minparam_cli.output import Progress, atomic_write, check_output_path, is_stdout, write_output
 from minparam_cli.errors import InputError
 
 HELP = (

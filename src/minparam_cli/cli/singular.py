@@ -15,7 +15,8 @@ from pathlib import Path
 import numpy as np
 import typer
 
-from minparam_cli.cli.common import Progress, guarded, parse_floats, save_png, write_output
+from minparam_cli.cli.common import guarded, parse_floats, save_png
+from minparam_cli.output import Progress, write_output
 from minparam_cli.errors import InputError
 from minparam_cli.kinematics.defaults import DEFAULT_DAMPING, DEFAULT_EPSILON, DEFAULT_STEP_DEG
 from minparam_cli.render.singular_text import _clean, local_table, scan_table, symbolic_table
