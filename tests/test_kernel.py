@@ -118,3 +118,59 @@ def test_smooth_coulomb_column_is_tanh_and_tends_to_sign():
     assert np.abs(nearly - sharp)[moving].max() < 1e-12
     with pytest.raises(ValueError, match=">= 0"):
         chain.with_coulomb_smoothing(-1.0)
+
+
+def _columns_agree(chain, seed: int, backend: str = "auto") -> None:
+    """regressor_columns (rows of chosen columns, joint-major, written into a larger buffer) equals
+    the regressor's columns, transposed; the rows and samples it was not asked for stay untouched."""
+    rng = np.random.default_rng(seed)
+    q, qd, qdd = reg.random_states(chain, 33, rng)
+    Y = reg.regressor(chain, q, qd, qdd, backend=backend)
+    cols = rng.permutation(Y.shape[2])[: max(1, 2 * Y.shape[2] // 3)]  # any order, a third left out
+    out = np.full((chain.dof, len(cols) + 3, 40), np.nan)
+    assert reg.regressor_columns(chain, q, qd, qdd, cols, out=out, backend=backend) is out
+    assert np.array_equal(out[:, : len(cols), :33], Y[:, :, cols].transpose(1, 2, 0))
+    assert np.isnan(out[:, len(cols):]).all() and np.isnan(out[:, :, 33:]).all()
+    assert np.array_equal(reg.regressor_columns(chain, q, qd, qdd, cols, backend=backend), Y[:, :, cols].transpose(1, 2, 0))
+
+
+@needs_kernel
+def test_columns_equal_the_regressor_on_every_robot_with_every_extra(robot_path):
+    chain = build_chain(load_description(robot_path))
+    _columns_agree(chain, 3)
+    _columns_agree(chain.with_extras(tuple(ALL_EXTRAS for _ in range(chain.n))).with_coulomb_smoothing(0.02), 4)
+    _columns_agree(chain, 5, backend="numpy")
+
+
+@needs_kernel
+def test_columns_on_a_tree_a_floating_base_and_mimic_joints(tmp_path):
+    from test_floating_base import biped
+    from test_mimic import gripper_arm
+
+    from minparam_cli.pipeline import DeriveOptions, load_chain
+
+    _columns_agree(_tree_with_prismatic(tmp_path), 6)
+    _, floating = load_chain(biped(tmp_path, 2, True), DeriveOptions())
+    assert floating.layout.n_inertial < 10 * floating.n  # massless virtual links: the column map skips them
+    _columns_agree(floating, 7)
+    _, mimic = load_chain(gripper_arm(tmp_path), DeriveOptions())
+    assert mimic.coupling is not None  # the copying route
+    _columns_agree(mimic, 8)
+
+
+@needs_kernel
+def test_columns_kernel_refuses_a_buffer_too_small_for_its_strides():
+    chain = build_chain(load_description(os.path.join(os.path.dirname(__file__), "..", "robots", "planar2r.yaml")))
+    terms, axor, parents, revolute, g = reg._kernel_arrays(chain)
+    q = np.zeros((3, 2))
+    dest = np.arange(20, dtype=np.int64)
+    with pytest.raises(ValueError, match="too small"):
+        reg._rnea.inertial_columns(np.zeros((2, 19, 3)), q, q, q, terms, axor, parents, revolute, g, dest, 3, 2, 57, 3)
+    with pytest.raises(ValueError, match="too small"):  # rows closer than N samples would overlap
+        reg._rnea.inertial_columns(np.zeros((2, 20, 3)), q, q, q, terms, axor, parents, revolute, g, dest, 3, 2, 60, 2)
+    with pytest.raises(ValueError, match="dest has"):
+        reg._rnea.inertial_columns(np.zeros((2, 20, 3)), q, q, q, terms, axor, parents, revolute, g, dest[:19], 3, 2, 60, 3)
+    with pytest.raises(ValueError, match="shape"):
+        reg.regressor_columns(chain, q, q, q, [0, 1], out=np.zeros((2, 1, 3)))
+    with pytest.raises(ValueError, match="columns must lie"):
+        reg.regressor_columns(chain, q, q, q, [20])

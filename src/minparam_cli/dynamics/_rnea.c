@@ -7,6 +7,9 @@
  *   per link      the wrench about the link origin in link coordinates, K_j (6 x 10), linear in phi_j,
  *   projection    Y[k, 10 j + c] = S_k . (K_j moved to the base origin, base coordinates), k an ancestor of j.
  * One sample at a time, no allocation inside the loop; the GIL is released while it runs.
+ * Two layouts of the result: inertial_regressor fills Y (N, n, P) sample-major, as regressor()
+ * returns it; inertial_columns writes chosen columns joint-major, out[k, dest[c], s] (a strided
+ * block: the rows identify's accumulators take), with no full regressor in between.
  * Only the buffer protocol is used (no numpy headers), so it builds with nothing but a C compiler.
  */
 #define PY_SSIZE_T_CLEAN
@@ -46,7 +49,17 @@ static void link_wrench(const double *w, const double *d, const double *a, doubl
     memcpy(K, k, sizeof k);
 }
 
-static void regress(double *Y, Py_ssize_t N, Py_ssize_t n, Py_ssize_t P,
+/* Where the kernel writes: sample-major Y (N, n, P) when dest is NULL, else joint-major:
+ * column c of joint k's row at sample s goes to out[k * joint_stride + dest[c] * row_stride + s]
+ * (dest[c] < 0: column not wanted). */
+typedef struct {
+    double *Y;
+    Py_ssize_t P;
+    const long long *dest;
+    Py_ssize_t joint_stride, row_stride;
+} Store;
+
+static void regress(const Store *st, Py_ssize_t N, Py_ssize_t n,
                     const double *q, const double *qd, const double *qdd,
                     const double *terms, const double *axor, const long long *parents,
                     const unsigned char *revolute, const double *g, double *work)
@@ -60,7 +73,7 @@ static void regress(double *Y, Py_ssize_t N, Py_ssize_t n, Py_ssize_t P,
 
     for (Py_ssize_t s = 0; s < N; s++) {
         const double *qs = q + s * n, *qds = qd + s * n, *qdds = qdd + s * n;
-        double *Ys = Y + s * n * P;
+        double *Ys = st->dest == NULL ? st->Y + s * n * st->P : NULL;
         for (Py_ssize_t j = 0; j < n; j++) {
             const double *C0 = terms + 48 * j, *C1 = C0 + 16, *C2 = C0 + 32;
             const double *ax = axor + 6 * j, *org = ax + 3;
@@ -143,10 +156,19 @@ static void regress(double *Y, Py_ssize_t N, Py_ssize_t n, Py_ssize_t P,
             /* every joint from j back to the root carries link j */
             for (long long k = (long long)j; k >= 0; k = parents[k]) {
                 const double *Sk = S + 6 * k;
-                double *row = Ys + k * P + 10 * j;
-                for (int c = 0; c < 10; c++)
-                    row[c] = Sk[0] * W[c] + Sk[1] * W[10 + c] + Sk[2] * W[20 + c] + Sk[3] * W[30 + c]
-                             + Sk[4] * W[40 + c] + Sk[5] * W[50 + c];
+                if (Ys != NULL) {
+                    double *row = Ys + k * st->P + 10 * j;
+                    for (int c = 0; c < 10; c++)
+                        row[c] = Sk[0] * W[c] + Sk[1] * W[10 + c] + Sk[2] * W[20 + c] + Sk[3] * W[30 + c]
+                                 + Sk[4] * W[40 + c] + Sk[5] * W[50 + c];
+                } else {
+                    const long long *dj = st->dest + 10 * j;
+                    double *col = st->Y + k * st->joint_stride + s;
+                    for (int c = 0; c < 10; c++)
+                        if (dj[c] >= 0)
+                            col[dj[c] * st->row_stride] = Sk[0] * W[c] + Sk[1] * W[10 + c] + Sk[2] * W[20 + c]
+                                                          + Sk[3] * W[30 + c] + Sk[4] * W[40 + c] + Sk[5] * W[50 + c];
+                }
             }
         }
     }
@@ -161,6 +183,46 @@ static int need(Py_buffer *b, Py_ssize_t bytes, const char *what)
     return 1;
 }
 
+static int check_chain(Py_ssize_t N, Py_ssize_t n, Py_buffer *q, Py_buffer *qd, Py_buffer *qdd, Py_buffer *terms,
+                       Py_buffer *axor, Py_buffer *parents, Py_buffer *revolute, Py_buffer *g)
+{
+    const Py_ssize_t d = (Py_ssize_t)sizeof(double);
+    if (N < 0 || n < 1) {
+        PyErr_SetString(PyExc_ValueError, "_rnea: bad sizes");
+        return 0;
+    }
+    if (!need(q, N * n * d, "q") || !need(qd, N * n * d, "qd") || !need(qdd, N * n * d, "qdd")
+        || !need(terms, 48 * n * d, "terms") || !need(axor, 6 * n * d, "axor")
+        || !need(parents, n * (Py_ssize_t)sizeof(long long), "parents") || !need(revolute, n, "revolute")
+        || !need(g, 3 * d, "gravity"))
+        return 0;
+    for (Py_ssize_t j = 0; j < n; j++) {
+        const long long pj = ((const long long *)parents->buf)[j];
+        if (pj >= j || pj < -1) {
+            PyErr_SetString(PyExc_ValueError, "_rnea: parents must precede their children");
+            return 0;
+        }
+    }
+    return 1;
+}
+
+static int run(const Store *st, Py_ssize_t N, Py_ssize_t n, Py_buffer *q, Py_buffer *qd, Py_buffer *qdd,
+               Py_buffer *terms, Py_buffer *axor, Py_buffer *parents, Py_buffer *revolute, Py_buffer *g)
+{
+    double *work = (double *)malloc((size_t)(34 * n) * sizeof(double));
+    if (work == NULL) {
+        PyErr_NoMemory();
+        return 0;
+    }
+    Py_BEGIN_ALLOW_THREADS
+    regress(st, N, n, (const double *)q->buf, (const double *)qd->buf, (const double *)qdd->buf,
+            (const double *)terms->buf, (const double *)axor->buf, (const long long *)parents->buf,
+            (const unsigned char *)revolute->buf, (const double *)g->buf, work);
+    Py_END_ALLOW_THREADS
+    free(work);
+    return 1;
+}
+
 static PyObject *inertial_regressor(PyObject *self, PyObject *args)
 {
     Py_buffer out, q, qd, qdd, terms, axor, parents, revolute, g;
@@ -169,38 +231,20 @@ static PyObject *inertial_regressor(PyObject *self, PyObject *args)
                           &revolute, &g, &N, &n, &P))
         return NULL;
     PyObject *result = NULL;
-    double *work = NULL;
-    const Py_ssize_t d = (Py_ssize_t)sizeof(double);
-    if (N < 0 || n < 1 || P < 10 * n) {
+    Store st = {(double *)out.buf, P, NULL, 0, 0};
+    if (!check_chain(N, n, &q, &qd, &qdd, &terms, &axor, &parents, &revolute, &g))
+        goto done;
+    if (P < 10 * n) {
         PyErr_SetString(PyExc_ValueError, "_rnea: bad sizes");
         goto done;
     }
-    for (Py_ssize_t j = 0; j < n; j++) {
-        const long long pj = ((const long long *)parents.buf)[j];
-        if (pj >= j || pj < -1) {
-            PyErr_SetString(PyExc_ValueError, "_rnea: parents must precede their children");
-            goto done;
-        }
-    }
-    if (!need(&out, N * n * P * d, "out") || !need(&q, N * n * d, "q") || !need(&qd, N * n * d, "qd")
-        || !need(&qdd, N * n * d, "qdd") || !need(&terms, 48 * n * d, "terms") || !need(&axor, 6 * n * d, "axor")
-        || !need(&parents, n * (Py_ssize_t)sizeof(long long), "parents") || !need(&revolute, n, "revolute")
-        || !need(&g, 3 * d, "gravity"))
+    if (!need(&out, N * n * P * (Py_ssize_t)sizeof(double), "out"))
         goto done;
-    work = (double *)malloc((size_t)(34 * n) * sizeof(double));
-    if (work == NULL) {
-        PyErr_NoMemory();
-        goto done;
+    if (run(&st, N, n, &q, &qd, &qdd, &terms, &axor, &parents, &revolute, &g)) {
+        result = Py_None;
+        Py_INCREF(result);
     }
-    Py_BEGIN_ALLOW_THREADS
-    regress((double *)out.buf, N, n, P, (const double *)q.buf, (const double *)qd.buf, (const double *)qdd.buf,
-            (const double *)terms.buf, (const double *)axor.buf, (const long long *)parents.buf,
-            (const unsigned char *)revolute.buf, (const double *)g.buf, work);
-    Py_END_ALLOW_THREADS
-    result = Py_None;
-    Py_INCREF(result);
 done:
-    free(work);
     PyBuffer_Release(&out);
     PyBuffer_Release(&q);
     PyBuffer_Release(&qd);
@@ -213,10 +257,67 @@ done:
     return result;
 }
 
+static PyObject *inertial_columns(PyObject *self, PyObject *args)
+{
+    Py_buffer out, q, qd, qdd, terms, axor, parents, revolute, g, dest;
+    Py_ssize_t N, n, joint_stride, row_stride;
+    if (!PyArg_ParseTuple(args, "w*y*y*y*y*y*y*y*y*y*nnnn", &out, &q, &qd, &qdd, &terms, &axor, &parents,
+                          &revolute, &g, &dest, &N, &n, &joint_stride, &row_stride))
+        return NULL;
+    PyObject *result = NULL;
+    const long long *dst = (const long long *)dest.buf;
+    Store st = {(double *)out.buf, 0, dst, joint_stride, row_stride};
+    if (!check_chain(N, n, &q, &qd, &qdd, &terms, &axor, &parents, &revolute, &g)
+        || !need(&dest, 10 * n * (Py_ssize_t)sizeof(long long), "dest"))
+        goto done;
+    /* every address written must lie in out: the largest is (n-1) joint_stride + max dest row_stride + N-1 */
+    long long top = -1;
+    for (Py_ssize_t c = 0; c < 10 * n; c++)
+        top = dst[c] > top ? dst[c] : top;
+    if (joint_stride < 0 || row_stride < N
+        || (top >= 0 && (n - 1) * joint_stride + top * row_stride + N > out.len / (Py_ssize_t)sizeof(double))) {
+        PyErr_SetString(PyExc_ValueError, "_rnea: out is too small for the strides and rows asked");
+        goto done;
+    }
+    /* the columns of links a joint does not carry are zero: their rows are cleared once, whole */
+    const long long *par = (const long long *)parents.buf;
+    for (Py_ssize_t k = 0; k < n; k++)
+        for (Py_ssize_t j = 0; j < n; j++) {
+            long long a = (long long)j;
+            while (a > (long long)k)
+                a = par[a];
+            if (a == (long long)k)
+                continue; /* k carries j */
+            for (int c = 0; c < 10; c++)
+                if (dst[10 * j + c] >= 0)
+                    memset(st.Y + k * joint_stride + dst[10 * j + c] * row_stride, 0, (size_t)N * sizeof(double));
+        }
+    if (run(&st, N, n, &q, &qd, &qdd, &terms, &axor, &parents, &revolute, &g)) {
+        result = Py_None;
+        Py_INCREF(result);
+    }
+done:
+    PyBuffer_Release(&out);
+    PyBuffer_Release(&q);
+    PyBuffer_Release(&qd);
+    PyBuffer_Release(&qdd);
+    PyBuffer_Release(&terms);
+    PyBuffer_Release(&axor);
+    PyBuffer_Release(&parents);
+    PyBuffer_Release(&revolute);
+    PyBuffer_Release(&g);
+    PyBuffer_Release(&dest);
+    return result;
+}
+
 static PyMethodDef methods[] = {
     {"inertial_regressor", inertial_regressor, METH_VARARGS,
      "inertial_regressor(out, q, qd, qdd, terms, axor, parents, revolute, gravity, N, n, P): fill the "
      "10 n inertial columns of out (N, n, P), C-contiguous float64; other entries are left untouched."},
+    {"inertial_columns", inertial_columns, METH_VARARGS,
+     "inertial_columns(out, q, qd, qdd, terms, axor, parents, revolute, gravity, dest, N, n, joint_stride, "
+     "row_stride): out[k * joint_stride + dest[c] * row_stride + s] = Y[s, k, c] for the 10 n inertial columns c "
+     "with dest[c] >= 0 (dest: int64), every joint k and sample s; out float64, C-contiguous."},
     {NULL, NULL, 0, NULL},
 };
 

@@ -222,6 +222,58 @@ def joint_regressor(chain: Chain, q, qd, qdd, include_extras: bool = True, backe
     return Y
 
 
+def regressor_columns(chain: Chain, q, qd, qdd, columns, out: np.ndarray | None = None, backend: str = "auto") -> np.ndarray:
+    """The chosen ``columns`` of ``regressor(chain, q, qd, qdd)`` joint-major: out[k, i, s] =
+    Y[s, k, columns[i]], shape (dof, len(columns), N).
+
+    ``out``, if given, is a C-contiguous float array (dof, w, M) with w ≥ len(columns) and M ≥ N:
+    its rows [:, :len(columns), :N] are written, the rest left as they are (identify's streaming
+    pass writes the base columns of its reusable row buffers this way).  Without a coupling or a
+    transmission, the compiled kernel writes these rows directly, with no full regressor in
+    between (tests/test_kernel.py holds both routes equal); otherwise the regressor is computed
+    and its columns copied.
+    """
+    q, qd, qdd = (np.ascontiguousarray(np.atleast_2d(np.asarray(x, dtype=float))) for x in (q, qd, qdd))
+    if q.shape[1] != chain.dof or qd.shape != q.shape or qdd.shape != q.shape:
+        raise ValueError(f"expected q, qd, qdd with shape (N, {chain.dof})")
+    columns = np.asarray(columns, dtype=np.int64)
+    N, m, layout = len(q), len(columns), chain.layout
+    if out is None:
+        out = np.empty((chain.dof, m, N))
+    if out.ndim != 3 or out.shape[0] != chain.dof or out.shape[1] < m or out.shape[2] < N or not out.flags.c_contiguous:
+        raise ValueError(f"expected a C-contiguous out of shape ({chain.dof}, >= {m}, >= {N})")
+    if m and (columns.min() < 0 or columns.max() >= layout.size):
+        raise ValueError(f"columns must lie in 0..{layout.size - 1}")
+    kinds = {"rotor_inertia", "coulomb", "viscous", "offset"}
+    direct = (backend != "numpy" and _rnea is not None and chain.coupling is None and chain.transmission is None
+              and all(kind in kinds for _, kind in layout.extra_columns))
+    if not direct:
+        Y = regressor(chain, q, qd, qdd, backend=backend)
+        out[:, :m, :N] = Y[:, :, columns].transpose(1, 2, 0)
+        return out
+    n = chain.n
+    dest = np.full(10 * n, -1, dtype=np.int64)  # the kernel's column 10 j + c -> its row in out
+    full = np.asarray(layout.inertial_columns)  # layout column i is the kernel's column full[i]
+    inertial = columns < layout.n_inertial
+    dest[full[columns[inertial]]] = np.flatnonzero(inertial)
+    terms, axor, parents, revolute, gravity = _kernel_arrays(chain)
+    _rnea.inertial_columns(out, q, qd, qdd, terms, axor, parents, revolute, gravity, dest, N, n,
+                           out.shape[1] * out.shape[2], out.shape[2])
+    extras = layout.extra_columns
+    for i in np.flatnonzero(~inertial):
+        k, kind = extras[int(columns[i]) - layout.n_inertial]
+        out[:, i, :N] = 0.0
+        if kind == "rotor_inertia":
+            out[k, i, :N] = qdd[:, k]
+        elif kind == "coulomb":
+            out[k, i, :N] = coulomb_column(qd[:, k], chain.coulomb_smoothing)
+        elif kind == "viscous":
+            out[k, i, :N] = qd[:, k]
+        else:  # offset
+            out[k, i, :N] = 1.0
+    return out
+
+
 def coulomb_column(qd: np.ndarray, smoothing: float = 0.0) -> np.ndarray:
     """The Coulomb friction signal: sign(qd), or tanh(qd / smoothing) when smoothing > 0.
 

@@ -7,7 +7,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from minparam_cli.chain import Chain
-from minparam_cli.dynamics.regressor import regressor
+from minparam_cli.dynamics.regressor import regressor, regressor_columns
 from minparam_cli.measured.records import Block
 from minparam_cli.identify.effects import EFFECTS, Signals
 
@@ -80,15 +80,39 @@ class Design:
         Y = regressor(self.chain, b.q, b.dq, b.ddq)
         return np.take(Y, self.kept, axis=2)
 
-    def signals(self, b: Block, Xb: np.ndarray | None = None) -> Signals:
-        tau_model = None
-        if self.theta_model is not None:
+    def signals(self, b: Block, Xb: np.ndarray | None = None, tau_model: np.ndarray | None = None) -> Signals:
+        """The signals the effects are built from; the model torque (load effects) from ``tau_model``
+        when given, else from the base columns ``Xb`` (N, n, kept) or, without them, computed."""
+        if self.theta_model is not None and tau_model is None:
             Xb = self.base_columns(b) if Xb is None else Xb
             tau_model = Xb @ self.theta_model[: len(self.kept)]
+        elif self.theta_model is None:
+            tau_model = None
         motor = None
         if self.chain.transmission is not None:  # the motor-side effects of coupled motors
             motor = np.asarray(self.chain.transmission.matrix, dtype=float)
         return Signals(b.t, b.q, b.dq, b.ddq, tau_model, self.t0, self.chain.coulomb_smoothing, motor)
+
+    def model_torque(self, rows: np.ndarray, N: int) -> np.ndarray | None:
+        """(N, n) model torque X θ_model from joint-major rows (``rows`` below), None without θ_model."""
+        if self.theta_model is None:
+            return None
+        k = len(self.kept)
+        return np.stack([rows[j, :k, :N].T @ self.theta_model[:k] for j in range(rows.shape[0])], axis=1)
+
+    def rows(self, b: Block, out: np.ndarray) -> np.ndarray:
+        """The design columns of the block joint-major, ``columns(b)`` transposed: out[k, i, s] =
+        columns(b)[s, k, i] written into out[:, :p, :N] (out: C-contiguous (n, ≥ p, ≥ N)), the base
+        columns by the compiled kernel straight into place (``regressor_columns``)."""
+        N, k = len(b), len(self.kept)
+        regressor_columns(self.chain, b.q, b.dq, b.ddq, self.kept, out=out)
+        if self.terms:
+            s = self.signals(b, tau_model=self.model_torque(out, N))
+            for t in self.terms:
+                w = t.width()
+                out[:, k : k + w, :N] = term_columns(t, s, self.chain.dof).transpose(1, 2, 0)
+                k += w
+        return out
 
     def columns(self, b: Block) -> np.ndarray:
         Xb = self.base_columns(b)

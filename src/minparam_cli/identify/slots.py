@@ -49,26 +49,30 @@ def all_joints(effect: str, s: Signals, n: int, hyper: float | None = None) -> n
     return out[:, :, None] if out.ndim == 2 else out.transpose(0, 2, 1)
 
 
-def block_rows(design: Design, sources, b: Block, with_slots: bool = True) -> np.ndarray:
+def block_rows(design: Design, sources, b: Block, with_slots: bool = True, out: np.ndarray | None = None) -> np.ndarray:
     """Rows of a block for the accumulators, joint-major: (n, design.p + slots + 1, N), joint j's
     rows [design columns | slot columns of joint j | τ_j] transposed in [j] (C-contiguous: the
     layout ``Accumulator.add_columns`` and ``BlockGrams.add_columns`` take without a copy).
-    ``with_slots`` False leaves the slot columns unset, for ``fill_slots`` (on another thread)."""
+    ``with_slots`` False leaves the slot columns unset, for ``fill_slots`` (on another thread).
+    ``out``: a buffer of exactly that shape to fill (identify's streaming pass reuses a few)."""
     n, N = design.chain.dof, len(b)
-    out = np.empty((n, source_columns(sources, design.p)[1] + 1, N))
-    X = design.columns(b)
-    out[:, : design.p] = X.transpose(1, 2, 0)
+    shape = (n, source_columns(sources, design.p)[1] + 1, N)
+    if out is None:
+        out = np.empty(shape)
+    elif out.shape != shape or not out.flags.c_contiguous:
+        raise ValueError(f"block_rows: expected a C-contiguous buffer of shape {shape}")
+    design.rows(b, out)
     out[:, -1] = b.tau.T
     if sources and with_slots:
-        fill_slots(design, sources, b, out, X)
+        fill_slots(design, sources, b, out)
     return out
 
 
-def fill_slots(design: Design, sources, b: Block, out: np.ndarray, X: np.ndarray | None = None) -> None:
-    """The slot columns of ``block_rows``' rows ``out``, in place (X: the block's design columns,
-    if at hand; the model torque of load effects is computed from them, else again)."""
+def fill_slots(design: Design, sources, b: Block, out: np.ndarray) -> None:
+    """The slot columns of ``block_rows``' rows ``out``, in place (the model torque of load
+    effects comes from the design columns already in ``out``)."""
     n = design.chain.dof
-    s = design.signals(b, None if X is None else X[:, :, : len(design.kept)])
+    s = design.signals(b, tau_model=design.model_torque(out, len(b)))
     c = design.p
     for e, h in sources:
         m = len(EFFECTS[e].column_names)

@@ -73,7 +73,8 @@ def _stream(design: Design, sources: list[Source], n: int, opts: IdentifyOptions
     motion = Motion(n)
     reports: list[DataReport] = []
     state = {"design": design}
-    for piece, sub, rows in ahead(_rows(state, sources, n, opts, slots, reports)):
+    spare = _Spare()
+    for piece, sub, rows in ahead(_rows(state, sources, n, opts, slots, reports, spare)):
         if rows is not None:  # sub: (the samples of the rows, their design, the file)
             sub, design_used, path = sub
             if slots:  # the slot columns are built here: the first thread has the more work
@@ -82,6 +83,7 @@ def _stream(design: Design, sources: list[Source], n: int, opts: IdentifyOptions
             acc[piece.part].add_columns(rows)
             if grams is not None and piece.part == FIT:  # per time block, for σ with correlated residuals
                 grams.add_columns(sub.t, rows)
+            spare.give(rows)  # folded in: nothing keeps a reference to it
         else:  # a piece's samples, before its rows
             if piece.role == FIT:
                 motion.add(sub)
@@ -92,7 +94,32 @@ def _stream(design: Design, sources: list[Source], n: int, opts: IdentifyOptions
     return acc, thin, motion, reports, state["design"]
 
 
-def _rows(state: dict, sources: list[Source], n: int, opts: IdentifyOptions, slots, reports: list):
+class _Spare:
+    """Row buffers handed back by the folding thread, for the reading thread to fill again: the
+    1 M-sample Panda run allocated and dropped 250 buffers of 14 MB, and the heap grew with them.
+    Never waits: with no buffer free, the reader makes a new one (the queue between the threads
+    bounds how many are in flight)."""
+
+    def __init__(self):
+        import queue
+
+        self._free: queue.SimpleQueue = queue.SimpleQueue()
+
+    def take(self, shape: tuple[int, ...]) -> np.ndarray:
+        import queue
+
+        try:
+            buf = self._free.get_nowait()
+        except queue.Empty:
+            return np.empty(shape)
+        return buf if buf.shape == shape else np.empty(shape)
+
+    def give(self, buf: np.ndarray) -> None:
+        if buf.flags.owndata and buf.shape[2] == REGRESSOR_ROWS:  # full-size buffers only
+            self._free.put(buf)
+
+
+def _rows(state: dict, sources: list[Source], n: int, opts: IdentifyOptions, slots, reports: list, spare: _Spare):
     """The producing half of ``_stream``: per piece of each block, (piece, its samples, None), then
     (piece, (samples, design, path), rows) for its sub-blocks of REGRESSOR_ROWS samples (the full
     regressor is n·10n numbers a sample), the rows without their slot columns (``_stream`` fills
@@ -114,8 +141,9 @@ def _rows(state: dict, sources: list[Source], n: int, opts: IdentifyOptions, slo
                 yield piece, sub_block, None
                 for s0 in range(0, len(sub_block), REGRESSOR_ROWS):
                     sub = sub_block.take(slice(s0, s0 + REGRESSOR_ROWS))
+                    shape = (n, source_columns(slots, design.p)[1] + 1, len(sub))
                     with np.errstate(over="ignore", invalid="ignore"):
-                        rows = block_rows(design, slots, sub, with_slots=False)
+                        rows = block_rows(design, slots, sub, with_slots=False, out=spare.take(shape))
                     # the samples copied: a view would keep the whole chunk alive while the rows wait
                     own = Block(*(np.array(getattr(sub, k)) for k in ("t", "q", "dq", "ddq", "tau")))
                     yield piece, (own, design, src.path), rows
