@@ -189,3 +189,22 @@ def test_a_broken_parquet_file_is_one_line(tmp_path, case, message):
     r = CliRunner().invoke(app, ["identify", "robots/planar2r.yaml", str(path)])
     assert r.exit_code == 2 and r.stderr.startswith(f"minparam: error: {path}: {message}"), r.stderr
     assert len(r.stderr.strip().splitlines()) == 1
+
+
+def test_the_fast_reader_does_not_import_pandas(tmp_path):
+    """pyarrow's Array.to_numpy imports pandas on first use (about 50 MB of identify's peak memory):
+    the reader takes the column buffers itself. In a fresh process, since pandas may be loaded here."""
+    import subprocess
+    import sys
+
+    path = tmp_path / "d.csv"
+    rows = np.random.default_rng(0).standard_normal((3000, 5))
+    path.write_text("t,q1,dq1,ddq1,tau1\n" + "\n".join(",".join(f"{v:.9g}" for v in r) for r in rows) + "\n")
+    code = (
+        "import sys; from minparam_cli.identify.reading import raw_chunks;"
+        "from minparam_cli.measured.records import DataOptions;"
+        f"n = sum(len(c[0]) for c in raw_chunks({str(path)!r}, 1, DataOptions()));"
+        "print(n, 'pandas' in sys.modules)"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout.split()
+    assert out == ["3000", "False"]
