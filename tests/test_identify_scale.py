@@ -39,7 +39,7 @@ def _rows(rng, N, n=3):
 
 def _accumulate(X, y, block, fast=True, monkeypatch=None):
     if not fast:
-        monkeypatch.setattr(accumulate, "_fast", lambda R, A: None)
+        monkeypatch.setattr(accumulate, "_fast", lambda R, A, segments=None: None)
     acc = Accumulator(X.shape[1], X.shape[2])
     for s in range(0, len(y), block):
         acc.add(X[s : s + block], y[s : s + block])
@@ -52,8 +52,8 @@ def test_fast_update_equals_householder(monkeypatch):
     calls = {"fast": 0}
     real = accumulate._fast
 
-    def counting(R, A):
-        out = real(R, A)
+    def counting(R, A, segments=None):
+        out = real(R, A, segments)
         calls["fast"] += out is not None
         return out
 
@@ -70,6 +70,43 @@ def test_fast_update_equals_householder(monkeypatch):
     a, b = solve(fast, names), solve(slow, names)
     assert np.allclose(a.theta, b.theta, rtol=1e-10) and np.allclose(a.std_percent, b.std_percent, rtol=1e-8)
     assert fast.R[1][:, 5].tolist() == [0.0] * len(fast.R[1])
+
+
+@pytest.mark.parametrize("fast", [True, False])
+def test_segment_grams_from_the_update_equal_the_rows_grams(monkeypatch, fast):
+    """add_columns with segments returns each segment's A_jᵀA_j over the joint's active columns: on
+    the fast path as Pᵀ(B_sᵀB_s)P from the products the update forms, on Householder's directly;
+    the factor is the one add_columns gives without segments."""
+    X, y = _rows(np.random.default_rng(9), 6000)
+    rows = np.concatenate([X, y[:, :, None]], axis=2)
+    plain = _accumulate(X, y, 1500)
+    if not fast:
+        monkeypatch.setattr(accumulate, "_fast", lambda R, A, segments=None: None)
+    acc = Accumulator(X.shape[1], X.shape[2])
+    for s0 in range(0, 6000, 1500):
+        cols = np.ascontiguousarray(rows[s0 : s0 + 1500].transpose(1, 2, 0))
+        segments = [(0, 400), (400, 401), (401, 1500)]
+        out = acc.add_columns(cols, segments)
+        for j, (active, grams) in enumerate(out):
+            for (a, b), G in zip(segments, grams):
+                A = rows[s0 + a : s0 + b, j][:, active]
+                ref = A.T @ A
+                scale = np.sqrt(np.outer(np.diag(ref), np.diag(ref))) + 1e-300
+                assert np.max(np.abs(G - ref) / scale) < 1e-9
+            assert 5 not in active or j != 1  # joint 2's zero column is never factored
+    for Ra, Rb in zip(acc.R, plain.R):
+        assert np.allclose(Ra.T @ Ra, Rb.T @ Rb, rtol=1e-10, atol=1e-10 * np.abs(Rb.T @ Rb).max())
+
+
+@pytest.mark.parametrize("bad", [np.nan, np.inf, -np.inf])
+def test_non_finite_rows_are_named(bad):
+    """(A dq of 1e200 in a file, whose square overflows in the row: tests/test_identify_reading.py.)"""
+    X, y = _rows(np.random.default_rng(2), 3000)
+    acc = _accumulate(X[:2000], y[:2000], 1000)
+    X[2500, 2, 1] = bad
+    cols = np.ascontiguousarray(np.concatenate([X[2000:], y[2000:, :, None]], axis=2).transpose(1, 2, 0))
+    with pytest.raises(accumulate.NonFiniteRows, match="joint 3"):
+        acc.add_columns(cols, [(0, 1000)])
 
 
 def _panda_sample(tmp_path: Path, samples: int = 12_000) -> Path:

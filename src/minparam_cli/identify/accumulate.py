@@ -20,6 +20,13 @@ any failure fall back to Householder QR.
 Only the columns of joint j that have held a non-zero value are factored (the
 regressor of joint j is zero in the columns of the links it does not carry), so
 a joint near the tip costs a fraction of the base joint.
+
+``add_columns`` may also return the Gram matrices A_sᵀA_s of row segments s (the
+time blocks of ``uncertainty.BlockGrams``): on the fast path they come from the
+products the update forms anyway, BᵀB = Σ_s B_sᵀB_s and A_sᵀA_s = Pᵀ B_sᵀB_s P,
+so the rows are multiplied once, not twice.  A row that is not finite (or
+whose square overflows) makes the factor non-finite: ``NonFiniteRows`` is
+raised, naming the joint, and the accumulator is not to be used further.
 """
 
 from __future__ import annotations
@@ -34,7 +41,19 @@ def _householder(R: np.ndarray, A: np.ndarray) -> np.ndarray:
     return np.linalg.qr(np.vstack([R, A]), mode="r")
 
 
-def _fast(R: np.ndarray, A: np.ndarray) -> np.ndarray | None:
+class NonFiniteRows(ArithmeticError):
+    """The rows just added made a factor non-finite (a NaN, an infinity, or an overflow)."""
+
+    def __init__(self, joint: int):
+        super().__init__(f"joint {joint + 1}: non-finite regressor rows")
+        self.joint = joint
+
+
+def _segment_grams(A: np.ndarray, segments) -> list[np.ndarray]:
+    return [A[s:e].T @ A[s:e] for s, e in segments]
+
+
+def _fast(R: np.ndarray, A: np.ndarray, segments=None):
     from scipy.linalg.blas import dtrsm  # here: small files never get this far (scipy.linalg takes 0.3 s to import)
 
     norms = np.sqrt(np.einsum("ij,ij->j", R, R))
@@ -47,7 +66,14 @@ def _fast(R: np.ndarray, A: np.ndarray) -> np.ndarray | None:
         P = R.copy()
         P[low, low] = np.where(d[low] < 0, -FLOOR, FLOOR) * norms[low]
     B = dtrsm(1.0, P, A, side=1, lower=0)  # A P⁻¹ (A Fortran-ordered: no copy in the wrapper)
-    M = B.T @ B
+    parts = None
+    if segments is None:
+        M = B.T @ B
+    else:  # the segments' Grams of B sum to BᵀB
+        parts = _segment_grams(B, segments)
+        M = np.zeros((B.shape[1], B.shape[1]))
+        for G in parts:
+            M += G
     if len(low):
         S = dtrsm(1.0, P, R, side=1, lower=0)  # R P⁻¹
         M += S.T @ S
@@ -60,16 +86,19 @@ def _fast(R: np.ndarray, A: np.ndarray) -> np.ndarray | None:
     except np.linalg.LinAlgError:  # a floored direction that is singular to rounding
         w, V = np.linalg.eigh(M)
         K = np.linalg.qr((V * np.sqrt(np.clip(w, 0.0, None))).T, mode="r")
-    return K @ P
+    if parts is not None:  # back to the rows' own coordinates: A_sᵀA_s = Pᵀ (B_sᵀB_s) P
+        parts = [P.T @ G @ P for G in parts]
+    return K @ P, parts
 
 
-def update(R: np.ndarray, A: np.ndarray) -> np.ndarray:
-    """R' with R'ᵀR' = RᵀR + AᵀA, for the rows A (N x c, best Fortran-ordered)."""
+def update(R: np.ndarray, A: np.ndarray, segments=None):
+    """R' with R'ᵀR' = RᵀR + AᵀA, for the rows A (N x c, best Fortran-ordered), and with
+    ``segments`` ((start, end) row ranges) the Grams A_sᵀA_s of those rows (else None)."""
     if R.shape[0] == R.shape[1] == A.shape[1] and len(A):
-        out = _fast(R, A)
+        out = _fast(R, A, segments)
         if out is not None:
             return out
-    return _householder(R, A)
+    return _householder(R, A), None if segments is None else _segment_grams(A, segments)
 
 
 class Accumulator:
@@ -89,10 +118,15 @@ class Accumulator:
         """rows: (N, n, p + 1), joint j's rows [X_j | y_j] in rows[:, j]."""
         self.add_columns(np.ascontiguousarray(rows.transpose(1, 2, 0)))
 
-    def add_columns(self, cols: np.ndarray) -> None:
+    def add_columns(self, cols: np.ndarray, segments=None) -> list | None:
         """The same rows joint-major: cols (n, p + 1, N) C-contiguous, joint j's rows transposed in
         cols[j] (the layout ``slots.block_rows`` builds): a joint's active columns are then a gather
-        of contiguous lines, and their transpose the Fortran-ordered block the update takes."""
+        of contiguous lines, and their transpose the Fortran-ordered block the update takes.
+
+        With ``segments`` ((start, end) ranges of the N rows), returns per joint (its active
+        columns, [A_sᵀA_s over those columns for each segment]) (see the module's note).
+        Raises NonFiniteRows when the rows make a factor non-finite."""
+        out = [] if segments is not None else None
         for j in range(self.n):
             cj = cols[j]
             active = self._cols[j]
@@ -104,9 +138,16 @@ class Accumulator:
                 R = np.zeros((self._R[j].shape[0], len(new)))
                 R[:, np.searchsorted(new, active)] = self._R[j]
                 self._cols[j], self._R[j], active = new, R, new
+            grams = None
             if len(active):
-                self._R[j] = update(self._R[j], cj[active].T)
+                R, grams = update(self._R[j], cj[active].T, segments)
+                if not np.isfinite(R).all():
+                    raise NonFiniteRows(j)
+                self._R[j] = R
+            if out is not None:
+                out.append((active, grams))
             self.rows[j] += cols.shape[2]
+        return out
 
     @property
     def R(self) -> list[np.ndarray]:

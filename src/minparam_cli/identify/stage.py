@@ -26,6 +26,7 @@ from minparam_cli.measured.records import Block, DataOptions, DataReport
 from minparam_cli.identify.design import Design
 from minparam_cli.identify.diagnose import DiagnosisOptions, diagnose
 from minparam_cli.identify.effects import source_columns
+from minparam_cli.identify.accumulate import NonFiniteRows
 from minparam_cli.identify.fit import Accumulator, errors, full_theta, solve
 from minparam_cli.identify.explain import describe_rejected, describe_terms, nominal_notes
 from minparam_cli.identify.physical import PhysicalOptions
@@ -79,10 +80,15 @@ def _stream(design: Design, sources: list[Source], n: int, opts: IdentifyOptions
             sub, design_used, path = sub
             if slots:  # the slot columns are built here: the first thread has the more work
                 fill_slots(design_used, slots, sub, rows)
-            rows = _finite_or_refuse(rows, sub, path)
-            acc[piece.part].add_columns(rows)
-            if grams is not None and piece.part == FIT:  # per time block, for σ with correlated residuals
-                grams.add_columns(sub.t, rows)
+            try:
+                if grams is not None and piece.part == FIT:  # per time block, for σ with correlated residuals
+                    segments = grams.segments(sub.t)  # the update multiplies the rows once for both
+                    joint_grams = acc[FIT].add_columns(rows, [(s, e) for _, s, e in segments])
+                    grams.add_parts(segments, joint_grams, rows.shape[1])
+                else:
+                    acc[piece.part].add_columns(rows)
+            except NonFiniteRows:
+                _refuse_non_finite(rows, sub, path)
             spare.give(rows)  # folded in: nothing keeps a reference to it
         else:  # a piece's samples, before its rows
             if piece.role == FIT:
@@ -151,22 +157,19 @@ def _rows(state: dict, sources: list[Source], n: int, opts: IdentifyOptions, slo
         reports.append(rep)
 
 
-def _finite_or_refuse(rows: np.ndarray, b: Block, path: Path) -> np.ndarray:
-    """The rows, or a DataError with the time of the first sample whose row overflowed: a finite but
-    huge value (a corrupt dq of 1e200, say) would otherwise turn the whole fit into NaN."""
+def _refuse_non_finite(rows: np.ndarray, b: Block, path: Path) -> None:
+    """The DataError for rows that made a factor non-finite, with the time of the first sample whose
+    row is not finite: a finite but huge value (a corrupt dq of 1e200, say) overflows in the row."""
     with np.errstate(over="ignore", invalid="ignore"):
-        # a sum is finite only if every term is: one pass without a boolean array; the exact test only
-        # when it is not (it may just have overflowed)
-        if np.isfinite(rows.reshape(-1, len(b)).sum(axis=0)).all():
-            return rows
-    ok = np.isfinite(rows).all(axis=(0, 1))
-    if not ok.all():
-        i = int(np.argmin(ok))
-        raise DataError(
-            f"{path}: the sample at t = {b.t[i]:.6g} s gives a non-finite regressor row "
-            "(a value of q, dq, ddq or tau there is too large to use)"
-        )
-    return rows
+        ok = np.isfinite(rows).all(axis=(0, 1))
+    i = int(np.argmin(ok)) if not ok.all() else None
+    if i is None:  # every entry finite, but their squares overflow
+        big = np.abs(rows).max(axis=(0, 1))
+        i = int(np.argmax(big))
+    raise DataError(
+        f"{path}: the sample at t = {b.t[i]:.6g} s gives a non-finite regressor row "
+        "(a value of q, dq, ddq or tau there is too large to use)"
+    )
 
 
 @dataclass

@@ -88,27 +88,43 @@ class BlockGrams:
 
     def add_columns(self, t: np.ndarray, cols: np.ndarray) -> None:
         """t: (N,) times, cols: (n, w, N) the same rows joint-major (``Accumulator.add_columns``)."""
+        segments = self.segments(t)
+        n, w = cols.shape[:2]
+        parts = []
+        for j in range(n):  # each joint's rows cols[j, :, s:e] a matrix BLAS takes as it is (A Aᵀ: one syrk)
+            parts.append((np.arange(w), [cols[j, :, s:e] @ cols[j, :, s:e].T for _, s, e in segments]))
+        self.add_parts(segments, parts, w)
+
+    def segments(self, t: np.ndarray) -> list[tuple[int, int, int]]:
+        """(block index, start, end) of the runs of equal block index in the times t (one run per
+        block when the times increase); sets the time origin at the first sample ever given."""
         if not len(t):
-            return
+            return []
         if self.t0 is None:
             self.t0 = float(t[0])
         self.t_last = float(t[-1])
         k = np.floor((t - self.t0) / self.length).astype(np.int64)
-        # runs of equal block index (one run per block: the times increase): slices, not copies, and
-        # each joint's rows cols[j, :, s:e] a matrix BLAS takes as it is (A Aᵀ: one syrk)
         starts = np.flatnonzero(np.concatenate([[True], k[1:] != k[:-1]]))
-        n, w = cols.shape[:2]
-        for s, e in zip(starts, np.append(starts[1:], len(k))):
-            G = np.empty((n, w, w))
-            for j in range(n):
-                A = cols[j, :, s:e]
-                np.matmul(A, A.T, out=G[j])
-            b = int(k[s])
-            if b in self.G:
-                self.G[b] += G
-                self.rows[b] += int(e - s)
-            else:
-                self.G[b], self.rows[b] = G, int(e - s)
+        return [(int(k[s]), int(s), int(e)) for s, e in zip(starts, np.append(starts[1:], len(k)))]
+
+    def add_parts(self, segments: list[tuple[int, int, int]], parts: list, w: int) -> None:
+        """Add the Grams of ``segments`` (from ``segments``): parts[j] = (the columns they cover,
+        [their Gram for each segment]) for joint j, as ``Accumulator.add_columns`` returns them;
+        w: the width of the full rows."""
+        n = len(parts)
+        for i, (b, s, e) in enumerate(segments):
+            G = self.G.get(b)
+            if G is None:
+                G = self.G[b] = np.zeros((n, w, w))
+                self.rows[b] = 0
+            self.rows[b] += e - s
+            for j, (cols, grams) in enumerate(parts):
+                if grams is None or not len(cols):
+                    continue
+                if len(cols) == w:
+                    G[j] += grams[i]
+                else:
+                    G[j][np.ix_(cols, cols)] += grams[i]
         while len(self.G) > self.max_blocks:
             self._merge()
 
