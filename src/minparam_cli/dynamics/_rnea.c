@@ -156,18 +156,18 @@ static void regress(const Store *st, Py_ssize_t N, Py_ssize_t n,
             /* every joint from j back to the root carries link j */
             for (long long k = (long long)j; k >= 0; k = parents[k]) {
                 const double *Sk = S + 6 * k;
+                double row[10]; /* computed whole (a loop the compiler vectorises), then stored */
+                for (int c = 0; c < 10; c++)
+                    row[c] = Sk[0] * W[c] + Sk[1] * W[10 + c] + Sk[2] * W[20 + c] + Sk[3] * W[30 + c]
+                             + Sk[4] * W[40 + c] + Sk[5] * W[50 + c];
                 if (Ys != NULL) {
-                    double *row = Ys + k * st->P + 10 * j;
-                    for (int c = 0; c < 10; c++)
-                        row[c] = Sk[0] * W[c] + Sk[1] * W[10 + c] + Sk[2] * W[20 + c] + Sk[3] * W[30 + c]
-                                 + Sk[4] * W[40 + c] + Sk[5] * W[50 + c];
+                    memcpy(Ys + k * st->P + 10 * j, row, sizeof row);
                 } else {
                     const long long *dj = st->dest + 10 * j;
                     double *col = st->Y + k * st->joint_stride + s;
                     for (int c = 0; c < 10; c++)
                         if (dj[c] >= 0)
-                            col[dj[c] * st->row_stride] = Sk[0] * W[c] + Sk[1] * W[10 + c] + Sk[2] * W[20 + c]
-                                                          + Sk[3] * W[30 + c] + Sk[4] * W[40 + c] + Sk[5] * W[50 + c];
+                            col[dj[c] * st->row_stride] = row[c];
                 }
             }
         }

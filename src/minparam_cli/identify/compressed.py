@@ -52,17 +52,22 @@ class Catalogue:
 
 def _factor(design: Design, b: Block, cat: Catalogue, rows: int = 2048) -> list[np.ndarray]:
     """Per joint, T_j (with a zero column appended) of [X_j | catalogue columns of joint j | τ_j],
-    accumulated ``rows`` samples at a time (the catalogue is ~180 columns a joint)."""
+    accumulated ``rows`` samples at a time (the catalogue is ~180 columns a joint).  The joints'
+    QR factorisations run on two threads (LAPACK releases the GIL); each joint's sequence of
+    factorisations is the same as on one, so the factors are too."""
+    from concurrent.futures import ThreadPoolExecutor
+
     from minparam_cli.identify.slots import all_joints
 
     n = design.chain.dof
     T = [np.zeros((0, cat.y + 1))] * n
-    for s0 in range(0, len(b), rows):
-        sub = b.take(slice(s0, s0 + rows))
-        X = design.base_columns(sub)
-        sig = design.signals(sub, X)
-        A = np.concatenate([X] + [all_joints(e, sig, n, h) for e, h in cat.sources] + [sub.tau[:, :, None]], axis=2)
-        T = [np.linalg.qr(np.vstack([T[j], A[:, j]]), mode="r") for j in range(n)]
+    with ThreadPoolExecutor(max_workers=2, thread_name_prefix="minparam-qr") as pool:
+        for s0 in range(0, len(b), rows):
+            sub = b.take(slice(s0, s0 + rows))
+            X = design.base_columns(sub)
+            sig = design.signals(sub, X)
+            A = np.concatenate([X] + [all_joints(e, sig, n, h) for e, h in cat.sources] + [sub.tau[:, :, None]], axis=2)
+            T = list(pool.map(lambda j: np.linalg.qr(np.vstack([T[j], A[:, j]]), mode="r"), range(n)))
     return [np.hstack([Tj, np.zeros((Tj.shape[0], 1))]) for Tj in T]
 
 

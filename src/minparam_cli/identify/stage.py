@@ -32,7 +32,7 @@ from minparam_cli.identify.explain import describe_rejected, describe_terms, nom
 from minparam_cli.identify.physical import PhysicalOptions
 from minparam_cli.identify.quality import COND_LIMIT, check_excitation, flags, keep_physical
 from minparam_cli.identify.roles import DEFAULT_SPLIT, FIT, SELECTION, TEST, Source, describe, parts, plan
-from minparam_cli.identify.slots import block_rows, fill_slots, final_maps, slot_sources
+from minparam_cli.identify.slots import block_rows, final_maps, slot_sources
 from minparam_cli.identify.kept import Motion, _Thinned
 from minparam_cli.identify.uncertainty import BlockGrams, UncertaintyOptions, block_length, estimate, relative_percent
 
@@ -62,10 +62,10 @@ def _stream(design: Design, sources: list[Source], n: int, opts: IdentifyOptions
     (fit, selection, test1, ...), the thinned diagnosis samples (fit and selection), the motion of
     the fit part, the data reports, and the design with its drift origin set.
 
-    Two threads (``identify.ahead``): one reads, filters and builds the rows of the regressor, the
-    other (this one) folds them into the factors; the kernel, the parser and BLAS release the GIL,
-    so on two cores the two halves overlap.  The rows reach the factors in the same order as on
-    one thread, so every number is the same."""
+    Three threads (``identify.ahead``): one reads and filters the file, one builds the rows of the
+    regressor and the slot columns, and this one folds them into the factors; the parser, the
+    kernel, numpy's ufuncs and BLAS release the GIL, so the three overlap on two cores.  The rows
+    reach the factors in the same order as on one thread, so every number is the same."""
     from minparam_cli.identify.ahead import ahead
 
     width = source_columns(slots, design.p)[1]
@@ -78,8 +78,6 @@ def _stream(design: Design, sources: list[Source], n: int, opts: IdentifyOptions
     for piece, sub, rows in ahead(_rows(state, sources, n, opts, slots, reports, spare)):
         if rows is not None:  # sub: (the samples of the rows, their design, the file)
             sub, design_used, path = sub
-            if slots:  # the slot columns are built here: the first thread has the more work
-                fill_slots(design_used, slots, sub, rows)
             try:
                 if grams is not None and piece.part == FIT:  # per time block, for σ with correlated residuals
                     segments = grams.segments(sub.t)  # the update multiplies the rows once for both
@@ -128,12 +126,15 @@ class _Spare:
 def _rows(state: dict, sources: list[Source], n: int, opts: IdentifyOptions, slots, reports: list, spare: _Spare):
     """The producing half of ``_stream``: per piece of each block, (piece, its samples, None), then
     (piece, (samples, design, path), rows) for its sub-blocks of REGRESSOR_ROWS samples (the full
-    regressor is n·10n numbers a sample), the rows without their slot columns (``_stream`` fills
-    them).  Sets state["design"]'s drift origin at the first sample."""
+    regressor is n·10n numbers a sample), slot columns included.  The blocks are read, cleaned
+    and filtered one block ahead on a thread of their own.  Sets state["design"]'s drift origin
+    at the first sample."""
+    from minparam_cli.identify.ahead import ahead
+
     for src in sources:
         rep = DataReport(str(src.path))
         cuts = src.cuts()
-        for b in iter_blocks(src.path, n, opts.data, rep):
+        for b in ahead(iter_blocks(src.path, n, opts.data, rep), depth=1):
             if not len(b):
                 continue
             if state["design"].t0 is None:  # drift is measured from the first sample, in every block and every part
@@ -149,7 +150,7 @@ def _rows(state: dict, sources: list[Source], n: int, opts: IdentifyOptions, slo
                     sub = sub_block.take(slice(s0, s0 + REGRESSOR_ROWS))
                     shape = (n, source_columns(slots, design.p)[1] + 1, len(sub))
                     with np.errstate(over="ignore", invalid="ignore"):
-                        rows = block_rows(design, slots, sub, with_slots=False, out=spare.take(shape))
+                        rows = block_rows(design, slots, sub, out=spare.take(shape))
                     # the samples copied: a view would keep the whole chunk alive while the rows wait
                     own = Block(*(np.array(getattr(sub, k)) for k in ("t", "q", "dq", "ddq", "tau")))
                     yield piece, (own, design, src.path), rows

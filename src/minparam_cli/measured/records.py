@@ -12,7 +12,7 @@ import numpy as np
 
 DEFAULT_CUTOFF_HZ = 5.0
 FILTER_ORDER = 4
-CHUNK_ROWS = 200_000
+CHUNK_ROWS = 50_000
 KEYS = ("t", "q", "dq", "ddq", "tau")
 # a time step that differs from the sampling step by more than this share (longer or shorter) is irregular
 IRREGULAR_TOL = 0.1
