@@ -119,7 +119,7 @@ def singular(robot: Robot | str | Path, q: Sequence[float] | None = None, *, twi
     path = robot_path(robot)
     desc = load_description(path)
     if tool is not None:
-        from minparam_cli.describe.urdf import select_tool
+        from minparam_cli.describe.urdf_tool import select_tool
 
         desc = select_tool(desc, tool)
     chain = build_chain(desc)

@@ -153,7 +153,7 @@ def singular(
         raise InputError("give --q for the local test, or --scan, --plot or --symbolic")
     desc = load_description(robot)
     if tool is not None:
-        from minparam_cli.describe.urdf import select_tool
+        from minparam_cli.describe.urdf_tool import select_tool
 
         desc = select_tool(desc, tool)
     chain = build_chain(desc)
