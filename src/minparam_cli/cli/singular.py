@@ -1,6 +1,6 @@
 """``minparam singular``: singular positions by screw theory (Glazunov 1985).
 
-Parses, calls the kinematics stage (``kinematics.serial.screws``, ``singular_scan``,
+Parses, calls the kinematics stage (``kinematics.serial.screws``, ``singular_scan``, ``singular_grid``,
 ``singular_symbolic``), renders with ``render.singular_text`` / ``singular_plot``,
 writes, maps errors.
 """
@@ -181,7 +181,7 @@ def singular(
         sections.append(scan_table(res.scan, chain.types, angle))
 
     if plot is not None:
-        from minparam_cli.kinematics.serial.singular_scan import sigma_map, swept_joints
+        from minparam_cli.kinematics.serial.singular_grid import sigma_map, swept_joints
 
         if joints is None:
             sw = swept_joints(chain)
