@@ -13,7 +13,7 @@ from minparam_cli.cli.app import app
 from minparam_cli.errors import DataError
 from minparam_cli.identify.data import time_span
 from minparam_cli.measured.records import DataOptions
-from minparam_cli.identify.reading import raw_chunks
+from minparam_cli.measured.reading import raw_chunks
 from minparam_cli.measured.columns import parse_columns
 
 ROBOT = Path(__file__).resolve().parents[1] / "robots" / "planar3r.yaml"
