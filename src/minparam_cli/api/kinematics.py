@@ -63,6 +63,7 @@ def singular_analysis(desc, chain, source: str, q_si=None, *, twist=None, epsilo
     import numpy as np
 
     from minparam_cli.kinematics.serial import screws
+    from minparam_cli.kinematics.serial.nearest_twist import check_nearest
     from minparam_cli.render.singular_text import local_json, scan_json, symbolic_json
 
     tool_doc, _ = tool_report(desc)
@@ -74,7 +75,7 @@ def singular_analysis(desc, chain, source: str, q_si=None, *, twist=None, epsilo
             held = tuple(h - 1 for h in hold)
         out.local = screws.analyse(chain, q_si, twist=twist, epsilon=epsilon, hold=held, damping=damping)
         if out.local.twist is not None:
-            out.check = screws.check_nearest(out.local, chain, np.random.default_rng(seed))
+            out.check = check_nearest(out.local, chain, np.random.default_rng(seed))
         out.doc.update(local_json(out.local, out.check, seed))
     if scan_step is not None:
         from minparam_cli.kinematics.serial.singular_scan import scan as run_scan
@@ -107,7 +108,7 @@ def singular(robot: Robot | str | Path, q: Sequence[float] | None = None, *, twi
 
     from minparam_cli.chain import build_chain
     from minparam_cli.describe import load_description
-    from minparam_cli.kinematics.serial import screws
+    from minparam_cli.kinematics.serial.plucker import require_serial
     from minparam_cli.render.singular_text import _clean
 
     if not (math.isfinite(epsilon) and 0 < epsilon < 1):
@@ -123,7 +124,7 @@ def singular(robot: Robot | str | Path, q: Sequence[float] | None = None, *, twi
 
         desc = select_tool(desc, tool)
     chain = build_chain(desc)
-    screws.require_serial(chain)
+    require_serial(chain)
     q_si = None
     if q is not None:
         values = np.asarray(q, dtype=float).reshape(-1)

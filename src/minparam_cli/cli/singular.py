@@ -157,9 +157,9 @@ def singular(
 
         desc = select_tool(desc, tool)
     chain = build_chain(desc)
-    from minparam_cli.kinematics.serial import screws
+    from minparam_cli.kinematics.serial.plucker import require_serial
 
-    screws.require_serial(chain)
+    require_serial(chain)
     angle = "rad" if rad else "deg"
     q_si = _q_to_si(chain, q, rad) if q is not None else None
     from minparam_cli.api.kinematics import singular_analysis, tool_report

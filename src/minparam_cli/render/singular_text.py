@@ -61,7 +61,8 @@ def _clean(obj):
 
 
 def local_json(report, check, seed: int) -> dict:
-    from minparam_cli.kinematics.serial.screws import SCREW_CONVENTION, TWIST_CONVENTION, twist_distances
+    from minparam_cli.kinematics.serial.nearest_twist import twist_distances
+    from minparam_cli.kinematics.serial.plucker import SCREW_CONVENTION, TWIST_CONVENTION
 
     t = report.test
     out = {
@@ -170,7 +171,7 @@ def local_table(report, check, seed: int, angle: str) -> str:
         from tabulate import tabulate
 
         L = report.length_scale
-        from minparam_cli.kinematics.serial.screws import twist_distances
+        from minparam_cli.kinematics.serial.nearest_twist import twist_distances
 
         rows = []
         for name, tw in (("requested", sol.requested), ("nearest (Glazunov)", sol.nearest),

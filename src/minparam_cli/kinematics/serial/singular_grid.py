@@ -12,7 +12,7 @@ import numpy as np
 from minparam_cli.chain import REVOLUTE, Chain, motion
 from minparam_cli.errors import InputError
 from minparam_cli.kinematics.defaults import DEFAULT_EPSILON
-from minparam_cli.kinematics.serial.screws import normalised_matrices, plucker_matrices, require_serial
+from minparam_cli.kinematics.serial.plucker import normalised_matrices, plucker_matrices, require_serial
 
 
 @dataclass(frozen=True, eq=False)

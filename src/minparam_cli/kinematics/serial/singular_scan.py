@@ -29,7 +29,8 @@ import numpy as np
 from minparam_cli.chain import Chain
 from minparam_cli.errors import InputError
 from minparam_cli.kinematics.defaults import DEFAULT_EPSILON, DEFAULT_STEP_DEG
-from minparam_cli.kinematics.serial.screws import dependent_groups, plucker_matrices, require_serial
+from minparam_cli.kinematics.serial.plucker import plucker_matrices, require_serial
+from minparam_cli.kinematics.serial.screws import dependent_groups
 from minparam_cli.kinematics.serial.singular_grid import ScanAxis, axis_values, evaluate_sigma, grid_plucker, sigma_det, swept_joints
 
 MAX_NODES = 3_000_000
