@@ -109,7 +109,7 @@ def singular(robot: Robot | str | Path, q: Sequence[float] | None = None, *, twi
     from minparam_cli.chain import build_chain
     from minparam_cli.describe import load_description
     from minparam_cli.kinematics.serial.plucker import require_serial
-    from minparam_cli.render.singular_text import _clean
+    from minparam_cli.render.singular_text import json_safe
 
     if not (math.isfinite(epsilon) and 0 < epsilon < 1):
         raise InputError(f"epsilon: expected a number between 0 and 1 (exclusive), got {epsilon:g}")
@@ -151,7 +151,7 @@ def singular(robot: Robot | str | Path, q: Sequence[float] | None = None, *, twi
                                 scan_step=step_rad, symbolic=symbolic, progress=bar)
     finally:
         close(bar)
-    doc = _clean(out.doc)
+    doc = json_safe(out.doc)
     return Singularity(robot=chain.name, singular=doc.get("singular"),
                        sigma_ratio=doc.get("sigma_min"),
                        dependent=tuple(tuple(g) for g in doc.get("dependent_groups", [])), _report=doc)

@@ -43,7 +43,7 @@ class FieldSymbols:
     shifts: tuple[str, ...]  # symbols that only shift a joint coordinate (taken as 0)
 
 
-def _shift_symbols(desc) -> set[str]:
+def shift_symbols(desc) -> set[str]:
     """Symbols used only as the offset of a joint's own coordinate."""
     shift, other = set(), set()
     for jr in desc.joints:
@@ -73,7 +73,7 @@ def gravity_symbols(desc, taken: set[str]):
 
 
 def field_symbols(desc, symbols) -> FieldSymbols:
-    shifts = _shift_symbols(desc)
+    shifts = shift_symbols(desc)
     lengths = tuple(s.name for s in symbols if not s.is_angle and s.name not in shifts)
     angles = tuple(s.name for s in symbols if s.is_angle and s.name not in shifts)
     grav, gvals = gravity_symbols(desc, {s.name for s in symbols})

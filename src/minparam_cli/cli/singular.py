@@ -19,7 +19,7 @@ from minparam_cli.cli.common import guarded, parse_floats, save_png
 from minparam_cli.output import Progress, write_output
 from minparam_cli.errors import InputError
 from minparam_cli.kinematics.defaults import DEFAULT_DAMPING, DEFAULT_EPSILON, DEFAULT_STEP_DEG
-from minparam_cli.render.singular_text import _clean, local_table, scan_table, symbolic_table
+from minparam_cli.render.singular_text import json_safe, local_table, scan_table, symbolic_table
 
 HELP = (
     "Singular positions by screw theory (Glazunov 1985): the local test at --q, the dependent joints, "
@@ -206,7 +206,7 @@ def singular(
         sections.append(symbolic_table(res.symbolic, chain, angle))
 
     if fmt == OutputFormat.json:
-        text = json.dumps(_clean(doc), indent=2, allow_nan=False)
+        text = json.dumps(json_safe(doc), indent=2, allow_nan=False)
     else:
         header = f"robot      {chain.name}  ({robot})\n{tool_line}"
         text = "\n\n".join([header] + sections)
