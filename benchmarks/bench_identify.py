@@ -90,7 +90,7 @@ def calibration() -> float:
 def parse_rate(path: Path, reader: str) -> float:
     """MB/s of the reader alone: every chunk of the 7-joint file, nothing else."""
     from minparam_cli.measured.records import DataOptions
-    from minparam_cli.identify.reading import raw_chunks
+    from minparam_cli.measured.reading import raw_chunks
 
     os.environ["MINPARAM_CSV_READER"] = reader
     t0 = time.perf_counter()

@@ -5,17 +5,17 @@ from __future__ import annotations
 from dataclasses import replace
 from fractions import Fraction
 
-from minparam_cli import chain as chain_module
 from minparam_cli.base.qr import derive_qr
 from minparam_cli.chain import build_chain
 from minparam_cli.describe import load_description
+from minparam_cli.joint_matrices import NotExact, Numbers, joint_matrices
 
 
 def eager_exact(desc):
     """The exact matrices as build_chain computed them before they became lazy."""
     try:
-        emats = chain_module._joint_matrices(desc, chain_module._Num(True, None))
-    except chain_module._NotExact:
+        emats = joint_matrices(desc, Numbers(True, None))
+    except NotExact:
         return None
     return tuple((tuple(tuple(r) for r in p), tuple(a), tuple(tuple(r) for r in q)) for p, a, q in emats)
 

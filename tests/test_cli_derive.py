@@ -9,9 +9,8 @@ import sys
 
 import numpy as np
 import pytest
-from typer.testing import CliRunner
+from conftest import cli
 
-from minparam_cli.cli.app import app
 from minparam_cli.render import text
 
 CONTRACT = {
@@ -20,12 +19,8 @@ CONTRACT = {
 }
 
 
-def run(*args):
-    return CliRunner().invoke(app, [str(a) for a in args])
-
-
 def test_table_output_names_the_puma_groupings():
-    r = run("derive", "robots/puma560_mdh.yaml")
+    r = cli("derive", "robots/puma560_mdh.yaml")
     assert r.exit_code == 0, r.output
     assert "base         36" in r.output
     assert "ZZR1" in r.output and "XXR2" in r.output and "MXR2" in r.output
@@ -33,7 +28,7 @@ def test_table_output_names_the_puma_groupings():
 
 
 def test_json_contract_and_terms_reproduce_the_base_parameters():
-    r = run("derive", "robots/puma560_mdh.yaml", "--friction", "coulomb,viscous", "--rotor-inertia", "--format", "json")
+    r = cli("derive", "robots/puma560_mdh.yaml", "--friction", "coulomb,viscous", "--rotor-inertia", "--format", "json")
     assert r.exit_code == 0
     rep = json.loads(r.output)
     assert CONTRACT <= set(rep)
@@ -56,31 +51,31 @@ def test_json_contract_and_terms_reproduce_the_base_parameters():
 
 
 def test_json_round_trip_renders_the_same_tables():
-    r = run("derive", "robots/ur5.yaml", "--format", "json")
+    r = cli("derive", "robots/ur5.yaml", "--format", "json")
     rep = json.loads(r.output)
     again = json.loads(json.dumps(rep))
     assert text.render_table(again) == text.render_table(rep)
-    md = run("derive", "robots/ur5.yaml", "--format", "markdown").output
+    md = cli("derive", "robots/ur5.yaml", "--format", "markdown").output
     assert text.render_markdown(rep) in md
-    tex = run("derive", "robots/ur5.yaml", "--format", "latex").output
+    tex = cli("derive", "robots/ur5.yaml", "--format", "latex").output
     assert tex.count(r"\\") == rep["n_base"] - 1
     assert r"\begin{align*}" in tex and r"\end{align*}" in tex
 
 
 def test_urdf_states_its_gravity_and_maps_names():
-    rep = json.loads(run("derive", "robots/iiwa14.urdf", "--format", "json").output)
+    rep = json.loads(cli("derive", "robots/iiwa14.urdf", "--format", "json").output)
     assert rep["gravity"] == [0.0, 0.0, -9.81] and rep["gravity_source"] == "default"
     assert rep["links"][0]["joint"] == "iiwa_joint_1" and rep["links"][0]["link"] == "iiwa_link_1"
-    rep2 = json.loads(run("derive", "robots/iiwa14.urdf", "--gravity", "0,0,-1", "--format", "json").output)
+    rep2 = json.loads(cli("derive", "robots/iiwa14.urdf", "--gravity", "0,0,-1", "--format", "json").output)
     assert rep2["gravity"] == [0.0, 0.0, -1.0] and rep2["gravity_source"] == "cli"
-    r = run("derive", "robots/iiwa14.urdf")
+    r = cli("derive", "robots/iiwa14.urdf")
     assert "[default]" in r.output
 
 
 def test_folder_jsonl_gives_one_object_per_robot():
     from conftest import ROBOT_FILES
 
-    r = run("derive", "robots", "--format", "jsonl")
+    r = cli("derive", "robots", "--format", "jsonl")
     assert r.exit_code == 0, r.output
     lines = [json.loads(ln) for ln in r.output.strip().splitlines()]
     robots = [ln for ln in lines if "n_base" in ln]
@@ -92,7 +87,7 @@ def test_batch_keeps_going_past_a_failed_robot_and_exits_non_zero(tmp_path):
     shutil.copy("robots/planar2r.yaml", tmp_path / "a.yaml")
     (tmp_path / "b.yaml").write_text("convention: dh\njoints: []\n")
     shutil.copy("robots/scara.yaml", tmp_path / "c.yaml")
-    r = run("derive", tmp_path, "--jobs", "2")
+    r = cli("derive", tmp_path, "--jobs", "2")
     assert r.exit_code == 2
     assert r.output.count(" ok") >= 2
     assert "error" in r.output and "b.yaml" in r.output
@@ -100,13 +95,13 @@ def test_batch_keeps_going_past_a_failed_robot_and_exits_non_zero(tmp_path):
 
 def test_output_file_is_written(tmp_path):
     out = tmp_path / "puma.json"
-    r = run("derive", "robots/puma560.yaml", "-f", "json", "-o", out)
+    r = cli("derive", "robots/puma560.yaml", "-f", "json", "-o", out)
     assert r.exit_code == 0 and r.output == ""
     assert json.loads(out.read_text())["n_base"] == 36
 
 
 def test_check_validates_a_folder():
-    r = run("check", "robots")
+    r = cli("check", "robots")
     assert r.exit_code == 0, r.output
     assert "puma560.yaml" in r.output
 

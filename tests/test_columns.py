@@ -7,21 +7,16 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from typer.testing import CliRunner
+from conftest import cli
 
-from minparam_cli.cli.app import app
 from minparam_cli.errors import DataError
 from minparam_cli.identify.data import time_span
 from minparam_cli.measured.records import DataOptions
-from minparam_cli.identify.reading import raw_chunks
+from minparam_cli.measured.reading import raw_chunks
 from minparam_cli.measured.columns import parse_columns
 
 ROBOT = Path(__file__).resolve().parents[1] / "robots" / "planar3r.yaml"
 N = 3
-
-
-def run(*args):
-    return CliRunner().invoke(app, [str(a) for a in args])
 
 
 @pytest.fixture(scope="module")
@@ -72,14 +67,14 @@ def test_time_unit_divides_to_seconds(tmp_path, table):
 
 def test_cli_time_unit_and_pattern_give_the_same_report(tmp_path):
     sim = tmp_path / "sim.csv"
-    assert run("simulate", ROBOT, "--duration", "6", "--noise", "0.01", "-o", sim).exit_code == 0
+    assert cli("simulate", ROBOT, "--duration", "6", "--noise", "0.01", "-o", sim).exit_code == 0
     header = open(sim).readline().strip().split(",")
     data = np.loadtxt(sim, delimiter=",", skiprows=1)
     data[:, 0] = np.round(data[:, 0] * 1e3, 9)
     renamed = ["stamp_ms" if h == "t" else h.replace("tau", "") + "_torque" if h.startswith("tau") else h for h in header]
     write(tmp_path / "ms.csv", renamed, data)
-    a = run("identify", ROBOT, sim, "-f", "json", "-q")
-    b = run("identify", ROBOT, tmp_path / "ms.csv", "-f", "json", "-q", "--columns", "t=stamp_ms,tau={}_torque",
+    a = cli("identify", ROBOT, sim, "-f", "json", "-q")
+    b = cli("identify", ROBOT, tmp_path / "ms.csv", "-f", "json", "-q", "--columns", "t=stamp_ms,tau={}_torque",
             "--time-unit", "ms")
     assert a.exit_code == 0 and b.exit_code == 0, b.output
     import json
@@ -95,14 +90,14 @@ def test_headerless_file_says_which_header_to_add(tmp_path, table):
     with open(path) as fh:
         lines = fh.read().splitlines()[1:]  # savetxt wrote an empty header line
     path.write_text("\n".join(lines) + "\n")
-    r = run("identify", ROBOT, path)
+    r = cli("identify", ROBOT, path)
     assert r.exit_code == 2 and "Traceback" not in r.output
     assert len(r.output.strip().splitlines()) == 1
     assert "no header row (line 1 holds 7 numbers)" in r.output and "sed -i '1i t,q1,q2,q3,tau1,tau2,tau3'" in r.output
     # a width that fits no layout still says what the columns are
     odd = tmp_path / "odd.csv"
     odd.write_text("0,1,2,3\n0.1,1,2,3\n")
-    r = run("identify", ROBOT, odd)
+    r = cli("identify", ROBOT, odd)
     assert r.exit_code == 2 and "no header row (line 1 holds 4 numbers); add a first line naming the columns" in r.output
 
 
@@ -120,7 +115,7 @@ def test_bad_specs_are_refused(spec, needle):
     with pytest.raises(ValueError, match=None) as e:
         parse_columns(spec)
     assert needle in str(e.value)
-    r = run("identify", ROBOT, "x.csv", "--columns", spec)
+    r = cli("identify", ROBOT, "x.csv", "--columns", spec)
     assert r.exit_code == 2 and needle in r.output
 
 

@@ -14,7 +14,7 @@ from typer.testing import CliRunner
 from minparam_cli.cli.app import app
 from minparam_cli.errors import DataError
 from minparam_cli.measured.records import DataOptions
-from minparam_cli.identify.reading import raw_chunks
+from minparam_cli.measured.reading import raw_chunks
 
 pytest.importorskip("pyarrow.csv")
 

@@ -8,36 +8,23 @@ import sys
 
 import numpy as np
 import pytest
-from conftest import SHARED
-from typer.testing import CliRunner
-
-from minparam_cli.cli.app import app
+from conftest import SHARED, cli, cli_ok
 
 PANDA_CSV = SHARED / "data" / "panda-gaz2019" / "panda_exciting_traj_1.csv"
 NOISE = 0.01
 FRICTION = {"coulomb", "viscous", "stribeck", "asymmetric_coulomb", "load_coulomb", "rotor_inertia"}
 
 
-def invoke(*args):
-    return CliRunner().invoke(app, [str(a) for a in args])
-
-
-def run(*args) -> str:
-    r = invoke(*args)
-    assert r.exit_code == 0, r.output
-    return r.output
-
-
 def simulate(path, robot="puma560_mdh.yaml", seed=3, effects=""):
     args = ["simulate", f"robots/{robot}", "--noise", NOISE, "--seed", seed, "-o", path, "--quiet"]
     if effects:
         args += ["--effects", effects]
-    run(*args)
+    cli_ok(*args)
     return path
 
 
 def identify(robot, data, *extra) -> dict:
-    return json.loads(run("identify", f"robots/{robot}", data, "--format", "json", "--quiet", *extra))
+    return json.loads(cli_ok("identify", f"robots/{robot}", data, "--format", "json", "--quiet", *extra).output)
 
 
 def read(path):
@@ -78,7 +65,7 @@ def test_default_split_names_three_roles_and_reports_test_figures(tmp_path):
     assert len(t["files"]) == 1 and t["files"][0]["final"] == t["final"]
     assert t["final"]["relative_error"] < t["rigid"]["relative_error"]
     assert rep["before"]["data"] == rep["after"]["data"] == "selection"
-    text = run("identify", "robots/puma560_mdh.yaml", data, "--quiet")
+    text = cli_ok("identify", "robots/puma560_mdh.yaml", data, "--quiet").output
     for needle in ("fit data", "selection data", "test data", "(chose nothing)", "  test"):
         assert needle in text
 
@@ -123,7 +110,7 @@ def test_a_test_file_that_also_fits_or_selects_is_refused(tmp_path, where):
     other = simulate(tmp_path / "o.csv", seed=5)
     extra = {"data": ["--test", data], "validate": ["--validate", sel, "--test", sel],
              "twice": ["--test", other, "--test", other]}[where]
-    r = invoke("identify", "robots/puma560_mdh.yaml", data, *extra)
+    r = cli("identify", "robots/puma560_mdh.yaml", data, *extra)
     assert r.exit_code == 2 and len(r.output.strip().splitlines()) == 1
     assert "--test" in r.output
 
@@ -184,7 +171,7 @@ def test_joints_that_barely_move_are_an_error_naming_them(tmp_path):
     for j in range(2, 7):
         for prefix, value in (("q", table[0, header.index(f"q{j}")]), ("dq", 0.0), ("ddq", 0.0)):
             table[:, header.index(f"{prefix}{j}")] = value + 1e-8 * np.sin(table[:, 0])
-    r = invoke("identify", "robots/puma560_mdh.yaml", write(tmp_path / "still.csv", header, table))
+    r = cli("identify", "robots/puma560_mdh.yaml", write(tmp_path / "still.csv", header, table))
     assert r.exit_code == 1, r.output
     line = r.output.strip()
     assert len(line.splitlines()) == 1 and "poor excitation" in line

@@ -193,7 +193,7 @@ def test_raw_large_time_stamps_give_the_same_samples_as_re_zeroed_ones(tmp_path,
 
 
 def test_the_automatic_decimation_tolerates_a_step_just_off_the_round_rate():
-    from minparam_cli.identify.filtering import Processor
+    from minparam_cli.measured.filtering import Processor
 
     for step in (0.002 * (1 - 1e-7), 0.002, 0.002 * (1 + 1e-7), 0.002 * (1 + 1e-4)):
         t = np.arange(50) * step

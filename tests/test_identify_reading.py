@@ -102,7 +102,7 @@ import os, sys, time
 import numpy as np
 from minparam_cli.measured import tables
 from minparam_cli.measured.records import DataOptions
-from minparam_cli.identify.reading import raw_chunks
+from minparam_cli.measured.reading import raw_chunks
 
 def slow(fh, rows):
     while True:
@@ -227,7 +227,7 @@ def test_reading_goes_on_after_the_thread_that_started_it_ends(tmp_path, monkeyp
     must not be tied to the first thread's life."""
     import threading
 
-    from minparam_cli.identify import reading
+    from minparam_cli.measured import reading
 
     from minparam_cli.measured import tables
     from minparam_cli.measured.records import DataOptions

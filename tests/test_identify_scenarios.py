@@ -15,9 +15,7 @@ from __future__ import annotations
 import json
 
 import pytest
-from typer.testing import CliRunner
-
-from minparam_cli.cli.app import app
+from conftest import cli_ok
 
 NOISE = 0.01
 SEEDS = (1, 2, 3)
@@ -57,12 +55,6 @@ def scenarios():
     return out
 
 
-def run(*args):
-    r = CliRunner().invoke(app, [str(a) for a in args])
-    assert r.exit_code == 0, r.output
-    return r.output
-
-
 @pytest.mark.parametrize("robot, effects, expected, seed", scenarios())
 def test_diagnosis_names_the_hidden_effect(tmp_path, robot, effects, expected, seed):
     """Exactly the injected effect on exactly its joints (with its grid value), nothing else, and the
@@ -71,8 +63,8 @@ def test_diagnosis_names_the_hidden_effect(tmp_path, robot, effects, expected, s
     args = ["simulate", f"robots/{robot}", "--noise", NOISE, "--seed", seed, "-o", data, "--quiet"]
     if effects:
         args += ["--effects", effects]
-    run(*args)
-    rep = json.loads(run("identify", f"robots/{robot}", data, "--format", "json", "--quiet"))
+    cli_ok(*args)
+    rep = json.loads(cli_ok("identify", f"robots/{robot}", data, "--format", "json", "--quiet").output)
     if expected == "rotor":
         expected = {("rotor_inertia", rotor_joints(robot), None)}
     found = {(e["effect"], tuple(e["joints"]), e.get("hyper")) for e in rep["effects"]}
@@ -94,10 +86,10 @@ def test_smooth_coulomb_is_found_with_the_matching_smoothing(tmp_path):
     """Coulomb injected as tanh(dq/0.05): identify with --coulomb-smoothing 0.05 names it on every
     joint and reaches the noise floor; the report says which Coulomb model it used."""
     data = tmp_path / "sim.csv"
-    run("simulate", "robots/puma560_mdh.yaml", "--noise", NOISE, "--seed", 3, "-o", data, "--quiet",
-        "--effects", "coulomb:amp=0.1", "--coulomb-smoothing", SMOOTH)
-    rep = json.loads(run("identify", "robots/puma560_mdh.yaml", data, "--format", "json", "--quiet",
-                         "--coulomb-smoothing", SMOOTH))
+    cli_ok("simulate", "robots/puma560_mdh.yaml", "--noise", NOISE, "--seed", 3, "-o", data, "--quiet",
+           "--effects", "coulomb:amp=0.1", "--coulomb-smoothing", SMOOTH)
+    rep = json.loads(cli_ok("identify", "robots/puma560_mdh.yaml", data, "--format", "json", "--quiet",
+                            "--coulomb-smoothing", SMOOTH).output)
     assert {(e["effect"], tuple(e["joints"])) for e in rep["effects"]} == {("coulomb", tuple(range(1, 7)))}
     assert rep["test"]["final"]["rms_total"] <= 1.5 * NOISE
     assert rep["coulomb_model"] == f"tanh(dq / {SMOOTH:g})"
@@ -107,12 +99,12 @@ def test_declared_smooth_coulomb_fits_smooth_data_better_than_sign(tmp_path):
     """Declared Fc columns follow --coulomb-smoothing: on smooth-Coulomb data the matching model
     reaches the noise floor, the sign model leaves the difference tanh - sign in the residual."""
     data = tmp_path / "sim.csv"
-    run("simulate", "robots/puma560_mdh.yaml", "--noise", NOISE, "--seed", 5, "-o", data, "--quiet",
-        "--effects", "coulomb:amp=0.3", "--coulomb-smoothing", 0.2)
+    cli_ok("simulate", "robots/puma560_mdh.yaml", "--noise", NOISE, "--seed", 5, "-o", data, "--quiet",
+           "--effects", "coulomb:amp=0.3", "--coulomb-smoothing", 0.2)
     common = ("identify", "robots/puma560_mdh.yaml", data, "--format", "json", "--quiet", "--no-diagnose",
               "--friction", "coulomb")
-    smooth = json.loads(run(*common, "--coulomb-smoothing", 0.2))
-    sharp = json.loads(run(*common))
+    smooth = json.loads(cli_ok(*common, "--coulomb-smoothing", 0.2).output)
+    sharp = json.loads(cli_ok(*common).output)
     assert smooth["test"]["final"]["rms_total"] <= 1.5 * NOISE
     assert sharp["test"]["final"]["rms_total"] > 2 * smooth["test"]["final"]["rms_total"]
     assert any(k.startswith("Fc") for k in smooth["parameters"])

@@ -7,24 +7,11 @@ import shutil
 
 import numpy as np
 import pytest
-from conftest import ROOT
-from typer.testing import CliRunner
-
-from minparam_cli.cli.app import app
+from conftest import ROOT, cli, cli_ok
 
 pytest.importorskip("cvxpy")
 
 ROBOT = ROOT / "robots" / "puma560_mdh.yaml"
-
-
-def cli(*args):
-    return CliRunner().invoke(app, [str(a) for a in args])
-
-
-def ok(*args) -> str:
-    r = cli(*args)
-    assert r.exit_code == 0, r.output
-    return r.output
 
 
 def refused(*args, needle: str = "") -> str:
@@ -50,9 +37,9 @@ def run(tmp_path_factory):
     the second half as its --test file, the model saved."""
     d = tmp_path_factory.mktemp("model")
     sim, fit, test, model = d / "sim.csv", d / "fit.csv", d / "test.csv", d / "model.json"
-    ok("simulate", ROBOT, "--effects", "coulomb,viscous", "--noise", 0.02, "--duration", 30, "--seed", 3, "-o", sim, "-q")
+    cli_ok("simulate", ROBOT, "--effects", "coulomb,viscous", "--noise", 0.02, "--duration", 30, "--seed", 3, "-o", sim, "-q")
     split_csv(sim, fit, test)
-    report = json.loads(ok("identify", ROBOT, fit, "--test", test, "--physical", "--save-model", model, "-f", "json", "-q"))
+    report = json.loads(cli_ok("identify", ROBOT, fit, "--test", test, "--physical", "--save-model", model, "-f", "json", "-q").output)
     return {"dir": d, "fit": fit, "test": test, "model": model, "report": report}
 
 
@@ -66,7 +53,7 @@ def test_evaluate_on_the_test_file_reproduces_identify_test_figures(run):
     rep = run["report"]
     assert rep["effects"], "the diagnosis should have added the friction"
     for which, expected in (("fit", rep["test"]["final"]), ("physical", rep["physical"]["test"]["test1"])):
-        ev = json.loads(ok("evaluate", run["model"], run["test"], "--model", which, "-f", "json"))
+        ev = json.loads(cli_ok("evaluate", run["model"], run["test"], "--model", which, "-f", "json").output)
         got = ev["pooled"]
         assert ev["model"] == which and ev["files"][0]["samples"] == rep["roles"]["test"][0]["samples"]
         for key in ("rms_total", "relative_error"):
@@ -75,9 +62,9 @@ def test_evaluate_on_the_test_file_reproduces_identify_test_figures(run):
 
 
 def test_pooled_figures_sum_the_files_squares(run):
-    one = json.loads(ok("evaluate", run["model"], run["fit"], "-f", "json"))["pooled"]
-    two = json.loads(ok("evaluate", run["model"], run["test"], "-f", "json"))["pooled"]
-    both = json.loads(ok("evaluate", run["model"], run["fit"], run["test"], "-f", "json"))
+    one = json.loads(cli_ok("evaluate", run["model"], run["fit"], "-f", "json").output)["pooled"]
+    two = json.loads(cli_ok("evaluate", run["model"], run["test"], "-f", "json").output)["pooled"]
+    both = json.loads(cli_ok("evaluate", run["model"], run["fit"], run["test"], "-f", "json").output)
     assert len(both["files"]) == 2 and both["model"] == "physical"  # the default when the model has one
     rows = one["samples"] + two["samples"]
     ms = (np.square(one["rms_per_joint"]) * one["samples"] + np.square(two["rms_per_joint"]) * two["samples"]) / rows
@@ -86,7 +73,7 @@ def test_pooled_figures_sum_the_files_squares(run):
 
 def test_predictions_csv_holds_measured_and_predicted_torques(run):
     out = run["dir"] / "pred.csv"
-    ev = json.loads(ok("evaluate", run["model"], run["test"], "--model", "fit", "--predictions", out, "-f", "json"))
+    ev = json.loads(cli_ok("evaluate", run["model"], run["test"], "--model", "fit", "--predictions", out, "-f", "json").output)
     header = out.read_text().splitlines()[0].split(",")
     assert header == ["t"] + [f"tau_meas{j}" for j in range(1, 7)] + [f"tau_pred{j}" for j in range(1, 7)]
     a = np.loadtxt(out, delimiter=",", skiprows=1)
@@ -97,7 +84,8 @@ def test_predictions_csv_holds_measured_and_predicted_torques(run):
 
 
 def test_model_file_contents_and_json_round_trip(run):
-    from minparam_cli.identify.model import dumps, parse_model
+    from minparam_cli.identify.model import dumps
+    from minparam_cli.identify.model_parse import parse_model
 
     text = run["model"].read_text()
     doc = json.loads(text)
@@ -157,7 +145,7 @@ def test_a_model_is_refused_on_another_robot_or_a_changed_file(run, tmp_path):
     # the same robot under another name is accepted: the bytes decide
     copy = tmp_path / "copy.yaml"
     shutil.copy(ROBOT, copy)
-    ok("evaluate", run["model"], run["test"], "--robot", copy)
+    cli_ok("evaluate", run["model"], run["test"], "--robot", copy)
     moved = _tampered(run, "changed.json", lambda d: d["robot"].update(path=str(copy)))
     copy.write_text(copy.read_text() + "\n# edited\n")
     refused("evaluate", moved, run["test"], needle="has changed since")
@@ -165,16 +153,16 @@ def test_a_model_is_refused_on_another_robot_or_a_changed_file(run, tmp_path):
 
 def test_data_with_the_wrong_joint_count(run, tmp_path):
     data = tmp_path / "planar.csv"
-    ok("simulate", ROOT / "robots" / "planar2r.yaml", "-o", data, "--duration", 2, "-q")
+    cli_ok("simulate", ROOT / "robots" / "planar2r.yaml", "-o", data, "--duration", 2, "-q")
     refused("evaluate", run["model"], data, needle="the data have 2 joints")
 
 
 def test_physical_parameters_need_a_physical_model(tmp_path, run):
     model = tmp_path / "m.json"
-    ok("identify", ROBOT, run["fit"], "--test", run["test"], "--no-diagnose", "--save-model", model, "-q")
+    cli_ok("identify", ROBOT, run["fit"], "--test", run["test"], "--no-diagnose", "--save-model", model, "-q")
     assert json.loads(model.read_text())["physical"] is None
     refused("evaluate", model, run["test"], "--model", "physical", needle="has no physical fit")
-    assert json.loads(ok("evaluate", model, run["test"], "-f", "json"))["model"] == "fit"
+    assert json.loads(cli_ok("evaluate", model, run["test"], "-f", "json").output)["model"] == "fit"
 
 
 def test_exports_need_physical_and_yaml_needs_a_table(tmp_path, run):

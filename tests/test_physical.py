@@ -7,20 +7,11 @@ import sys
 
 import numpy as np
 import pytest
-from conftest import SHARED
-from typer.testing import CliRunner
-
-from minparam_cli.cli.app import app
+from conftest import SHARED, cli, cli_ok
 
 pytest.importorskip("cvxpy")
 
 PANDA_CSV = SHARED / "data" / "panda-gaz2019" / "panda_exciting_traj_1.csv"
-
-
-def run(*args) -> str:
-    r = CliRunner().invoke(app, [str(a) for a in args])
-    assert r.exit_code == 0, r.output
-    return r.output
 
 
 def base_truth(robot: str, phi: np.ndarray) -> dict:
@@ -44,8 +35,8 @@ def test_random_consistent_bodies_are_recovered_within_3_sigma(tmp_path, robot, 
     base parameters K·φ lie within 3σ of the truth (σ of the unconstrained fit), every link it returns
     is a body, and its test error equals the unconstrained one to 1 %."""
     data, truth = tmp_path / "d.csv", tmp_path / "t.json"
-    run("simulate", f"robots/{robot}", "--random-inertia", "--noise", 0.01, "--seed", seed, "-o", data, "--truth", truth, "-q")
-    rep = json.loads(run("identify", f"robots/{robot}", data, "--physical", "--no-diagnose", "-f", "json", "-q"))
+    cli_ok("simulate", f"robots/{robot}", "--random-inertia", "--noise", 0.01, "--seed", seed, "-o", data, "--truth", truth, "-q")
+    rep = json.loads(cli_ok("identify", f"robots/{robot}", data, "--physical", "--no-diagnose", "-f", "json", "-q").output)
     true = base_truth(robot, np.asarray(json.loads(truth.read_text())["phi"]))
     phys = rep["physical"]
     assert phys["status"] == "optimal" and consistent(phys["links"])
@@ -66,7 +57,8 @@ def test_torques_no_body_can_make_are_not_fitted_with_impossible_bodies(tmp_path
     """Torques made with ZZ6 < 0 (link 6's inertia about its own axis, a base parameter of its own):
     no mass distribution has that, so the unconstrained fit reproduces the data and the physical fit
     returns real bodies only and pays for it on joint 6."""
-    from minparam_cli.identify.simulate import SimulationOptions, rigid_torque, simulate
+    from minparam_cli.identify.simulate import rigid_torque, simulate
+    from minparam_cli.identify.simulate_spec import SimulationOptions
     from minparam_cli.pipeline import DeriveOptions, load_chain
 
     _, chain = load_chain("robots/puma560_mdh.yaml", DeriveOptions())
@@ -77,7 +69,7 @@ def test_torques_no_body_can_make_are_not_fitted_with_impossible_bodies(tmp_path
     header = ["t"] + [f"{k}{j}" for k in ("q", "dq", "ddq", "tau") for j in range(1, 7)]
     path = tmp_path / "no_body.csv"
     np.savetxt(path, np.column_stack([sim.t, sim.q, sim.dq, sim.ddq, tau]), delimiter=",", header=",".join(header), comments="")
-    rep = json.loads(run("identify", "robots/puma560_mdh.yaml", path, "--physical", "--no-diagnose", "-f", "json", "-q"))
+    rep = json.loads(cli_ok("identify", "robots/puma560_mdh.yaml", path, "--physical", "--no-diagnose", "-f", "json", "-q").output)
     assert rep["parameters"]["ZZ6"]["value"] < -0.0015  # least squares finds the impossible value
     phys = rep["physical"]
     assert consistent(phys["links"]) and phys["phi"]["ZZ6"] >= 0
@@ -88,7 +80,8 @@ def test_the_prior_holds_what_the_data_do_not_inform(tmp_path):
     """Only joint 1 moves: most directions of the outer links' parameters are not in the data.  Without a
     prior that is poor excitation (exit 1); with --prior nominal the fit succeeds, link 6's inertia stays
     at the description's values, and the report counts the directions the data set per link."""
-    from minparam_cli.identify.simulate import SimulationOptions, rigid_torque, simulate
+    from minparam_cli.identify.simulate import rigid_torque, simulate
+    from minparam_cli.identify.simulate_spec import SimulationOptions
     from minparam_cli.pipeline import DeriveOptions, load_chain
 
     _, chain = load_chain("robots/puma560_mdh.yaml", DeriveOptions())
@@ -100,10 +93,10 @@ def test_the_prior_holds_what_the_data_do_not_inform(tmp_path):
     header = ["t"] + [f"{k}{j}" for k in ("q", "dq", "ddq", "tau") for j in range(1, 7)]
     path = tmp_path / "frozen.csv"
     np.savetxt(path, np.column_stack([sim.t, q, dq, ddq, tau]), delimiter=",", header=",".join(header), comments="")
-    bad = CliRunner().invoke(app, ["identify", "robots/puma560_mdh.yaml", str(path), "--no-diagnose"])
+    bad = cli("identify", "robots/puma560_mdh.yaml", path, "--no-diagnose")
     assert bad.exit_code == 1 and "joints 2, 3, 4, 5, 6 barely moved" in bad.output  # no prior: poor excitation
-    reps = {w: json.loads(run("identify", "robots/puma560_mdh.yaml", path, "--physical", "--prior", "nominal",
-                              "--prior-weight", w, "--no-diagnose", "-f", "json", "-q")) for w in ("1e-4", "1e-2")}
+    reps = {w: json.loads(cli_ok("identify", "robots/puma560_mdh.yaml", path, "--physical", "--prior", "nominal",
+                                 "--prior-weight", w, "--no-diagnose", "-f", "json", "-q").output) for w in ("1e-4", "1e-2")}
     for rep in reps.values():
         phys = rep["physical"]
         assert consistent(phys["links"])
@@ -120,7 +113,7 @@ def test_the_prior_holds_what_the_data_do_not_inform(tmp_path):
 def test_panda_physical_costs_at_most_10_percent_test_error():
     """Issue 13, point 4: on the real Panda recording, the physical fit with the same effects is within
     10 % of the unconstrained fit on the test data, and every link is a body."""
-    rep = json.loads(run("identify", "robots/panda.yaml", PANDA_CSV, "--physical", "-f", "json", "-q"))
+    rep = json.loads(cli_ok("identify", "robots/panda.yaml", PANDA_CSV, "--physical", "-f", "json", "-q").output)
     phys = rep["physical"]
     assert consistent(phys["links"])
     assert phys["test"]["test1"]["relative_error"] <= 1.10 * rep["test"]["final"]["relative_error"]
@@ -134,20 +127,20 @@ def test_panda_physical_costs_at_most_10_percent_test_error():
 def test_bad_physical_options(tmp_path, args, needle):
     if needle is None:  # the Panda description has no inertial values to pull toward
         data = tmp_path / "p.csv"
-        run("simulate", "robots/panda.yaml", "--random-inertia", "-o", data, "-q", "--seed", 1)
-        r = CliRunner().invoke(app, ["identify", "robots/panda.yaml", str(data), "--physical", "--prior", "nominal"])
+        cli_ok("simulate", "robots/panda.yaml", "--random-inertia", "-o", data, "-q", "--seed", 1)
+        r = cli("identify", "robots/panda.yaml", data, "--physical", "--prior", "nominal")
         assert r.exit_code == 2 and "no inertial values" in r.output and len(r.output.strip().splitlines()) == 1
         return
     data = tmp_path / "d.csv"
-    run("simulate", "robots/planar2r.yaml", "-o", data, "-q")
-    r = CliRunner().invoke(app, ["identify", "robots/planar2r.yaml", str(data), *args])
+    cli_ok("simulate", "robots/planar2r.yaml", "-o", data, "-q")
+    r = cli("identify", "robots/planar2r.yaml", data, *args)
     assert r.exit_code == 2 and needle in r.output
 
 
 def test_missing_cvxpy_is_one_line_naming_the_extra(tmp_path, monkeypatch):
     data = tmp_path / "d.csv"
-    run("simulate", "robots/planar2r.yaml", "-o", data, "-q")
+    cli_ok("simulate", "robots/planar2r.yaml", "-o", data, "-q")
     monkeypatch.setitem(sys.modules, "cvxpy", None)  # import cvxpy now raises ImportError
-    r = CliRunner().invoke(app, ["identify", "robots/planar2r.yaml", str(data), "--physical", "--no-diagnose"])
+    r = cli("identify", "robots/planar2r.yaml", data, "--physical", "--no-diagnose")
     assert r.exit_code == 2 and "pip install 'minparam[physical]'" in r.output
     assert len(r.output.strip().splitlines()) == 1

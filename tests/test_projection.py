@@ -14,7 +14,8 @@ from minparam_cli.base.qr import derive_qr
 from minparam_cli.chain import build_chain
 from minparam_cli.describe import load_description
 from minparam_cli.describe.yaml_dh import description_from_mapping
-from minparam_cli.dynamics.projection import basis_dimension, energy_blocks, produced_rows
+from minparam_cli.dynamics.projection import energy_blocks
+from minparam_cli.dynamics.projection_rows import basis_dimension, produced_rows
 from minparam_cli.dynamics.projection_terms import exact_geometry
 from minparam_cli.dynamics.regressor import random_states, regressor
 from minparam_cli.errors import ComputationError, UnsupportedError

@@ -20,7 +20,8 @@ import reference_dynamics as ref
 from minparam_cli.chain import PRISMATIC, REVOLUTE, build_chain, motion
 from minparam_cli.describe import load_description
 from minparam_cli.describe.records import GeomValue, JointRecord, RobotDescription
-from minparam_cli.dynamics.projection import KINETIC, POTENTIAL, coordinate_matrix
+from minparam_cli.dynamics.projection import KINETIC, POTENTIAL
+from minparam_cli.dynamics.projection_rows import coordinate_matrix
 from minparam_cli.dynamics.projection_terms import PRODUCT_RULES, Y_SIZE, joint_terms, kron_map
 
 

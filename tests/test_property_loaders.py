@@ -20,7 +20,7 @@ from minparam_cli.describe.bodies import body_verdicts  # noqa: E402
 from minparam_cli.describe.platform_yaml import PlatformDescription, load_platform  # noqa: E402
 from minparam_cli.errors import InputError  # noqa: E402
 from minparam_cli.measured.records import DataOptions  # noqa: E402
-from minparam_cli.identify.reading import raw_chunks  # noqa: E402
+from minparam_cli.measured.reading import raw_chunks  # noqa: E402
 
 ROBOTS = Path(__file__).resolve().parents[1] / "robots"
 ROBOT_FILES = sorted(p for p in ROBOTS.glob("*.yaml") if (yaml.safe_load(p.read_text()) or {}).get("kind", "robot") == "robot")

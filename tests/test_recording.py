@@ -15,7 +15,7 @@ from conftest import cli as run
 from minparam_cli.errors import DataError
 from minparam_cli.identify.data import time_span
 from minparam_cli.measured.records import DataOptions
-from minparam_cli.identify.reading import raw_chunks
+from minparam_cli.measured.reading import raw_chunks
 
 ROOT = Path(__file__).resolve().parents[1]
 ROBOT = ROOT / "robots" / "planar3r.yaml"

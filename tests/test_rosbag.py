@@ -8,19 +8,13 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from typer.testing import CliRunner
-
-from minparam_cli.cli.app import app
+from conftest import cli
 
 rosbags = pytest.importorskip("rosbags")
 
 ROBOTS = Path(__file__).resolve().parents[1] / "robots"
 PUMA = ROBOTS / "puma560_mdh.yaml"
 NAMES = [f"j{k}" for k in range(1, 7)]  # puma560_mdh.yaml's joint names (checked below)
-
-
-def run(*args):
-    return CliRunner().invoke(app, [str(a) for a in args])
 
 
 def read_csv(path: Path):
@@ -75,7 +69,7 @@ def write_bag(path: Path, kind: str, csv: Path, names=NAMES, topic="/joint_state
 def sim(tmp_path_factory):
     """A simulate run (with dq, without ddq) and the same data without dq; stamps are whole ns."""
     d = tmp_path_factory.mktemp("sim")
-    r = run("simulate", PUMA, "--effects", "coulomb,viscous", "--noise", "0.05", "--duration", "12", "--no-ddq",
+    r = cli("simulate", PUMA, "--effects", "coulomb,viscous", "--noise", "0.05", "--duration", "12", "--no-ddq",
             "-o", d / "sim.csv")
     assert r.exit_code == 0, r.output
     header, table = read_csv(d / "sim.csv")
@@ -86,7 +80,7 @@ def sim(tmp_path_factory):
 
 
 def identify_json(data, *extra):
-    r = run("identify", PUMA, data, "--format", "json", "--seed", "0", *extra)
+    r = cli("identify", PUMA, data, "--format", "json", "--seed", "0", *extra)
     assert r.exit_code == 0, r.output
     return json.loads(r.output)
 
@@ -141,18 +135,18 @@ def test_sqlite_file_and_folder_and_missing_velocity(sim, tmp_path):
 
 def test_topic_choice(sim, tmp_path):
     bag = write_bag(tmp_path / "two.mcap", "mcap", sim / "sim.csv", extra_topics=("/other_states",))
-    r = run("identify", PUMA, bag)
+    r = cli("identify", PUMA, bag)
     assert r.exit_code == 2
     assert "2 sensor_msgs/msg/JointState topics (/joint_states, /other_states); choose one with --topic" in r.output
     assert "Traceback" not in r.output
     same_identification(identify_json(sim / "sim.csv"), identify_json(bag, "--topic", "/other_states"))
-    r = run("identify", PUMA, bag, "--topic", "/nope")
+    r = cli("identify", PUMA, bag, "--topic", "/nope")
     assert r.exit_code == 2 and "no topic '/nope' in the bag" in r.output
 
 
 def test_joint_names_must_match(sim, tmp_path):
     bag = write_bag(tmp_path / "names.mcap", "mcap", sim / "sim.csv", names=[f"joint_{k}" for k in range(1, 7)])
-    r = run("identify", PUMA, bag)
+    r = cli("identify", PUMA, bag)
     assert r.exit_code == 2
     assert "message 1 on /joint_states lacks joints j1, j2, j3, j4, ... of the robot (it names: joint_1" in r.output
 
@@ -160,23 +154,23 @@ def test_joint_names_must_match(sim, tmp_path):
 def test_damaged_and_special_bags_are_one_line(tmp_path):
     junk = tmp_path / "junk.mcap"
     junk.write_bytes(b"\x00" * 100)
-    r = run("identify", PUMA, junk)
+    r = cli("identify", PUMA, junk)
     assert r.exit_code == 2 and "cannot read the bag" in r.output and len(r.output.strip().splitlines()) == 1
     fifo = tmp_path / "pipe.bag"
     import os
 
     os.mkfifo(fifo)
-    r = run("identify", PUMA, fifo)
+    r = cli("identify", PUMA, fifo)
     assert r.exit_code == 2 and "expected a regular file" in r.output
 
 
 def test_evaluate_reads_a_bag(sim, tmp_path):
     model = tmp_path / "model.json"
-    r = run("identify", PUMA, sim / "sim.csv", "--save-model", model, "-q")
+    r = cli("identify", PUMA, sim / "sim.csv", "--save-model", model, "-q")
     assert r.exit_code == 0, r.output
     bag = write_bag(tmp_path / "eval.mcap", "mcap", sim / "sim.csv")
-    a = run("evaluate", model, sim / "sim.csv", "--format", "json")
-    b = run("evaluate", model, bag, "--format", "json")
+    a = cli("evaluate", model, sim / "sim.csv", "--format", "json")
+    b = cli("evaluate", model, bag, "--format", "json")
     assert a.exit_code == 0 and b.exit_code == 0, b.output
     fa, fb = flatten(json.loads(a.output)), flatten(json.loads(b.output))
     assert fa.keys() == fb.keys() and len(fa) > 10
@@ -200,6 +194,6 @@ def test_missing_extra_is_one_line(monkeypatch, tmp_path):
     monkeypatch.setitem(sys.modules, "rosbags", None)  # import rosbags raises ImportError
     bag = tmp_path / "x.mcap"
     bag.write_bytes(b"")
-    r = run("identify", PUMA, bag)
+    r = cli("identify", PUMA, bag)
     assert r.exit_code == 2
     assert "needs the rosbags library: pip install 'minparam[ros]'" in r.output

@@ -7,7 +7,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from typer.testing import CliRunner
+from conftest import cli
 
 from minparam_cli.chain import build_chain
 from minparam_cli.describe import load_description
@@ -15,7 +15,8 @@ from minparam_cli.dynamics.regressor import regressor
 from minparam_cli.errors import InputError
 from minparam_cli.identify.effects import COGGING_GRID, EFFECTS, STRIBECK_GRID, Signals, effect_torque
 from minparam_cli.dynamics.inertia import pseudo_inertia_from_standard, random_inertia, standard_from_com
-from minparam_cli.identify.simulate import SimulationOptions, data_columns, parse_effects, simulate
+from minparam_cli.identify.simulate import simulate
+from minparam_cli.identify.simulate_spec import SimulationOptions, data_columns, parse_effects
 from minparam_cli.identify.trajectory import LIMIT_MARGIN, excursion_bounds, fourier_excitation, joint_ranges
 from minparam_cli.params import standard_names
 
@@ -23,26 +24,14 @@ ROBOTS = Path(__file__).resolve().parents[1] / "robots"
 PUMA = str(ROBOTS / "puma560_mdh.yaml")
 PLANAR = str(ROBOTS / "planar2r.yaml")
 PANDA = str(ROBOTS / "panda.yaml")
-runner = CliRunner()
 EVERY_EFFECT = (
     "coulomb,viscous,offset@1,rotor_inertia@2,stribeck@1:vs=0.05,asymmetric_coulomb@2,spring@2,"
     "cogging@1:k=12,load_coulomb@1,gain@2:g=0.03,drift@1:amp=0.2"
 )
 
 
-@pytest.fixture(scope="module")
-def app():
-    from minparam_cli.cli.app import app as real_app
-
-    return real_app
-
-
 def chain_of(path):
     return build_chain(load_description(path))
-
-
-def run(app, *args):
-    return runner.invoke(app, ["simulate", *args])
 
 
 def short(*extra):
@@ -115,10 +104,10 @@ def independent_torque(chain, data, truth):
 
 
 @pytest.mark.parametrize("path", [PLANAR, PUMA], ids=["planar2r", "puma560_mdh"])
-def test_torque_is_regressor_times_phi_plus_effects(app, tmp_path, path):
+def test_torque_is_regressor_times_phi_plus_effects(tmp_path, path):
     out, truth = tmp_path / "d.npz", tmp_path / "t.json"
     effects = EVERY_EFFECT if path == PLANAR else "coulomb,viscous,spring@2,cogging@3:k=12,gain:g=0.05"
-    r = run(app, path, *short("--effects", effects, "-o", str(out), "--truth", str(truth), "--quiet"))
+    r = cli("simulate", path, *short("--effects", effects, "-o", str(out), "--truth", str(truth), "--quiet"))
     assert r.exit_code == 0, r.output
     data = dict(np.load(out))
     rec = json.loads(truth.read_text())
@@ -246,9 +235,9 @@ def test_standard_parameters_round_trip_to_mass_com_and_central_inertia():
         np.testing.assert_allclose(Ic, body.inertia_com[j], atol=1e-12 * np.abs(Io).max())
 
 
-def test_robot_without_inertia_gets_random_consistent_parameters(app, tmp_path):
+def test_robot_without_inertia_gets_random_consistent_parameters(tmp_path):
     truth = tmp_path / "t.json"
-    r = run(app, PANDA, *short("-o", str(tmp_path / "d.csv"), "--truth", str(truth)))
+    r = cli("simulate", PANDA, *short("-o", str(tmp_path / "d.csv"), "--truth", str(truth)))
     assert r.exit_code == 0, r.output
     assert "does not give inertial data" in r.stderr and r.stdout == ""
     rec = json.loads(truth.read_text())
@@ -256,13 +245,13 @@ def test_robot_without_inertia_gets_random_consistent_parameters(app, tmp_path):
     phi = np.array(rec["phi"])
     for j in range(7):
         assert np.linalg.eigvalsh(pseudo_inertia_from_standard(phi[10 * j : 10 * j + 10])).min() > 0
-    quiet = run(app, PANDA, *short("-o", str(tmp_path / "e.csv"), "--quiet"))
+    quiet = cli("simulate", PANDA, *short("-o", str(tmp_path / "e.csv"), "--quiet"))
     assert quiet.exit_code == 0 and quiet.stderr == ""
 
 
-def test_random_inertia_flag_overrides_the_file(app, tmp_path):
+def test_random_inertia_flag_overrides_the_file(tmp_path):
     truth = tmp_path / "t.json"
-    r = run(app, PLANAR, *short("--random-inertia", "-o", str(tmp_path / "d.csv"), "--truth", str(truth), "-q"))
+    r = cli("simulate", PLANAR, *short("--random-inertia", "-o", str(tmp_path / "d.csv"), "--truth", str(truth), "-q"))
     assert r.exit_code == 0, r.output
     rec = json.loads(truth.read_text())
     assert rec["inertia_source"] == "random"
@@ -272,9 +261,9 @@ def test_random_inertia_flag_overrides_the_file(app, tmp_path):
 # --- files -------------------------------------------------------------------------------------------
 
 
-def test_csv_header_and_columns(app, tmp_path):
+def test_csv_header_and_columns(tmp_path):
     out = tmp_path / "d.csv"
-    r = run(app, PUMA, *short("-o", str(out), "-q"))
+    r = cli("simulate", PUMA, *short("-o", str(out), "-q"))
     assert r.exit_code == 0 and r.stdout == ""
     lines = out.read_text().splitlines()
     header = "t,q1,q2,q3,q4,q5,q6,dq1,dq2,dq3,dq4,dq5,dq6,ddq1,ddq2,ddq3,ddq4,ddq5,ddq6,tau1,tau2,tau3,tau4,tau5,tau6"
@@ -285,24 +274,24 @@ def test_csv_header_and_columns(app, tmp_path):
     np.testing.assert_allclose(table[:, 0], np.arange(400) / 100.0, rtol=0, atol=1e-15)
 
     no_ddq = tmp_path / "n.csv"
-    assert run(app, PUMA, *short("-o", str(no_ddq), "-q", "--no-ddq")).exit_code == 0
+    assert cli("simulate", PUMA, *short("-o", str(no_ddq), "-q", "--no-ddq")).exit_code == 0
     head = no_ddq.read_text().splitlines()[0].split(",")
     assert head == list(data_columns(6, include_ddq=False)) and not any(h.startswith("ddq") for h in head)
     full = np.loadtxt(no_ddq, delimiter=",", skiprows=1)
     np.testing.assert_array_equal(full, np.delete(table, np.s_[13:19], axis=1))
 
 
-def test_csv_on_stdout_without_output(app):
-    r = run(app, PLANAR, "--duration", "0.05", "--rate", "100", "-q")
+def test_csv_on_stdout_without_output():
+    r = cli("simulate", PLANAR, "--duration", "0.05", "--rate", "100", "-q")
     assert r.exit_code == 0 and r.stderr == ""
     lines = r.stdout.splitlines()
     assert lines[0] == "t,q1,q2,dq1,dq2,ddq1,ddq2,tau1,tau2" and len(lines) == 6
 
 
-def test_npz_round_trip_matches_the_csv(app, tmp_path):
+def test_npz_round_trip_matches_the_csv(tmp_path):
     csv, npz = tmp_path / "d.csv", tmp_path / "d.npz"
     for out in (csv, npz):
-        assert run(app, PLANAR, *short("--effects", "coulomb", "--noise", "0.1", "--seed", "5", "-o", str(out), "-q")).exit_code == 0
+        assert cli("simulate", PLANAR, *short("--effects", "coulomb", "--noise", "0.1", "--seed", "5", "-o", str(out), "-q")).exit_code == 0
     data = np.load(npz)
     assert sorted(data.files) == ["ddq", "dq", "q", "t", "tau"]
     table = np.loadtxt(csv, delimiter=",", skiprows=1)
@@ -313,15 +302,15 @@ def test_npz_round_trip_matches_the_csv(app, tmp_path):
     assert not any(p.name.endswith(".tmp") for p in tmp_path.iterdir())
 
     no_ddq = tmp_path / "n.npz"
-    assert run(app, PLANAR, *short("-o", str(no_ddq), "-q", "--no-ddq")).exit_code == 0
+    assert cli("simulate", PLANAR, *short("-o", str(no_ddq), "-q", "--no-ddq")).exit_code == 0
     assert sorted(np.load(no_ddq).files) == ["dq", "q", "t", "tau"]
 
 
-def test_same_seed_same_files_different_seed_different(app, tmp_path):
+def test_same_seed_same_files_different_seed_different(tmp_path):
     def make(name, seed):
         out, truth = tmp_path / f"{name}.csv", tmp_path / f"{name}.json"
         args = short("--effects", "coulomb,spring@1", "--noise", "0.05", "--seed", str(seed), "-o", str(out), "--truth", str(truth), "-q")
-        assert run(app, PLANAR, *args).exit_code == 0
+        assert cli("simulate", PLANAR, *args).exit_code == 0
         return out.read_bytes(), truth.read_bytes()
 
     a, b, c = make("a", 9), make("b", 9), make("c", 10)
@@ -329,10 +318,10 @@ def test_same_seed_same_files_different_seed_different(app, tmp_path):
     assert a[0] != c[0] and a[1] != c[1]
 
 
-def test_truth_record_keys(app, tmp_path):
+def test_truth_record_keys(tmp_path):
     truth = tmp_path / "t.json"
-    r = run(app, PLANAR, *short("--effects", "coulomb@1,stribeck@2,cogging@1:k=12", "--noise", "0.01", "--seed", "3",
-                                "-o", str(tmp_path / "d.csv"), "--truth", str(truth), "-q"))
+    r = cli("simulate", PLANAR, *short("--effects", "coulomb@1,stribeck@2,cogging@1:k=12", "--noise", "0.01", "--seed", "3",
+                                       "-o", str(tmp_path / "d.csv"), "--truth", str(truth), "-q"))
     assert r.exit_code == 0, r.output
     rec = json.loads(truth.read_text())
     for key in ("robot", "seed", "effects", "noise", "phi", "standard_parameters"):
@@ -344,8 +333,8 @@ def test_truth_record_keys(app, tmp_path):
     assert rec["effects"][2]["hyper"] == 12.0 and len(rec["effects"][2]["coefficients"]["1"]) == 2
 
 
-def test_summary_on_stderr(app, tmp_path):
-    r = run(app, PLANAR, *short("--effects", "coulomb", "-o", str(tmp_path / "d.csv")))
+def test_summary_on_stderr(tmp_path):
+    r = cli("simulate", PLANAR, *short("--effects", "coulomb", "-o", str(tmp_path / "d.csv")))
     assert r.exit_code == 0 and r.stdout == ""
     assert "400 samples" in r.stderr and "effects    coulomb@all" in r.stderr
 
@@ -361,76 +350,76 @@ def assert_one_line_error(r, text):
     assert r.stdout == ""
 
 
-def test_cli_unknown_effect(app, tmp_path):
-    r = run(app, PLANAR, "--effects", "coulomb,backlash", "-o", str(tmp_path / "d.csv"))
+def test_cli_unknown_effect(tmp_path):
+    r = cli("simulate", PLANAR, "--effects", "coulomb,backlash", "-o", str(tmp_path / "d.csv"))
     assert_one_line_error(r, "--effects: unknown effect 'backlash'")
     assert not (tmp_path / "d.csv").exists()
 
 
-def test_cli_joint_out_of_range(app, tmp_path):
-    r = run(app, PLANAR, "--effects", "spring@3", "-o", str(tmp_path / "d.csv"))
+def test_cli_joint_out_of_range(tmp_path):
+    r = cli("simulate", PLANAR, "--effects", "spring@3", "-o", str(tmp_path / "d.csv"))
     assert_one_line_error(r, "joint 3 is out of range 1..2")
 
 
-def test_cli_bad_key(app, tmp_path):
-    r = run(app, PLANAR, "--effects", "cogging@1:period=12", "-o", str(tmp_path / "d.csv"))
+def test_cli_bad_key(tmp_path):
+    r = cli("simulate", PLANAR, "--effects", "cogging@1:period=12", "-o", str(tmp_path / "d.csv"))
     assert_one_line_error(r, "unknown key 'period' for cogging; expected amp, k")
 
 
-def test_cli_hyper_not_on_grid(app, tmp_path):
-    r = run(app, PLANAR, "--effects", "cogging:k=100", "-o", str(tmp_path / "d.csv"))
+def test_cli_hyper_not_on_grid(tmp_path):
+    r = cli("simulate", PLANAR, "--effects", "cogging:k=100", "-o", str(tmp_path / "d.csv"))
     assert_one_line_error(r, "k=100 is not on the grid")
 
 
-def test_cli_negative_noise(app, tmp_path):
-    r = run(app, PLANAR, "--noise", "-0.1", "-o", str(tmp_path / "d.csv"))
+def test_cli_negative_noise(tmp_path):
+    r = cli("simulate", PLANAR, "--noise", "-0.1", "-o", str(tmp_path / "d.csv"))
     assert_one_line_error(r, "--noise must be a number >= 0")
 
 
-def test_cli_negative_position_noise(app, tmp_path):
-    r = run(app, PLANAR, "--noise-q", "-1", "-o", str(tmp_path / "d.csv"))
+def test_cli_negative_position_noise(tmp_path):
+    r = cli("simulate", PLANAR, "--noise-q", "-1", "-o", str(tmp_path / "d.csv"))
     assert_one_line_error(r, "--noise-q must be a number >= 0")
 
 
-def test_cli_negative_coulomb_smoothing(app, tmp_path):
-    r = run(app, PLANAR, "--coulomb-smoothing", "-1", "-o", str(tmp_path / "d.csv"))
+def test_cli_negative_coulomb_smoothing(tmp_path):
+    r = cli("simulate", PLANAR, "--coulomb-smoothing", "-1", "-o", str(tmp_path / "d.csv"))
     assert_one_line_error(r, "--coulomb-smoothing must be a number >= 0")
     assert not (tmp_path / "d.csv").exists()
 
 
-def test_cli_negative_seed(app, tmp_path):
-    r = run(app, PLANAR, "--seed", "-1", "-o", str(tmp_path / "d.csv"))
+def test_cli_negative_seed(tmp_path):
+    r = cli("simulate", PLANAR, "--seed", "-1", "-o", str(tmp_path / "d.csv"))
     assert_one_line_error(r, "Invalid value for '--seed': -1 is not in the range x>=0")
 
 
-def test_cli_bad_output_folder(app, tmp_path):
-    r = run(app, PLANAR, "-o", str(tmp_path / "missing" / "d.csv"))
+def test_cli_bad_output_folder(tmp_path):
+    r = cli("simulate", PLANAR, "-o", str(tmp_path / "missing" / "d.csv"))
     assert_one_line_error(r, "does not exist")
 
 
-def test_cli_bad_truth_folder(app, tmp_path):
-    r = run(app, PLANAR, "-o", str(tmp_path / "d.csv"), "--truth", str(tmp_path / "missing" / "t.json"))
+def test_cli_bad_truth_folder(tmp_path):
+    r = cli("simulate", PLANAR, "-o", str(tmp_path / "d.csv"), "--truth", str(tmp_path / "missing" / "t.json"))
     assert_one_line_error(r, "does not exist")
     assert not (tmp_path / "d.csv").exists()
 
 
-def test_cli_unknown_output_type(app, tmp_path):
-    r = run(app, PLANAR, "-o", str(tmp_path / "d.txt"))
+def test_cli_unknown_output_type(tmp_path):
+    r = cli("simulate", PLANAR, "-o", str(tmp_path / "d.txt"))
     assert_one_line_error(r, "expected .csv or .npz")
 
 
-def test_cli_harmonics_above_nyquist(app, tmp_path):
-    r = run(app, PLANAR, "--rate", "1", "--harmonics", "5", "-o", str(tmp_path / "d.csv"))
+def test_cli_harmonics_above_nyquist(tmp_path):
+    r = cli("simulate", PLANAR, "--rate", "1", "--harmonics", "5", "-o", str(tmp_path / "d.csv"))
     assert_one_line_error(r, "below half the --rate")
 
 
-def test_cli_non_positive_duration(app, tmp_path):
-    r = run(app, PLANAR, "--duration", "0", "-o", str(tmp_path / "d.csv"))
+def test_cli_non_positive_duration(tmp_path):
+    r = cli("simulate", PLANAR, "--duration", "0", "-o", str(tmp_path / "d.csv"))
     assert_one_line_error(r, "--duration must be a positive number")
 
 
-def test_cli_help_has_examples(app):
-    r = run(app, "--help")
+def test_cli_help_has_examples():
+    r = cli("simulate", "--help")
     assert r.exit_code == 0
     assert "Examples" in r.output and "cogging@3:k=12" in r.output and "Swevers" in r.output
 

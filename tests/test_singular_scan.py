@@ -10,8 +10,10 @@ import pytest
 from minparam_cli.chain import build_chain
 from minparam_cli.describe import load_description
 from minparam_cli.errors import InputError, UnsupportedError
-from minparam_cli.kinematics.serial.screws import analyse, plucker_matrices
-from minparam_cli.kinematics.serial.singular_scan import grid_plucker, scan, sigma_map, swept_joints
+from minparam_cli.kinematics.serial.plucker import plucker_matrices
+from minparam_cli.kinematics.serial.screws import analyse
+from minparam_cli.kinematics.serial.singular_grid import grid_plucker, sigma_map, swept_joints
+from minparam_cli.kinematics.serial.singular_scan import scan
 
 ROBOTS = Path(__file__).resolve().parents[1] / "robots"
 D = np.radians

@@ -11,13 +11,10 @@ from scipy.optimize import brentq
 from minparam_cli.chain import build_chain, forward_kinematics
 from minparam_cli.describe import load_description
 from minparam_cli.errors import InputError, UnsupportedError
-from minparam_cli.kinematics.serial.screws import (
-    DEFAULT_EPSILON,
-    analyse,
-    check_nearest,
-    normalised_matrices,
-    rows_at_point,
-)
+from minparam_cli.kinematics.defaults import DEFAULT_EPSILON
+from minparam_cli.kinematics.serial.nearest_twist import check_nearest
+from minparam_cli.kinematics.serial.plucker import normalised_matrices, rows_at_point
+from minparam_cli.kinematics.serial.screws import analyse
 
 ROBOTS = Path(__file__).resolve().parents[1] / "robots"
 D = np.radians

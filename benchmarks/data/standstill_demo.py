@@ -19,7 +19,8 @@ from pathlib import Path
 
 import numpy as np
 
-from minparam_cli.identify.simulate import SimulationOptions, parse_effects, rigid_torque, simulate
+from minparam_cli.identify.simulate import rigid_torque, simulate
+from minparam_cli.identify.simulate_spec import SimulationOptions, parse_effects
 from minparam_cli.pipeline import DeriveOptions, load_chain
 
 ROBOT = Path(__file__).resolve().parents[2] / "robots" / "puma560_mdh.yaml"

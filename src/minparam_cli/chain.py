@@ -13,7 +13,9 @@ where Motion is a rotation about (revolute) or a translation along
   prismatic Pre = Rz(θ0), Post = Tz(d0)Tx(a)Rx(α).
 
 So a DH row is a special case of a URDF joint with a constant transform after
-the motion.  The chain is frozen; ``build_chain`` is the only builder.
+the motion.  The chain is frozen; ``build_chain`` is the only builder.  The
+constant transforms Pre, axis, Post come from ``joint_matrices.py`` (float or
+exact arithmetic).
 
 Joints driven by others (URDF ``<mimic>``) keep their link and their place in
 the chain; ``Chain.coupling`` maps the independent coordinates q (``dof`` of
@@ -25,11 +27,11 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 from functools import cached_property
-from fractions import Fraction
 
 import numpy as np
 
-from minparam_cli.describe.records import GeomValue, RobotDescription, Transmission
+from minparam_cli.describe.records import RobotDescription, Transmission
+from minparam_cli.joint_matrices import Numbers, exact_matrices, joint_matrices
 from minparam_cli.params import EXTRA_ORDER, ParamLayout
 
 REVOLUTE, PRISMATIC = "revolute", "prismatic"
@@ -173,132 +175,6 @@ class Chain:
         return replace(self, coulomb_smoothing=float(velocity))
 
 
-# --- elementary transforms, generic over float and Fraction entries ---------
-
-
-def _eye(one, zero):
-    return [[one if i == k else zero for k in range(4)] for i in range(4)]
-
-
-def _rot(axis: int, c, s, one, zero):
-    m = _eye(one, zero)
-    i, k = [(1, 2), (2, 0), (0, 1)][axis]
-    m[i][i], m[i][k], m[k][i], m[k][k] = c, -s, s, c
-    return m
-
-
-def _trans(v, one, zero):
-    m = _eye(one, zero)
-    for i in range(3):
-        m[i][3] = v[i]
-    return m
-
-
-def _mul(a, b, zero):
-    return [[sum((a[i][k] * b[k][j] for k in range(4)), zero) for j in range(4)] for i in range(4)]
-
-
-def _chain_mul(mats, one, zero):
-    out = _eye(one, zero)
-    for m in mats:
-        out = _mul(out, m, zero)
-    return out
-
-
-def exact_cos_sin(deg: Fraction) -> tuple[Fraction, Fraction] | None:
-    """cos and sin of an angle in degrees, when both are rational (multiples of 90 deg)."""
-    if deg.denominator != 1 or deg.numerator % 90:
-        return None
-    return [(Fraction(1), Fraction(0)), (Fraction(0), Fraction(1)), (Fraction(-1), Fraction(0)), (Fraction(0), Fraction(-1))][
-        (deg.numerator // 90) % 4
-    ]
-
-
-class _Num:
-    """Accessors turning GeomValues into float or exact numbers."""
-
-    def __init__(self, exact: bool, values: dict[str, float] | None):
-        self.exact = exact
-        self.values = values or {}
-        self.one = Fraction(1) if exact else 1.0
-        self.zero = Fraction(0) if exact else 0.0
-
-    def length(self, g: GeomValue):
-        if g.symbol in self.values:
-            return self.values[g.symbol]
-        if self.exact:
-            if g.exact is None:
-                raise _NotExact
-            return g.exact
-        return g.value
-
-    def cos_sin(self, g: GeomValue):
-        if g.symbol in self.values:
-            v = self.values[g.symbol]
-            return np.cos(v), np.sin(v)
-        if self.exact:
-            cs = exact_cos_sin(g.exact) if g.exact is not None else None
-            if cs is None:
-                raise _NotExact
-            return cs
-        return np.cos(g.value), np.sin(g.value)
-
-
-class _NotExact(Exception):
-    pass
-
-
-def _joint_matrices(desc: RobotDescription, num: _Num):
-    """(pre, axis, post) per joint in the arithmetic of ``num``."""
-    one, zero = num.one, num.zero
-    out = []
-    for jr in desc.joints:
-        if jr.dh is not None:
-            al_c, al_s = num.cos_sin(jr.dh["alpha"])
-            th_c, th_s = num.cos_sin(jr.dh["theta"])
-            a = num.length(jr.dh["a"])
-            d = num.length(jr.dh["d"])
-            Rx = _rot(0, al_c, al_s, one, zero)
-            Rz = _rot(2, th_c, th_s, one, zero)
-            Tx = _trans((a, zero, zero), one, zero)
-            Tz = _trans((zero, zero, d), one, zero)
-            axis = (zero, zero, one)
-            if desc.convention == "mdh":
-                pre, post = _chain_mul([Rx, Tx, Rz, Tz], one, zero), _eye(one, zero)
-            elif jr.type == REVOLUTE:
-                pre, post = _eye(one, zero), _chain_mul([Rz, Tz, Tx, Rx], one, zero)
-            else:
-                pre, post = Rz, _chain_mul([Tz, Tx, Rx], one, zero)
-        else:
-            o = jr.origin
-            xyz = [num.length(o[k]) for k in ("x", "y", "z")]
-            rc, rs = num.cos_sin(o["roll"])
-            pc, ps = num.cos_sin(o["pitch"])
-            yc, ys = num.cos_sin(o["yaw"])
-            origin = _chain_mul(
-                [_trans(xyz, one, zero), _rot(2, yc, ys, one, zero), _rot(1, pc, ps, one, zero), _rot(0, rc, rs, one, zero)],
-                one,
-                zero,
-            )
-            fixed = jr.pre_fixed
-            if fixed is not None:
-                if num.exact:
-                    raise _NotExact
-                origin = _mul([list(r) for r in fixed], origin, zero)
-            pre, post = origin, _eye(one, zero)
-            if num.exact:
-                ax = []
-                for c in jr.axis:
-                    if c not in (0.0, 1.0, -1.0):
-                        raise _NotExact
-                    ax.append(Fraction(int(c)))
-                axis = tuple(ax)
-            else:
-                axis = tuple(jr.axis)
-        out.append((pre, axis, post))
-    return out
-
-
 def _inertial_to_standard(inertial) -> np.ndarray:
     """Mass, CoM, inertia about CoM -> Khalil's 10 standard parameters about the frame origin."""
     m = inertial.mass
@@ -320,8 +196,8 @@ def build_chain(
     rebuild the robot at another geometry.  ``extras`` overrides the extras
     declared in the file, per joint.
     """
-    num = _Num(False, values)
-    mats = _joint_matrices(desc, num)
+    num = Numbers(False, values)
+    mats = joint_matrices(desc, num)
     pre = np.array([np.array(p, dtype=float) for p, _, _ in mats])
     axes = np.array([np.array(a, dtype=float) for _, a, _ in mats])
     axes /= np.linalg.norm(axes, axis=1)[:, None]
@@ -387,15 +263,6 @@ def mimic_coupling(desc: RobotDescription) -> Coupling | None:
             master, multiplier, offset[k] = j.mimic
             G[k, column[master]] = multiplier
     return Coupling(coords, G, offset)
-
-
-def exact_matrices(desc: RobotDescription) -> tuple | None:
-    """(pre, axis, post) per joint as nested tuples of Fraction, or None if the geometry is not exact."""
-    try:
-        emats = _joint_matrices(desc, _Num(True, None))
-    except _NotExact:
-        return None
-    return tuple((tuple(tuple(r) for r in p), tuple(a), tuple(tuple(r) for r in q)) for p, a, q in emats)
 
 
 def motion(kind: str, axis: np.ndarray, q: np.ndarray) -> np.ndarray:

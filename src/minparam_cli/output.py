@@ -2,7 +2,7 @@
 
 Atomic writes that never leave a partial file and never replace what is not a regular file
 (symlinks are followed, special files written through, ``-`` is stdout), and a minimal progress bar
-on stderr.  No command-line parsing here: ``cli.common`` re-exports these for the commands.
+on stderr.  No command-line parsing here: the commands import these from this module.
 """
 
 from __future__ import annotations

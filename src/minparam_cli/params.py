@@ -18,7 +18,7 @@ Columns are ordered link by link (all 10 inertial parameters of link 1, then
 link 2, ...), then the extras joint by joint.  This is the scan order of the
 Gautier/Khalil keep rule used by every base-parameter route.
 
-A floating base is six virtual joints (``describe/urdf.py``) whose first five
+A floating base is six virtual joints (``describe/urdf_tree.py``) whose first five
 links have no mass and no columns; the sixth carries the free link, numbered 0
 as in Khalil's floating-base notation (XX0 ... M0), the robot's joints 1..n.
 """

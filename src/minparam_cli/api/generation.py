@@ -47,7 +47,8 @@ def model_chain(model: Path, robot: Path, robot_bytes: bytes, which: str | None)
     """Chain, base set and parameters of a saved model, refused when made for another robot file."""
     from minparam_cli.base.qr import derive_qr
     from minparam_cli.codegen.functions import ModelParameters
-    from minparam_cli.identify.model import check_robot, model_design, read_model
+    from minparam_cli.identify.model import check_robot, model_design
+    from minparam_cli.identify.model_parse import read_model
     from minparam_cli.pipeline import load_chain, require_fixed_base
 
     m = read_model(model)

@@ -16,7 +16,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any, Iterable, Sequence
 
 from minparam_cli.api.common import ProgressArg, choice, close, friction_kinds, gravity3, progress_callback, robot_path
-from minparam_cli.api.model_file import open_model  # noqa: F401  (the CLI's evaluate imports it from here)
+from minparam_cli.api.model_file import open_model
 from minparam_cli.api.results import Errors, Evaluation, Identification, Model, Robot
 from minparam_cli.errors import InputError
 

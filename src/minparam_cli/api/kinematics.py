@@ -63,6 +63,7 @@ def singular_analysis(desc, chain, source: str, q_si=None, *, twist=None, epsilo
     import numpy as np
 
     from minparam_cli.kinematics.serial import screws
+    from minparam_cli.kinematics.serial.nearest_twist import check_nearest
     from minparam_cli.render.singular_text import local_json, scan_json, symbolic_json
 
     tool_doc, _ = tool_report(desc)
@@ -74,7 +75,7 @@ def singular_analysis(desc, chain, source: str, q_si=None, *, twist=None, epsilo
             held = tuple(h - 1 for h in hold)
         out.local = screws.analyse(chain, q_si, twist=twist, epsilon=epsilon, hold=held, damping=damping)
         if out.local.twist is not None:
-            out.check = screws.check_nearest(out.local, chain, np.random.default_rng(seed))
+            out.check = check_nearest(out.local, chain, np.random.default_rng(seed))
         out.doc.update(local_json(out.local, out.check, seed))
     if scan_step is not None:
         from minparam_cli.kinematics.serial.singular_scan import scan as run_scan
@@ -107,8 +108,8 @@ def singular(robot: Robot | str | Path, q: Sequence[float] | None = None, *, twi
 
     from minparam_cli.chain import build_chain
     from minparam_cli.describe import load_description
-    from minparam_cli.kinematics.serial import screws
-    from minparam_cli.render.singular_text import _clean
+    from minparam_cli.kinematics.serial.plucker import require_serial
+    from minparam_cli.render.singular_text import json_safe
 
     if not (math.isfinite(epsilon) and 0 < epsilon < 1):
         raise InputError(f"epsilon: expected a number between 0 and 1 (exclusive), got {epsilon:g}")
@@ -119,11 +120,11 @@ def singular(robot: Robot | str | Path, q: Sequence[float] | None = None, *, twi
     path = robot_path(robot)
     desc = load_description(path)
     if tool is not None:
-        from minparam_cli.describe.urdf import select_tool
+        from minparam_cli.describe.urdf_tool import select_tool
 
         desc = select_tool(desc, tool)
     chain = build_chain(desc)
-    screws.require_serial(chain)
+    require_serial(chain)
     q_si = None
     if q is not None:
         values = np.asarray(q, dtype=float).reshape(-1)
@@ -150,7 +151,7 @@ def singular(robot: Robot | str | Path, q: Sequence[float] | None = None, *, twi
                                 scan_step=step_rad, symbolic=symbolic, progress=bar)
     finally:
         close(bar)
-    doc = _clean(out.doc)
+    doc = json_safe(out.doc)
     return Singularity(robot=chain.name, singular=doc.get("singular"),
                        sigma_ratio=doc.get("sigma_min"),
                        dependent=tuple(tuple(g) for g in doc.get("dependent_groups", [])), _report=doc)

@@ -15,7 +15,8 @@ def open_model(model: str | Path, robot: str | Path | None = None) -> tuple[Save
     """Read a model file, check its robot file's SHA-256 and rebuild its design: (model, robot file,
     design).  ``robot``: the robot file to use instead of the one the model names."""
     from minparam_cli.describe.safety import read_bounded
-    from minparam_cli.identify.model import ModelError, check_robot, model_design, read_model
+    from minparam_cli.identify.model import ModelError, check_robot, model_design
+    from minparam_cli.identify.model_parse import read_model
     from minparam_cli.pipeline import load_chain, require_fixed_base
 
     model = Path(model)

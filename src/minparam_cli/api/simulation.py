@@ -44,7 +44,7 @@ class SimulationSetup:
 
     def record(self, plan, include_ddq: bool, limits) -> dict[str, Any]:
         """The truth record (``--truth``) of a streamed plan."""
-        from minparam_cli.identify.simulate import truth_record
+        from minparam_cli.identify.simulate_truth import truth_record
 
         record = truth_record(plan, str(self.robot), self.seed, self.chain.name, include_ddq, limits=limits)
         record.update(self.extra_record)
@@ -126,7 +126,7 @@ def prepare_simulation(robot: Robot | str | Path, *, trajectory: str | Path = "f
     trajectory, the payload and motor-side transforms); every refusal is one ``InputError`` line."""
     from minparam_cli.chain import build_chain
     from minparam_cli.describe import load_description
-    from minparam_cli.identify.simulate import SimulationOptions, parse_effects, validate_options
+    from minparam_cli.identify.simulate_spec import SimulationOptions, parse_effects, validate_options
     from minparam_cli.pipeline import require_fixed_base
 
     if seed < 0:

@@ -32,16 +32,9 @@ import numpy as np
 from minparam_cli.base.echelon import ExactRowSpace, FloatRowSpace, integer_rref
 from minparam_cli.base.result import RANK_RTOL, BaseSet, beta_from_unit_columns, physical_scales, regrouping_matrix, scan_in_order, scan_margin
 from minparam_cli.chain import REVOLUTE, Chain
-from minparam_cli.dynamics.projection import (
-    KINETIC,
-    KINETIC_DIM,
-    POTENTIAL_DIM,
-    basis_dimension,
-    energy_blocks,
-    produced_rows,
-    recursion_work,
-    row_maps,
-)
+from minparam_cli.dynamics.projection import KINETIC, KINETIC_DIM, POTENTIAL_DIM, energy_blocks
+from minparam_cli.dynamics.projection_rows import basis_dimension, produced_rows, row_maps
+from minparam_cli.dynamics.projection_work import recursion_work
 from minparam_cli.dynamics.projection_terms import (
     FLOAT_EXACT_LIMIT,
     InexactFloat,
@@ -56,7 +49,7 @@ from minparam_cli.errors import ComputationError, UnsupportedError
 #   Memory stays ~100 MB whatever the size (the recursion is chunked), but the progress
 #   counters and the basis grow with it.
 # * MAX_WORK bounds the time: the matrices the recursion multiplies, counted on the
-#   nonzero patterns of the joint maps (dynamics.projection.recursion_work), which sees
+#   nonzero patterns of the joint maps (dynamics.projection_work.recursion_work), which sees
 #   what the row count cannot: right angles and axes along frame axes make most products
 #   zero (g1: 1.1e9 rows, 7.7e7 matrices, 5 s), generic angles do not (icub_reduced:
 #   1.1e9 rows, 1.5e9 matrices, over 300 s).  Measured on the 2-core development VM,

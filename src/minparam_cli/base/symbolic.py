@@ -260,10 +260,10 @@ def symbolic_base(desc, chain, base: BaseSet, seed: int = SYMBOLIC_SEED, numbers
     symbols, pins = geometry_symbols(desc)
     exact_nums = None
     if numbers:  # the exact numbers leave the symbols: every random geometry keeps them at the file's values
-        from minparam_cli.base.symbolic_frames import _shift_symbols
+        from minparam_cli.base.symbolic_frames import shift_symbols
         from minparam_cli.base.symbolic_urdf import exact_numbers
 
-        exact_nums = exact_numbers(desc, symbols, _shift_symbols(desc))
+        exact_nums = exact_numbers(desc, symbols, shift_symbols(desc))
         symbols = tuple(s for s in symbols if s.name not in exact_nums)
     kept, K, unident = generic_structure(desc, chain, symbols, pins, rng)
     forms, ar, fs, stats = exact_forms(desc, chain, symbols, pins, rng, exact_nums)

@@ -43,7 +43,7 @@ class FieldSymbols:
     shifts: tuple[str, ...]  # symbols that only shift a joint coordinate (taken as 0)
 
 
-def _shift_symbols(desc) -> set[str]:
+def shift_symbols(desc) -> set[str]:
     """Symbols used only as the offset of a joint's own coordinate."""
     shift, other = set(), set()
     for jr in desc.joints:
@@ -73,7 +73,7 @@ def gravity_symbols(desc, taken: set[str]):
 
 
 def field_symbols(desc, symbols) -> FieldSymbols:
-    shifts = _shift_symbols(desc)
+    shifts = shift_symbols(desc)
     lengths = tuple(s.name for s in symbols if not s.is_angle and s.name not in shifts)
     angles = tuple(s.name for s in symbols if s.is_angle and s.name not in shifts)
     grav, gvals = gravity_symbols(desc, {s.name for s in symbols})
@@ -195,16 +195,16 @@ def joint_transforms(desc, ar: Arith):
     """Per joint: (P, A) with F_j = F_parent · P · Motion_z(q_j) · A, the motion about/along z.
 
     P = Pre·R_u and A = R_uᵀ·Post, R_u turning z onto the joint axis u."""
-    from minparam_cli.chain import _joint_matrices
+    from minparam_cli.joint_matrices import joint_matrices
 
-    class _Num:  # chain's accessor interface, in this arithmetic
+    class _Num:  # joint_matrices.Numbers' accessor interface, in this arithmetic
         exact = True
         one, zero = ar.one, ar.zero
         length = staticmethod(ar.length)
         cos_sin = staticmethod(ar.cos_sin)
 
     out = []
-    for (pre, axis, post), jr in zip(_joint_matrices(_RecordsOnly(desc), _Num), desc.joints):
+    for (pre, axis, post), jr in zip(joint_matrices(_RecordsOnly(desc), _Num), desc.joints):
         if jr.origin is not None and AXIS_THETA in jr.origin:
             Ru = axis_rotation_oblique(jr, ar)
         else:
@@ -227,7 +227,7 @@ def _motion_z(jr, gv, ar: Arith):
 
 class _RecordsOnly:
     """A description whose URDF axes read as exact integers (±e_k; an oblique axis, turned onto z
-    by ``axis_rotation_oblique``, reads as e_z: ``_joint_matrices`` only returns it)."""
+    by ``axis_rotation_oblique``, reads as e_z: ``joint_matrices`` only returns it)."""
 
     def __init__(self, desc):
         self.convention = desc.convention

@@ -52,7 +52,8 @@ def evaluate(
 
 @guarded
 def _evaluate(model, data, which, predictions, fmt, output, robot, time_unit, topic, band=False, band_level=0.95):
-    from minparam_cli.api.identification import check_data_file, evaluation_report, evaluation_setup, open_model
+    from minparam_cli.api.identification import check_data_file, evaluation_report, evaluation_setup
+    from minparam_cli.api.model_file import open_model
     from minparam_cli.errors import InputError
     from minparam_cli.identify.evaluation import evaluate as run
 

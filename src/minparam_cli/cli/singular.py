@@ -1,6 +1,6 @@
 """``minparam singular``: singular positions by screw theory (Glazunov 1985).
 
-Parses, calls the kinematics stage (``kinematics.serial.screws``, ``singular_scan``,
+Parses, calls the kinematics stage (``kinematics.serial.screws``, ``singular_scan``, ``singular_grid``,
 ``singular_symbolic``), renders with ``render.singular_text`` / ``singular_plot``,
 writes, maps errors.
 """
@@ -19,7 +19,7 @@ from minparam_cli.cli.common import guarded, parse_floats, save_png
 from minparam_cli.output import Progress, write_output
 from minparam_cli.errors import InputError
 from minparam_cli.kinematics.defaults import DEFAULT_DAMPING, DEFAULT_EPSILON, DEFAULT_STEP_DEG
-from minparam_cli.render.singular_text import _clean, local_table, scan_table, symbolic_table
+from minparam_cli.render.singular_text import json_safe, local_table, scan_table, symbolic_table
 
 HELP = (
     "Singular positions by screw theory (Glazunov 1985): the local test at --q, the dependent joints, "
@@ -153,13 +153,13 @@ def singular(
         raise InputError("give --q for the local test, or --scan, --plot or --symbolic")
     desc = load_description(robot)
     if tool is not None:
-        from minparam_cli.describe.urdf import select_tool
+        from minparam_cli.describe.urdf_tool import select_tool
 
         desc = select_tool(desc, tool)
     chain = build_chain(desc)
-    from minparam_cli.kinematics.serial import screws
+    from minparam_cli.kinematics.serial.plucker import require_serial
 
-    screws.require_serial(chain)
+    require_serial(chain)
     angle = "rad" if rad else "deg"
     q_si = _q_to_si(chain, q, rad) if q is not None else None
     from minparam_cli.api.kinematics import singular_analysis, tool_report
@@ -181,7 +181,7 @@ def singular(
         sections.append(scan_table(res.scan, chain.types, angle))
 
     if plot is not None:
-        from minparam_cli.kinematics.serial.singular_scan import sigma_map, swept_joints
+        from minparam_cli.kinematics.serial.singular_grid import sigma_map, swept_joints
 
         if joints is None:
             sw = swept_joints(chain)
@@ -206,7 +206,7 @@ def singular(
         sections.append(symbolic_table(res.symbolic, chain, angle))
 
     if fmt == OutputFormat.json:
-        text = json.dumps(_clean(doc), indent=2, allow_nan=False)
+        text = json.dumps(json_safe(doc), indent=2, allow_nan=False)
     else:
         header = f"robot      {chain.name}  ({robot})\n{tool_line}"
         text = "\n\n".join([header] + sections)

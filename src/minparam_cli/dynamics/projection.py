@@ -48,6 +48,9 @@ What Z leaves out, and why.
 * Coulomb and viscous friction are not energy terms: their generalised forces
   sign(q̇_j) and q̇_j on joint j are independent of every energy column and of
   each other, so each has a row of its own (added by the caller).
+
+This module runs the recursion; ``projection_rows`` turns its short coordinates into rows of Z
+and counts them, ``projection_work`` estimates its work up front.
 """
 
 from __future__ import annotations
@@ -65,11 +68,8 @@ from minparam_cli.dynamics.projection_terms import (
     Y_SIZE,
     InexactFloat,
     ProjectionGeometry,
-    float_geometry,
-    phi_matrix,
     sym_matrix,
 )
-from minparam_cli.params import N_LINK_PARAMS
 
 KINETIC, POTENTIAL = "kinetic", "potential"
 ROUNDING = 32 * np.finfo(float).eps  # relative rounding level of one recursion step (16-term sums)
@@ -93,10 +93,6 @@ class Block:
     @property
     def rows(self) -> int:
         return self.coords.shape[1]
-
-
-def _children(chain: Chain, k: int) -> tuple[int, ...]:
-    return tuple(j for j, p in enumerate(chain.parents) if p == k)
 
 
 class _Recursion:
@@ -182,7 +178,7 @@ class _Recursion:
         yield from self._walk_N(-1, E, np.zeros(1, dtype=np.int64))
 
     def _walk_N(self, k, X, idx):
-        for c in _children(self.chain, k):
+        for c in self.chain.children(k):
             nY = Y_SIZE[self.chain.types[c]]
             for Xs, ids in self._split(X, idx):
                 for G, gi, _ in self._step(c, "DD", Xs, ids, nY, "seed", protect=(0,)):  # q̇_c²/2 alone: Ia_c
@@ -196,7 +192,7 @@ class _Recursion:
                     yield from self._walk_N(c, N, ni)
 
     def _walk_M(self, k, j, X, idx):
-        for c in _children(self.chain, k):
+        for c in self.chain.children(k):
             nY = Y_SIZE[self.chain.types[c]]
             for Xs, ids in self._split(X, idx):
                 for G, gi, _ in self._step(c, "AD", Xs, ids, nY, "seed"):
@@ -208,7 +204,7 @@ class _Recursion:
                     yield from self._walk_M(c, j, M, mi)
 
     def _walk_G(self, k, pair, X, idx):
-        for c in _children(self.chain, k):
+        for c in self.chain.children(k):
             nY = Y_SIZE[self.chain.types[c]]
             for Xs, ids in self._split(X, idx):
                 for G, gi, first in self._step(c, "AA", Xs, ids, nY, "G"):
@@ -223,7 +219,7 @@ class _Recursion:
         yield from self._walk_V(-1, v, np.zeros(1, dtype=np.int64))
 
     def _walk_V(self, k, X, idx):
-        for c in _children(self.chain, k):
+        for c in self.chain.children(k):
             nX = X_SIZE[self.chain.types[c]]
             for Xs, ids in self._split(X, idx):
                 # keep the all-ones prefix (0) alive, and q_c alone (1) for OFF_c when prismatic
@@ -247,7 +243,7 @@ def _rows_below(chain: Chain) -> dict[str, list[int]]:
     n = chain.n
     G, M, N, V = [0] * n, [0] * n, [0] * n, [0] * n
     for c in reversed(range(n)):  # children come after parents
-        for d in _children(chain, c):
+        for d in chain.children(c):
             y, x = Y_SIZE[chain.types[d]], X_SIZE[chain.types[d]]
             G[c] += y * (1 + G[d]) - 1
             M[c] += y * (1 + G[d] + M[d])
@@ -261,7 +257,7 @@ def energy_blocks(geom: ProjectionGeometry, chunk: int = CHUNK) -> Iterator[Bloc
 
     Zero rows are never produced; ``Block.skipped`` counts the basis rows they
     stand for, so the rows plus the skipped of all blocks add up to
-    :func:`produced_rows` (the last block may be empty, carrying only a count).
+    ``projection_rows.produced_rows`` (the last block may be empty, carrying only a count).
 
     In exact mode on float64, raises :class:`InexactFloat` if an intermediate
     could exceed 2**53 (the caller then reruns on Python integers).
@@ -273,210 +269,4 @@ def energy_blocks(geom: ProjectionGeometry, chunk: int = CHUNK) -> Iterator[Bloc
         yield Block(KINETIC, -1, None, (), np.zeros(0, dtype=np.int64), np.zeros((KINETIC_DIM, 0)), rec.skipped)
 
 
-# --- from short coordinates to rows of Z ------------------------------------------
-
-
-def row_maps(geom: ProjectionGeometry, t: int) -> tuple[np.ndarray, np.ndarray]:
-    """(Ψ_kin, Ψ_pot) of node t: Z rows = Ψ @ coords, shapes (P, KINETIC_DIM) and (P, POTENTIAL_DIM).
-
-    The kinetic rows hold ``geom.kinetic_scale`` times the Lagrangian
-    coordinates, the potential rows ``geom.potential_scale`` times them (in
-    the rescaled units of exact mode).
-    """
-    chain = geom.chain
-    dtype = object if geom.exact else np.float64  # exact mode: Python integers, whatever the recursion used
-    conv = _as_python_ints if geom.exact else (lambda a: np.asarray(a, dtype=np.float64))
-    layout = chain.layout
-    P = layout.size
-    Phi = phi_matrix(dtype)
-    kin16 = np.zeros((P, 16), dtype=dtype)
-    pot4 = np.zeros((P, 4), dtype=dtype)
-    # C⁰ products from t down to every link k below it (parents come before children)
-    carry = {t: conv(np.eye(16))}
-    vcarry = {t: conv(np.eye(4))}
-    for k in chain.subtree(t):
-        if k != t:
-            p = chain.parents[k]
-            carry[k] = conv(geom.maps[k]["A0"]).dot(carry[p])
-            vcarry[k] = conv(geom.terms[k].A[0]).T.dot(vcarry[p])
-        cols = slice(N_LINK_PARAMS * k, N_LINK_PARAMS * k + N_LINK_PARAMS)
-        kin16[cols] = Phi @ carry[k]
-        pot4[N_LINK_PARAMS * k + 6 : N_LINK_PARAMS * k + 10] = vcarry[k]
-    kin = np.zeros((P, KINETIC_DIM), dtype=dtype)
-    for i, (a, b) in enumerate(SYM_PAIRS):
-        kin[:, i] = kin16[:, 4 * a + b]  # equals kin16[:, 4b + a]: ⟨H, ·⟩ and C⁰ commute with transposition
-    pot = np.zeros((P, POTENTIAL_DIM), dtype=dtype)
-    pot[:, :4] = pot4
-    for c, (j, kind) in enumerate(layout.extra_columns):
-        if j != t:
-            continue
-        col = layout.n_inertial + c
-        if kind == "rotor_inertia":
-            kin[col, -1] = geom.kinetic_scale  # Ia_t q̇_t²/2
-        elif kind == "offset" and chain.types[t] == PRISMATIC:
-            pot[col, -1] = -geom.potential_scale  # L ∋ -OFF_t q_t
-    return kin, pot
-
-
-def _as_python_ints(a) -> np.ndarray:
-    a = np.asarray(a)
-    out = np.empty(a.shape, dtype=object)
-    for idx, v in np.ndenumerate(a):
-        out[idx] = int(v)
-    return out
-
-
-def basis_dimension(chain: Chain) -> int:
-    """dim B of the theorem: (N²+N)/2 · 5^v 3^(N-v) + 3^v 2^(N-v), constant function included."""
-    n = chain.n
-    y = x = 1
-    for kind in chain.types:
-        y *= Y_SIZE[kind]
-        x *= X_SIZE[kind]
-    return (n * n + n) // 2 * y + x
-
-
-def produced_rows(chain: Chain) -> tuple[int, int]:
-    """(kinetic, potential) rows the recursion produces: nonconstant basis functions that
-    can carry a nonzero coordinate.  For a serial chain they sum to dim B - 1; a tree
-    has fewer (functions mixing two branches never appear)."""
-    prodY, prodX = {}, {}
-    for j in range(chain.n):  # parents come before children
-        p = chain.parents[j]
-        prodY[j] = (prodY[p] if p >= 0 else 1) * Y_SIZE[chain.types[j]]
-        prodX[j] = (prodX[p] if p >= 0 else 1) * X_SIZE[chain.types[j]]
-    kin = pot = 0
-    for t in range(chain.n):
-        p = chain.parents[t]
-        before = prodY[p] if p >= 0 else 1
-        depth = len(chain.ancestors(t))
-        # seeds (t, j) for every j on the path: all functions over path(t)
-        kin += depth * prodY[t]
-        # pairs (i, j) seeded above t: functions with y_t != 1
-        kin += (depth - 1) * depth // 2 * before * (Y_SIZE[chain.types[t]] - 1)
-        pot += (prodX[p] if p >= 0 else 1) * (X_SIZE[chain.types[t]] - 1)
-    return kin, pot
-
-
-def decode_index(chain: Chain, path: tuple[int, ...], index: int, kind: str) -> tuple[int, ...]:
-    """Per-joint basis indices (0 = the function 1) of one flat multi-index over ``path``."""
-    sizes = Y_SIZE if kind == KINETIC else X_SIZE
-    digits = [0] * chain.n
-    for j in reversed(path):
-        index, digits[j] = divmod(int(index), sizes[chain.types[j]])
-    return tuple(digits)
-
-
-def coordinate_matrix(chain: Chain, max_rows: int = 100_000) -> tuple[list[tuple], np.ndarray]:
-    """Z itself, dense, in SI units, for small chains (tests and documentation).
-
-    Returns (labels, Z): label ("kinetic", i, j, y) for basis function q̇_i q̇_j ·
-    Π y (q̇_i²/2 · Π y when i == j; i, j 0-based) or ("potential", x), with y, x
-    per-joint indices into Y_NAMES / X_NAMES.  Only energy rows: Coulomb,
-    viscous and revolute offset columns are zero here.
-    """
-    kin, pot = produced_rows(chain)
-    if kin + pot > max_rows:
-        raise ValueError(f"Z has {kin + pot} rows, more than max_rows={max_rows}")
-    geom = float_geometry(chain)
-    maps = [row_maps(geom, t) for t in range(chain.n)]
-    labels, rows = [], []
-    for b in energy_blocks(geom):
-        if not b.rows:
-            continue
-        psi = maps[b.node][0 if b.kind == KINETIC else 1]
-        Z = (psi @ b.coords).T
-        if b.kind == KINETIC:
-            Z = Z / geom.kinetic_scale
-        rows.append(Z)
-        for ix in b.index:
-            digits = decode_index(chain, b.path, ix, b.kind)
-            labels.append((KINETIC, *b.pair, digits) if b.kind == KINETIC else (POTENTIAL, digits))
-    return labels, np.concatenate(rows, axis=0)
-
-
-__all__ = [
-    "Block",
-    "KINETIC",
-    "POTENTIAL",
-    "basis_dimension",
-    "coordinate_matrix",
-    "decode_index",
-    "energy_blocks",
-    "produced_rows",
-    "row_maps",
-]
-
-
-# --- up-front work estimate -------------------------------------------------------
-
-
-class _Support:
-    """Bit masks of one map's nonzero pattern: for input entry i, the outputs it reaches, per y."""
-
-    def __init__(self, M: np.ndarray, size: int):
-        d = M.shape[1]
-        nz = np.asarray(M != 0).reshape(size, d, d)  # [y, out, in]
-        weights = 1 << np.arange(d, dtype=np.int64)
-        self.size = size
-        self.reach = [[int((nz[y, :, i] * weights).sum()) for i in range(d)] for y in range(size)]
-        self.cache: dict[int, tuple[int, ...]] = {}
-
-    def apply(self, pattern: int) -> tuple[int, ...]:
-        """Output pattern per y of one input pattern (0: that output is zero and dropped)."""
-        out = self.cache.get(pattern)
-        if out is None:
-            bits = [i for i in range(pattern.bit_length()) if pattern >> i & 1]
-            out = tuple(_or(reach[i] for i in bits) for reach in self.reach)
-            self.cache[pattern] = out
-        return out
-
-
-def _or(masks) -> int:
-    m = 0
-    for x in masks:
-        m |= x
-    return m
-
-
-def recursion_work(geom: ProjectionGeometry) -> int:
-    """Matrices the kinetic recursion multiplies, counted on the maps' nonzero patterns.
-
-    The recursion of ``energy_blocks`` drops every zero matrix; a matrix is zero
-    for the structure of the maps (right angles, axes along the frame axes) or by
-    cancellation.  Walking the same tree on bit patterns of nonzero entries, with
-    multiplicities, counts every matrix the recursion can produce (cancellations
-    aside: an upper bound), in time proportional to the number of distinct
-    patterns, not of matrices.  The time of ``derive_projection`` grows with it.
-    """
-    chain = geom.chain
-    n = chain.n
-    sup = [{k: _Support(geom.maps[c][k], Y_SIZE[chain.types[c]]) for k in ("AA", "DA", "AD", "DD")} for c in range(n)]
-    kids = [_children(chain, k) for k in range(-1, n)]  # kids[k + 1]
-    total = 0
-
-    def step(c: int, name: str, patterns: dict[int, int]) -> dict[int, int]:
-        nonlocal total
-        out: dict[int, int] = {}
-        s = sup[c][name]
-        for p, count in patterns.items():
-            total += count * s.size
-            for q in s.apply(p):
-                if q:
-                    out[q] = out.get(q, 0) + count
-        return out
-
-    def walk(kind: str, k: int, patterns: dict[int, int]) -> None:
-        for c in kids[k + 1]:
-            if kind == "N":
-                walk("G", c, step(c, "DD", patterns))
-                walk("M", c, step(c, "DA", patterns))
-                walk("N", c, step(c, "AA", patterns))
-            elif kind == "M":
-                walk("G", c, step(c, "AD", patterns))
-                walk("M", c, step(c, "AA", patterns))
-            else:
-                walk("G", c, step(c, "AA", patterns))
-
-    walk("N", -1, {int(sum(1 << i for i in (0, 5, 10, 15))): 1})  # the identity, flattened 4x4
-    return total
+__all__ = ["Block", "KINETIC", "POTENTIAL", "energy_blocks"]

@@ -46,7 +46,7 @@ class Recording:
 def check_joint_counts(chain, paths: list[Path], data_opts) -> None:
     """Read the head of every recording before fitting any: a recording whose joints do not match the robot's
     (hence the others') is refused in one line."""
-    from minparam_cli.identify.reading import raw_chunks
+    from minparam_cli.measured.reading import raw_chunks
 
     head = replace(data_opts, chunk_rows=8)
     for p in paths:

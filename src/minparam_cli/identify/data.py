@@ -95,8 +95,8 @@ def time_span(path: str | Path, opts: DataOptions) -> tuple[float, float]:
 
 def iter_blocks(path: str | Path, n: int, opts: DataOptions, report: DataReport | None = None) -> Iterator[Block]:
     """Clean, filter and differentiate the file chunk by chunk; memory bounded by the chunk size."""
-    from minparam_cli.identify.filtering import Processor
-    from minparam_cli.identify.reading import raw_chunks
+    from minparam_cli.measured.filtering import Processor
+    from minparam_cli.measured.reading import raw_chunks
     from minparam_cli.measured.tables import split
 
     path = Path(path)

@@ -36,12 +36,14 @@ then all m coefficients are scaled together so that the RMS of the effect's
 torque on this trajectory is exactly A.  ``gain`` is the exception: its one
 coefficient is g (``g=``, default ``strength``), i.e. it adds g·τ_rigid.
 ``load_coulomb`` and ``gain`` read τ_rigid, never other effects or noise.
+
+The options and effect specs are parsed in ``simulate_spec``, the coefficients drawn in
+``simulate_effects``, and the truth record written by ``simulate_truth``.
 """
 
 
 from __future__ import annotations
 
-import math
 import os
 from dataclasses import dataclass, field
 from typing import Callable, Iterator
@@ -53,25 +55,10 @@ from minparam_cli.dynamics.regressor import regressor
 from minparam_cli.errors import InputError
 from minparam_cli.identify.effects import EFFECTS, Signals
 from minparam_cli.dynamics.inertia import RandomInertia, random_inertia
-from minparam_cli.identify.simulate_spec import (  # noqa: F401  (the names callers import from here)
-    HYPER_DEFAULT,
-    HYPER_KEY,
-    EffectSpec,
-    InjectedEffect,
-    MotionLimits,
-    SimulationOptions,
-    data_columns,
-    parse_effects,
-    validate_options,
-)
+from minparam_cli.identify.simulate_effects import effect_coefficients
+from minparam_cli.identify.simulate_spec import InjectedEffect, MotionLimits, SimulationOptions, validate_options
 from minparam_cli.identify.trajectory import FourierTrajectory, fourier_excitation, joint_ranges
 from minparam_cli.params import standard_names
-
-# Effects whose coefficients are drawn positive: those whose physical range is [0, inf) in the effect
-# library (friction opposes the motion; inertia is positive), so simulate and the diagnosis agree.
-POSITIVE_EFFECTS = frozenset(e.id for e in EFFECTS.values() if e.bounds is not None and e.bounds[0] == 0 and math.isinf(e.bounds[1]))
-# Random column weights u_i are uniform in this range before the common scaling.
-WEIGHT_RANGE = (0.5, 1.5)
 # Samples per regressor evaluation (bounds memory: chunk × n × 10n doubles).
 REGRESSOR_CHUNK = 2048
 
@@ -176,50 +163,6 @@ def _motion(plan_rate: float, traj, s: int, e: int):
     return traj.t[s:e], traj.q[s:e], traj.dq[s:e], traj.ddq[s:e]
 
 
-def _coefficients(spec: EffectSpec, grams: list[np.ndarray], samples: int, rms_rigid: np.ndarray, strength: float,
-                  rng: np.random.Generator) -> InjectedEffect:
-    """Coefficients of one effect spec from the Gram matrices of its columns (one per joint);
-    see the module docstring for the rule."""
-    effect = EFFECTS[spec.effect]
-    coefficients, rms = [], []
-    for j, gram in zip(spec.joints, grams):
-        m = gram.shape[0]
-        weights = rng.uniform(*WEIGHT_RANGE, size=m)
-        signs = rng.choice((-1.0, 1.0), size=m)
-        if spec.effect == "gain":
-            c = np.array([strength if spec.gain is None else spec.gain])
-        else:
-            if spec.amplitude is not None:
-                amplitude = spec.amplitude
-            else:
-                if strength > 0 and rms_rigid[j] <= np.finfo(float).eps * rms_rigid.max():
-                    raise InputError(
-                        f"effect {spec.text!r}: joint {j + 1} carries no rigid-body torque to scale the effect by; give amp="
-                    )
-                amplitude = strength * rms_rigid[j]
-            col_rms = np.sqrt(np.maximum(np.diag(gram), 0.0) / samples)
-            if spec.effect in POSITIVE_EFFECTS:
-                signs = np.ones(m)
-            usable = col_rms > 0
-            c = np.zeros(m)
-            c[usable] = signs[usable] * weights[usable] / col_rms[usable]
-            size = math.sqrt(max(float(c @ gram @ c), 0.0) / samples)
-            if size == 0.0:
-                raise InputError(f"effect {spec.text!r}: gives no torque on joint {j + 1} along this trajectory")
-            c *= amplitude / size
-        coefficients.append(tuple(float(x) for x in c))
-        rms.append(math.sqrt(max(float(c @ gram @ c), 0.0) / samples))
-    return InjectedEffect(
-        effect=spec.effect,
-        joints=spec.joints,
-        column_names=effect.column_names,
-        coefficients=tuple(coefficients),
-        hyper=spec.hyper,
-        hyper_name=effect.grid_name,
-        rms=tuple(rms),
-    )
-
-
 def plan(chain: Chain, options: SimulationOptions, rng: np.random.Generator, progress: Progress | None = None,
          chunk: int = REGRESSOR_CHUNK, given=None, threads: int | None = None) -> Plan:
     """The first pass: trajectory, inertial parameters, rigid torque, effect coefficients.
@@ -298,7 +241,7 @@ def plan(chain: Chain, options: SimulationOptions, rng: np.random.Generator, pro
                 progress(e, 2 * samples)
 
     rms_rigid = np.sqrt(np.einsum("ij,ij->j", tau_rigid, tau_rigid) / samples)
-    injected = tuple(_coefficients(spec, spec_grams, samples, rms_rigid, options.strength, effect_rng)
+    injected = tuple(effect_coefficients(spec, spec_grams, samples, rms_rigid, options.strength, effect_rng)
                      for spec, spec_grams in zip(options.effects, grams))
     return Plan(
         chain=chain, options=options, samples=samples, trajectory=traj, ranges=tuple(ranges), phi=phi,
@@ -378,62 +321,3 @@ def _per_coordinate(chain: Chain, values) -> tuple[float | None, ...]:
     if not values:
         return (None,) * len(chain.coordinates)
     return tuple(values[j] for j in chain.coordinates)
-
-
-# --- the truth record --------------------------------------------------------------------------------
-
-
-def truth_record(sim: Simulation | Plan, robot: str, seed: int, robot_name: str = "", include_ddq: bool = True,
-                 limits: MotionLimits | None = None) -> dict:
-    """JSON-ready record of everything the data was made from (joints numbered from 1); from a
-    ``Simulation``, or from a streamed ``Plan`` with the ``limits`` its stream found."""
-    limits = limits if limits is not None else getattr(sim, "limits", None)
-    o = sim.options
-    effects = []
-    for e in sim.effects:
-        effects.append(
-            {
-                "effect": e.effect,
-                "joints": [j + 1 for j in e.joints],
-                "coefficients": {str(j + 1): list(c) for j, c in zip(e.joints, e.coefficients)},
-                "hyper": e.hyper,
-                "hyper_name": e.hyper_name or None,
-                "columns": list(e.column_names),
-                "rms": {str(j + 1): r for j, r in zip(e.joints, e.rms)},
-            }
-        )
-    traj = sim.trajectory
-    if isinstance(traj, FourierTrajectory):
-        motion = {
-            "type": "fourier",
-            "reference": "Swevers et al., IEEE T-RA 13(5), 1997",
-            "harmonics": traj.harmonics,
-            "base_frequency": traj.base_frequency,
-            "q0": traj.q0.tolist(),
-            "a": traj.a.tolist(),
-            "b": traj.b.tolist(),
-            "ranges": [list(r) for r in sim.ranges],
-            "margin": o.margin,
-        }
-    else:
-        motion = {"type": "samples", "source": str(traj.source), "samples": int(traj.t.size)}
-    return {
-        "robot": robot,
-        "robot_name": robot_name,
-        "seed": seed,
-        "effects": effects,
-        "noise": o.noise,
-        "noise_q": o.noise_q,
-        "coulomb_smoothing": o.coulomb_smoothing,
-        "strength": o.strength,
-        "inertia_source": sim.inertia_source,
-        "phi": [float(x) for x in sim.phi],
-        "standard_parameters": list(sim.parameter_names),
-        "samples": sim.samples,
-        "rate": o.rate,
-        "duration": o.duration,
-        "ddq_included": include_ddq,
-        "trajectory": motion,
-        "limits": limits.to_dict() if limits is not None else None,
-        "units": {"t": "s", "q": "rad or m", "dq": "rad/s or m/s", "ddq": "rad/s^2 or m/s^2", "tau": "N·m or N"},
-    }

@@ -17,7 +17,7 @@ Signals are t, q, dq, ddq, tau (q and tau required, each named by exactly one fi
 column (``t: NAME`` in one file's columns) ``time_unit`` (s, ms, us, ns) gives its unit and
 ``rate`` is refused.  Row i of every file is sample i: the files must have the same number of
 data rows, which is checked as they are read (streamed chunk by chunk, both CSV readers of
-``identify.reading``).  The description is untrusted input: parsed by the safe YAML reader
+``measured.reading``).  The description is untrusted input: parsed by the safe YAML reader
 (``describe.safety.read_yaml``), unknown keys, a missing file, a bad rate, a signal named twice,
 a column name repeated in a file's header, or files of different lengths are one-line errors.
 """
@@ -155,7 +155,7 @@ def _indices(header: list[str], part: Part, n: int, src: str) -> dict[str, list[
 
 def recording_chunks(path: Path, n: int, opts) -> Iterator[tuple[np.ndarray, dict]]:
     """Chunks of ``opts.chunk_rows`` rows of the joined files: the used columns (t, q, [dq], [ddq],
-    tau) and their layout, as ``identify.reading.raw_chunks`` yields them, time in seconds."""
+    tau) and their layout, as ``measured.reading.raw_chunks`` yields them, time in seconds."""
     from minparam_cli.measured.tables import _layout, csv_tables
 
     rec = read_description(path)

@@ -4,7 +4,7 @@
 ``<inertial>`` holds the mass, the centre of mass in its link's frame (``origin xyz``, here with
 rpy 0) and the inertia tensor about the centre of mass in those axes.
 
-* URDF robot: ``describe/urdf.py`` makes the frame of chain link j the frame of the URDF child link
+* URDF robot: ``describe/urdf_tree.py`` makes the frame of chain link j the frame of the URDF child link
   of actuated joint j (it resets the body transform on entering an actuated joint), so φ needs no
   change of frame.  Links hung on it by fixed joints are lumped into the same body: the identified
   body is the sum of them, so it goes on the moving link and the fixed links' ``<inertial>`` are

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from minparam_cli.render.singular_text import _jval
+from minparam_cli.render.singular_text import joint_value_text
 
 
 def render_map(smap, chain, angle: str, marker=None):
@@ -39,7 +39,7 @@ def render_map(smap, chain, angle: str, marker=None):
         ax.plot([conv(i, marker[i])], [conv(j, marker[j])], marker="x", color="red", markersize=8)
     ax.set_xlabel(label(i))
     ax.set_ylabel(label(j))
-    others = [f"q{k + 1}={_jval(chain.types, k, smap.q_fixed[k], angle)}" for k in range(chain.n) if k not in (i, j)]
+    others = [f"q{k + 1}={joint_value_text(chain.types, k, smap.q_fixed[k], angle)}" for k in range(chain.n) if k not in (i, j)]
     ax.set_title(f"{smap.robot}\n" + ", ".join(others), fontsize=9)
     fig.text(0.01, 0.01, "white: det = 0   red dashed: sigma_min/sigma_max = epsilon", fontsize=7)
     fig.tight_layout()

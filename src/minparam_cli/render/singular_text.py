@@ -42,14 +42,14 @@ def _q_text(chain_types, q, angle) -> str:
     return ", ".join(out)
 
 
-def _clean(obj):
+def json_safe(obj):
     """JSON-safe: numpy to Python, inf/nan to None."""
     if isinstance(obj, dict):
-        return {k: _clean(v) for k, v in obj.items()}
+        return {k: json_safe(v) for k, v in obj.items()}
     if isinstance(obj, (list, tuple)):
-        return [_clean(v) for v in obj]
+        return [json_safe(v) for v in obj]
     if isinstance(obj, np.ndarray):
-        return _clean(obj.tolist())
+        return json_safe(obj.tolist())
     if isinstance(obj, (np.floating, float)):
         x = float(obj)
         return x if math.isfinite(x) else None
@@ -61,7 +61,8 @@ def _clean(obj):
 
 
 def local_json(report, check, seed: int) -> dict:
-    from minparam_cli.kinematics.serial.screws import SCREW_CONVENTION, TWIST_CONVENTION, twist_distances
+    from minparam_cli.kinematics.serial.nearest_twist import twist_distances
+    from minparam_cli.kinematics.serial.plucker import SCREW_CONVENTION, TWIST_CONVENTION
 
     t = report.test
     out = {
@@ -170,7 +171,7 @@ def local_table(report, check, seed: int, angle: str) -> str:
         from tabulate import tabulate
 
         L = report.length_scale
-        from minparam_cli.kinematics.serial.screws import twist_distances
+        from minparam_cli.kinematics.serial.nearest_twist import twist_distances
 
         rows = []
         for name, tw in (("requested", sol.requested), ("nearest (Glazunov)", sol.nearest),
@@ -236,7 +237,8 @@ def scan_json(r) -> dict:
     }
 
 
-def _jval(types, j, v, angle) -> str:
+def joint_value_text(types, j, v, angle) -> str:
+    """Joint j's value v as text: degrees or radians (``angle``) for a revolute joint, metres otherwise."""
     if types[j] == "revolute":
         return _num(math.degrees(v) if angle == "deg" else v, 1.0)
     return _num(v, 1.0) + " m"
@@ -250,16 +252,16 @@ def scan_table(r, types, angle: str) -> str:
         lines.append("  no joint changes the relative position of the axes")
     for a in r.axes:
         lines.append(
-            f"  joint {a.joint + 1}: {a.values.size} values from {_jval(types, a.joint, a.values[0], angle)} "
-            f"to {_jval(types, a.joint, a.values[-1], angle)}{' (one turn)' if a.periodic else ''}, "
-            f"step {_jval(types, a.joint, a.step, angle)}"
+            f"  joint {a.joint + 1}: {a.values.size} values from {joint_value_text(types, a.joint, a.values[0], angle)} "
+            f"to {joint_value_text(types, a.joint, a.values[-1], angle)}{' (one turn)' if a.periodic else ''}, "
+            f"step {joint_value_text(types, a.joint, a.step, angle)}"
         )
     lines.append(f"  grid nodes {r.nodes}; nodes with sigma_min/sigma_max <= {r.epsilon:g}: {r.node_hits}; "
                  f"crossings located between nodes: {r.crossings}; smallest value on the grid {_num(r.sigma_grid_min, 1.0)}")
     lines.append(f"  singular points found: {r.points.shape[0]}, in {len(r.sets)} set(s) by dependent joints")
     rows = []
     for s in r.sets:
-        const = "; ".join(f"q{j + 1} in {{{', '.join(_jval(types, j, v, angle) for v in vals)}}}"
+        const = "; ".join(f"q{j + 1} in {{{', '.join(joint_value_text(types, j, v, angle) for v in vals)}}}"
                           for j, vals in s.constant.items())
         groups = " ".join(str(_joints1(g)) for g in s.groups) + ("" if s.consistent else " (near the cut)")
         rows.append([str(_joints1(s.dependent_joints)), groups, s.rank, s.count, const or "-"])
@@ -296,7 +298,7 @@ def symbolic_table(sym, chain, angle: str) -> str:
     for c in sym.conditions:
         sol = ""
         if c.solutions is not None:
-            sol = "   ->  " + ", ".join(f"q{c.joints[0] + 1} = {_jval(chain.types, c.joints[0], v, angle)}" for v in c.solutions)
+            sol = "   ->  " + ", ".join(f"q{c.joints[0] + 1} = {joint_value_text(chain.types, c.joints[0], v, angle)}" for v in c.solutions)
         mult = f"  (multiplicity {c.multiplicity})" if c.multiplicity > 1 else ""
         lines.append(f"  {c.expression}{mult}{sol}")
     shown = [g for g in sym.groups if g.status in ("when", "always")]

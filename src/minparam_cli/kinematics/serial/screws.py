@@ -32,8 +32,8 @@ Decisions (every tolerance is relative and reported):
   twist is reproduced exactly by the kept joints.
 
 The matrix itself lives in ``plucker``, the control step (projection, joint
-rates, the seeded nearest check) in ``nearest_twist``; both are re-exported
-here.  Indices are 0-based here; renderers number joints from 1.
+rates, the seeded nearest check) in ``nearest_twist``; callers import their
+names from there.  Indices are 0-based here; renderers number joints from 1.
 """
 
 from __future__ import annotations
@@ -45,29 +45,19 @@ import numpy as np
 
 from minparam_cli.chain import Chain
 from minparam_cli.errors import ComputationError, InputError
+from minparam_cli.kinematics.defaults import DEFAULT_DAMPING, DEFAULT_EPSILON
 from minparam_cli.kinematics.serial.nearest_twist import (
-    NearestCheck,
     TwistSolution,
-    check_nearest,
-    paper_projection,
-    reciprocal_product,
     solve_twist,
-    twist_distances,
 )
 from minparam_cli.kinematics.serial.plucker import (
     ReciprocalScrew,
-    SCREW_CONVENTION,
-    TWIST_CONVENTION,
     ZERO_COMPONENT,
     column_scale,
     normalised_matrices,
     plucker_matrices,
-    relative_sigma,
     require_serial,
-    rows_at_point,
 )
-
-from minparam_cli.kinematics.defaults import DEFAULT_DAMPING, DEFAULT_EPSILON  # noqa: E402,F401
 
 TIE_RTOL = 1e-9
 """Conditioning scores equal to this relative tolerance are a tie; the later joint is held."""
@@ -347,28 +337,11 @@ def analyse(
 
 
 __all__ = [
-    "DEFAULT_DAMPING",
-    "DEFAULT_EPSILON",
-    "NearestCheck",
     "RankTest",
-    "ReciprocalScrew",
-    "SCREW_CONVENTION",
     "SingularReport",
-    "TWIST_CONVENTION",
-    "TwistSolution",
     "analyse",
-    "check_nearest",
     "choose_held",
-    "column_scale",
     "deletion_test",
     "dependent_groups",
-    "normalised_matrices",
-    "paper_projection",
-    "plucker_matrices",
-    "reciprocal_product",
     "reciprocal_screws",
-    "relative_sigma",
-    "require_serial",
-    "rows_at_point",
-    "twist_distances",
 ]

@@ -14,8 +14,9 @@ crossings between neighbouring nodes:
   local minimum deep enough to hide a zero is refined by golden-section search.
 
 Refined points are kept when σ_min/σ_max ≤ ε there, then sorted by their
-dependent joints (the paper's column-deletion test).  ``sigma_map`` gives the
-same quantity on a fine grid over two joints, for a plot.
+dependent joints (the paper's column-deletion test).  ``singular_grid`` holds
+the grids, σ_min/σ_max at configurations and ``sigma_map`` (the same quantity
+on a fine grid over two joints, for a plot).
 """
 
 from __future__ import annotations
@@ -25,32 +26,17 @@ from typing import Callable
 
 import numpy as np
 
-from minparam_cli.chain import REVOLUTE, Chain, motion
+from minparam_cli.chain import Chain
 from minparam_cli.errors import InputError
-from minparam_cli.kinematics.serial.screws import (
-    DEFAULT_EPSILON,
-    dependent_groups,
-    normalised_matrices,
-    plucker_matrices,
-    require_serial,
-)
+from minparam_cli.kinematics.defaults import DEFAULT_EPSILON, DEFAULT_STEP_DEG
+from minparam_cli.kinematics.serial.plucker import plucker_matrices, require_serial
+from minparam_cli.kinematics.serial.screws import dependent_groups
+from minparam_cli.kinematics.serial.singular_grid import ScanAxis, axis_values, evaluate_sigma, grid_plucker, sigma_det, swept_joints
 
-from minparam_cli.kinematics.defaults import DEFAULT_STEP_DEG  # noqa: E402,F401
 MAX_NODES = 3_000_000
 MAX_POINTS_KEPT = 200_000
 REFINE_ITERATIONS = 60
 DISTINCT_VALUES = 4  # a swept joint taking at most this many values over a set is reported as constant
-
-
-@dataclass(frozen=True, eq=False)
-class ScanAxis:
-    joint: int  # 0-based
-    values: np.ndarray  # rad or m
-    periodic: bool
-
-    @property
-    def step(self) -> float:
-        return float(self.values[1] - self.values[0]) if self.values.size > 1 else 0.0
 
 
 @dataclass(frozen=True, eq=False)
@@ -87,102 +73,6 @@ class ScanResult:
     point_set: np.ndarray  # (M,) index into ``sets``
     sets: tuple[SingularSet, ...]
     notes: tuple[str, ...]
-
-
-@dataclass(frozen=True, eq=False)
-class SigmaMap:
-    robot: str
-    joints: tuple[int, int]
-    x: np.ndarray
-    y: np.ndarray
-    sigma: np.ndarray  # (len(y), len(x)) σ_min/σ_max
-    det: np.ndarray | None  # det of matrix (3), six joints only
-    q_fixed: np.ndarray
-    epsilon: float
-
-
-# --- grids -------------------------------------------------------------------------
-
-
-def joint_range(chain: Chain, j: int) -> tuple[float, float, bool]:
-    """Sweep range of joint j: (lo, hi, periodic).
-
-    Revolute: its limits clipped to one turn, or a full periodic turn without
-    limits.  Prismatic: its limits, which the file must give.
-    """
-    lim = chain.limits[j] if j < len(chain.limits) else None
-    if chain.types[j] == REVOLUTE:
-        if lim is None or lim[1] - lim[0] >= 2 * np.pi - 1e-9:
-            return -np.pi, np.pi, True
-        return float(lim[0]), float(lim[1]), False
-    if lim is None:
-        raise InputError(
-            f"joint {j + 1} ({chain.joint_names[j]}) is prismatic and has no limits; add limits to sweep it",
-            chain.source,
-        )
-    return float(lim[0]), float(lim[1]), False
-
-
-def axis_values(chain: Chain, j: int, step: float) -> ScanAxis:
-    """Grid of one joint: ``step`` (rad) for revolute joints; prismatic joints get as many points as a turn."""
-    lo, hi, periodic = joint_range(chain, j)
-    per_turn = max(int(round(2 * np.pi / step)), 4)
-    if chain.types[j] != REVOLUTE:
-        return ScanAxis(j, np.linspace(lo, hi, per_turn + 1), False)
-    if periodic:
-        return ScanAxis(j, -np.pi + 2 * np.pi * np.arange(per_turn) / per_turn, True)
-    count = max(int(np.ceil((hi - lo) / step - 1e-9)) + 1, 2)
-    return ScanAxis(j, np.linspace(lo, hi, count), False)
-
-
-def swept_joints(chain: Chain) -> tuple[int, ...]:
-    """Joints 2 … n-1 (0-based 1 … n-2): the only ones that move the axes relative to each other."""
-    return tuple(range(1, chain.n - 1))
-
-
-def grid_plucker(chain: Chain, values: list[np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
-    """Matrix (3) and O_c over a Cartesian grid (C order over the joints), link by link.
-
-    Each link frame is computed once per combination of the joints before it,
-    so the cost is set by the last joints only.
-    """
-    n = chain.n
-    F = np.eye(4)[None]
-    Z, O = [], []
-    for j in range(n):
-        A = F @ chain.pre[j]
-        Z.append(A[:, :3, :3] @ chain.axes[j])
-        O.append(A[:, :3, 3])
-        M = motion(chain.types[j], chain.axes[j], np.asarray(values[j], float)) @ chain.post[j]
-        F = (A[:, None] @ M[None]).reshape(-1, 4, 4)
-    N = F.shape[0]
-    tool = np.zeros(3) if chain.tool is None else np.asarray(chain.tool, float)
-    c = F[:, :3, :3] @ tool + F[:, :3, 3]
-    J = np.zeros((N, 6, n))
-    for j in range(n):
-        rep = N // Z[j].shape[0]
-        z = np.repeat(Z[j], rep, axis=0)
-        if chain.types[j] == REVOLUTE:
-            J[:, :3, j] = z
-            J[:, 3:, j] = np.cross(np.repeat(O[j], rep, axis=0), z)
-        else:
-            J[:, 3:, j] = z
-    return J, c
-
-
-def _sigma_det(chain: Chain, J0: np.ndarray, c: np.ndarray):
-    Jn = normalised_matrices(chain, J0, c, chain.length_scale)
-    s = np.linalg.svd(Jn, compute_uv=False)
-    k = min(6, chain.n)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        rel = np.where(s[:, 0] > 0, s[:, k - 1] / s[:, 0], 0.0)
-    det = np.linalg.det(J0) if chain.n == 6 else None
-    return rel, det, Jn, s
-
-
-def _evaluate(chain: Chain, Q: np.ndarray):
-    J0, c = plucker_matrices(chain, Q)
-    return _sigma_det(chain, J0, c)
 
 
 # --- the scan --------------------------------------------------------------------------
@@ -228,7 +118,7 @@ def scan(
         if axes:
             vals[axes[0].joint] = axes[0].values[k : k + 1]
         J0, c = grid_plucker(chain, vals)
-        rel, d, _, _ = _sigma_det(chain, J0, c)
+        rel, d, _, _ = sigma_det(chain, J0, c)
         sig[k * per : (k + 1) * per] = rel
         if det is not None:
             det[k * per : (k + 1) * per] = d
@@ -255,7 +145,7 @@ def scan(
             continue
         Q_lo = node_q(lo_idx)
         refined = _refine(chain, Q_lo, ax.joint, lo_x, hi_x, use_det=det is not None)
-        rel, _, _, _ = _evaluate(chain, refined) if refined.shape[0] else (np.empty(0), None, None, None)
+        rel, _, _, _ = evaluate_sigma(chain, refined) if refined.shape[0] else (np.empty(0), None, None, None)
         keep = refined[rel <= epsilon]
         crossings += keep.shape[0]
         points.append(keep)
@@ -341,7 +231,7 @@ def _refine(chain: Chain, Q_lo: np.ndarray, joint: int, lo: np.ndarray, hi: np.n
         Q[:, joint] = x
         if use_det:
             return np.linalg.det(plucker_matrices(chain, Q)[0])
-        return _evaluate(chain, Q)[0]
+        return evaluate_sigma(chain, Q)[0]
 
     if use_det:  # Illinois variant of regula falsi on the sign change of det
         fa, fb = f(a), f(b)
@@ -382,7 +272,7 @@ def _classify(chain: Chain, P: np.ndarray, axes, epsilon):
     n = chain.n
     if P.shape[0] == 0:
         return (), np.zeros(0, int), np.zeros(0)
-    rel, _, Jn, s = _evaluate(chain, P)
+    rel, _, Jn, s = evaluate_sigma(chain, P)
     cut = epsilon * s[:, 0]
     rank = np.sum(s > cut[:, None], axis=1)
     if n <= 6:
@@ -433,40 +323,3 @@ def _distinct(vals: np.ndarray, ax: ScanAxis) -> np.ndarray:
         if x - out[-1] > tol:
             out.append(x)
     return np.array(out)
-
-
-# --- the map --------------------------------------------------------------------------------
-
-
-def sigma_map(chain: Chain, q_fixed, joints: tuple[int, int], points: int = 181, epsilon: float = DEFAULT_EPSILON) -> SigmaMap:
-    """σ_min/σ_max (and det for six joints) over two joints, the others held at ``q_fixed``."""
-    require_serial(chain)
-    n = chain.n
-    i, j = joints
-    if i == j or not (0 <= i < n and 0 <= j < n):
-        raise InputError(f"the map needs two different joints numbered 1..{n}, got {i + 1},{j + 1}")
-    if points < 2:
-        raise InputError("the map needs at least two points per axis")
-    q_fixed = np.asarray(q_fixed, dtype=float).reshape(-1)
-    if q_fixed.size != n:
-        raise InputError(f"expected {n} joint values, got {q_fixed.size}")
-    axes = []
-    for k in (i, j):
-        lo, hi, _ = joint_range(chain, k)
-        axes.append(np.linspace(lo, hi, points))
-    x, y = axes
-    Q = np.tile(q_fixed, (points * points, 1))
-    Y, X = np.meshgrid(y, x, indexing="ij")
-    Q[:, i] = X.ravel()
-    Q[:, j] = Y.ravel()
-    rel, det, _, _ = _evaluate(chain, Q)
-    return SigmaMap(
-        robot=chain.name,
-        joints=(i, j),
-        x=x,
-        y=y,
-        sigma=rel.reshape(points, points),
-        det=None if det is None else det.reshape(points, points),
-        q_fixed=q_fixed,
-        epsilon=epsilon,
-    )

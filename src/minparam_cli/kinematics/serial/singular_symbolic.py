@@ -32,7 +32,7 @@ import numpy as np
 
 from minparam_cli.chain import REVOLUTE, Chain
 from minparam_cli.errors import UnsupportedError
-from minparam_cli.kinematics.serial.screws import require_serial
+from minparam_cli.kinematics.serial.plucker import require_serial
 
 MAX_JOINTS = 6
 MAX_GROUP = 3

@@ -16,7 +16,7 @@ controller stamps, t ≈ 1.7e9 s, and the same record re-zeroed give the same sa
   at most this share of a step after the last raw sample (the stamps' rounding), instead of
   ending one step early;
 - a time step is irregular when it differs from the sampling step by more than IRREGULAR_TOL
-  (data.IRREGULAR_TOL, 10 %), longer or shorter.
+  (records.IRREGULAR_TOL, 10 %), longer or shorter.
 """
 
 from __future__ import annotations
