@@ -131,7 +131,7 @@ def main() -> None:
     after = calibration()
     print("minparam identify, Panda (7 joints), CSV with q, dq, ddq, tau; Coulomb + viscous hidden; diagnosis on")
     print(tabulate(rows, headers=["samples", "file", "CSV reader", "fit", "wall time", "CPU time", "convex solve", "peak RSS"], tablefmt="github"))
-    print("\nCSV parsing alone (identify.reading.raw_chunks, all columns to float64), MB of CSV per second")
+    print("\nCSV parsing alone (measured.reading.raw_chunks, all columns to float64), MB of CSV per second")
     print(tabulate(rates, headers=["samples", "file"] + readers, tablefmt="github"))
     print(f"\nCPU calibration (a fixed numpy + Python task; larger on a busier machine): {before:.2f} s before, {after:.2f} s after")
 

@@ -201,7 +201,7 @@ def test_the_fast_reader_does_not_import_pandas(tmp_path):
     rows = np.random.default_rng(0).standard_normal((3000, 5))
     path.write_text("t,q1,dq1,ddq1,tau1\n" + "\n".join(",".join(f"{v:.9g}" for v in r) for r in rows) + "\n")
     code = (
-        "import sys; from minparam_cli.identify.reading import raw_chunks;"
+        "import sys; from minparam_cli.measured.reading import raw_chunks;"
         "from minparam_cli.measured.records import DataOptions;"
         f"n = sum(len(c[0]) for c in raw_chunks({str(path)!r}, 1, DataOptions()));"
         "print(n, 'pandas' in sys.modules)"

@@ -4,7 +4,7 @@ numpy's loadtxt parses about 45 MB/s; pyarrow's streaming reader several times t
 faster way to the same numbers: its rows fill tables of exactly ``rows`` lines (the chunks numpy's
 reader makes), and a line pyarrow does not read as the header's width of numbers (a comment, a
 blank line, quotes, an empty cell, a word where a number belongs, bytes that are not UTF-8) makes
-``identify.reading`` read the table it falls in, and the rest of the file, with numpy, whose values
+``measured.reading`` read the table it falls in, and the rest of the file, with numpy, whose values
 and one-line error messages are then the ones reported.  Both parsers round decimal text to the
 nearest double, so the values agree bit for bit (tests/test_fast_reader.py).
 """

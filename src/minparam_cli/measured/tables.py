@@ -2,7 +2,7 @@
 columns, CSV (pyarrow's streaming reader, the [arrow] extra, or numpy's loadtxt; without pyarrow, a
 file larger than BACKGROUND_BYTES is parsed by a second process one chunk ahead), .npz and arrays in
 memory, the checks on a data file, and the one-line errors of a bad header or row.  Below every
-reader (``identify/reading.py`` dispatches by format, ``measured/*`` reads the other formats): it
+reader (``measured/reading.py`` dispatches by format, ``measured/*`` reads the other formats): it
 imports none of them.
 """
 
