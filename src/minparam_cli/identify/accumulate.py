@@ -101,6 +101,14 @@ def update(R: np.ndarray, A: np.ndarray, segments=None):
     return _householder(R, A), None if segments is None else _segment_grams(A, segments)
 
 
+def _lines(cols: np.ndarray, idx: np.ndarray) -> np.ndarray:
+    """cols[idx] for sorted indices: a view when they are a run (a joint's active columns are: the
+    links it carries, then the slots and τ), so BLAS reads the rows where they lie, else a copy."""
+    if len(idx) and idx[-1] - idx[0] == len(idx) - 1:
+        return cols[idx[0] : idx[-1] + 1]
+    return cols[idx]
+
+
 class Accumulator:
     """Streaming per-joint factors of [X_j | y_j]; ``R`` gives them at full width (zero columns where unseen)."""
 
@@ -130,17 +138,19 @@ class Accumulator:
         for j in range(self.n):
             cj = cols[j]
             active = self._cols[j]
+            seen = ()
             if len(active) <= self.p:
                 rest = np.setdiff1d(np.arange(self.p + 1), active, assume_unique=True)
-                seen = rest[cj[rest].any(axis=1)]
-            if len(active) <= self.p and len(seen):  # columns non-zero for the first time: widen the factor
+                if _lines(cj, rest).any():  # one pass; which columns only when some are non-zero
+                    seen = rest[_lines(cj, rest).any(axis=1)]
+            if len(seen):  # columns non-zero for the first time: widen the factor
                 new = np.union1d(active, seen)
                 R = np.zeros((self._R[j].shape[0], len(new)))
                 R[:, np.searchsorted(new, active)] = self._R[j]
                 self._cols[j], self._R[j], active = new, R, new
             grams = None
             if len(active):
-                R, grams = update(self._R[j], cj[active].T, segments)
+                R, grams = update(self._R[j], _lines(cj, active).T, segments)
                 if not np.isfinite(R).all():
                     raise NonFiniteRows(j)
                 self._R[j] = R

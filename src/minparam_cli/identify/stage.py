@@ -12,6 +12,7 @@ file.
 
 from __future__ import annotations
 
+import threading
 import time
 import warnings
 from dataclasses import dataclass, field, replace
@@ -75,6 +76,9 @@ def _stream(design: Design, sources: list[Source], n: int, opts: IdentifyOptions
     reports: list[DataReport] = []
     state = {"design": design}
     spare = _Spare()
+    # the factor update's first call imports scipy.linalg (about 0.2 s): done beside the readers'
+    # start, while this thread would only wait for the first rows
+    threading.Thread(target=_import_blas, name="minparam-import", daemon=True).start()
     for piece, sub, rows in ahead(_rows(state, sources, n, opts, slots, reports, spare)):
         if rows is not None:  # sub: (the samples of the rows, their design, the file)
             sub, design_used, path = sub
@@ -96,6 +100,10 @@ def _stream(design: Design, sources: list[Source], n: int, opts: IdentifyOptions
                 thin[piece.part].add(sub)
         sub = rows = None  # not alive while the next rows are folded in
     return acc, thin, motion, reports, state["design"]
+
+
+def _import_blas() -> None:
+    import scipy.linalg.blas  # noqa: F401
 
 
 class _Spare:
