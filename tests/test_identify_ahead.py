@@ -158,3 +158,28 @@ def test_the_producer_sees_the_callers_context_variables():
             yield var.get()
 
     assert list(ahead(gen())) == ["caller's"] * 3
+
+
+def test_block_grams_of_column_subsets_land_in_their_place():
+    """add_parts with each joint's own columns (a run, or scattered) stores, packed, the Gram the
+    full rows would give: zeros where a joint has no column."""
+    from minparam_cli.identify.uncertainty import BlockGrams
+
+    rng = np.random.default_rng(4)
+    w, N = 7, 300
+    cols = [np.arange(w), np.array([2, 3, 4, 5, 6]), np.array([0, 3, 6])]
+    rows = np.zeros((len(cols), w, N))
+    for j, c in enumerate(cols):
+        rows[j, c] = rng.standard_normal((len(c), N))
+    t = np.linspace(0.0, 2.99, N)
+    g = BlockGrams(1.0)
+    segments = g.segments(t)
+    assert [b for b, _, _ in segments] == [0, 1, 2]
+    parts = [(c, [rows[j][c][:, s:e] @ rows[j][c][:, s:e].T for _, s, e in segments]) for j, c in enumerate(cols)]
+    g.add_parts(segments, parts, w)
+    for b, s, e in segments:
+        G = g.gram(b)
+        for j in range(len(cols)):
+            A = rows[j][:, s:e]
+            assert np.allclose(G[j], A @ A.T, rtol=1e-13, atol=1e-13)
+        assert g.rows[b] == e - s

@@ -355,7 +355,7 @@ def _honest_sigma(grams, maps, fit, opts: IdentifyOptions, progress):
     if grams is None:
         return fit, None
     uopts, note = opts.uncertainty, None
-    if uopts.block_s is None and uopts.kind != "textbook" and len(grams.G) < 2:  # the default length, not asked for
+    if uopts.block_s is None and uopts.kind != "textbook" and len(grams.packed) < 2:  # the default length, not asked for
         note = (f"the fit data ({grams.span():.3g} s) are shorter than two blocks of {grams.length:g} s: the σ shown are "
                 f"the textbook ones, not {uopts.kind} (give a shorter --block-length)")
         uopts = replace(uopts, kind="textbook")
