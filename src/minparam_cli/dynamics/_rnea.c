@@ -139,8 +139,14 @@ static void regress(const Store *st, Py_ssize_t N, Py_ssize_t n,
             to_local(Tj, ao, al);
             double K[60], W[60];
             link_wrench(wl, dwl, al, K);
-            /* to the base origin in base coordinates: f0 = R Kf, n0 = R Kn + pos x f0 */
-            for (int c = 0; c < 10; c++) {
+            /* to the base origin in base coordinates: f0 = R Kf, n0 = R Kn + pos x f0; the six
+             * inertia columns (c < 6) exert no force (K's force rows are zero there) */
+            for (int c = 0; c < 6; c++)
+                for (int r = 0; r < 3; r++) {
+                    const double *R = Tj + 4 * r;
+                    W[10 * r + c] = R[0] * K[c] + R[1] * K[10 + c] + R[2] * K[20 + c];
+                }
+            for (int c = 6; c < 10; c++) {
                 double f[3], m[3];
                 for (int r = 0; r < 3; r++) {
                     const double *R = Tj + 4 * r;
@@ -156,8 +162,10 @@ static void regress(const Store *st, Py_ssize_t N, Py_ssize_t n,
             /* every joint from j back to the root carries link j */
             for (long long k = (long long)j; k >= 0; k = parents[k]) {
                 const double *Sk = S + 6 * k;
-                double row[10]; /* computed whole (a loop the compiler vectorises), then stored */
-                for (int c = 0; c < 10; c++)
+                double row[10]; /* computed whole, then stored; no force in the inertia columns */
+                for (int c = 0; c < 6; c++)
+                    row[c] = Sk[0] * W[c] + Sk[1] * W[10 + c] + Sk[2] * W[20 + c];
+                for (int c = 6; c < 10; c++)
                     row[c] = Sk[0] * W[c] + Sk[1] * W[10 + c] + Sk[2] * W[20 + c] + Sk[3] * W[30 + c]
                              + Sk[4] * W[40 + c] + Sk[5] * W[50 + c];
                 if (Ys != NULL) {
