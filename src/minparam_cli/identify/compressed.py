@@ -83,8 +83,13 @@ class Compressed:
 
     @staticmethod
     def of(design: Design, train: Block, hold: Block, effects: tuple[str, ...]) -> "Compressed":
+        from concurrent.futures import ThreadPoolExecutor
+
         cat = Catalogue.of(len(design.kept), effects, design.theta_model is not None)
-        return Compressed(cat, _factor(design, train, cat), _factor(design, hold, cat), len(train), len(hold))
+        with ThreadPoolExecutor(max_workers=1, thread_name_prefix="minparam-hold") as side:  # both at once
+            held = side.submit(_factor, design, hold, cat)
+            T = _factor(design, train, cat)
+            return Compressed(cat, T, held.result(), len(train), len(hold))
 
     @property
     def n(self) -> int:
