@@ -139,14 +139,21 @@ static void regress(const Store *st, Py_ssize_t N, Py_ssize_t n,
             to_local(Tj, ao, al);
             double K[60], W[60];
             link_wrench(wl, dwl, al, K);
+            /* joint-major: only the columns asked for (a regrouped parameter's are not) */
+            const long long *dj = st->dest == NULL ? NULL : st->dest + 10 * j;
             /* to the base origin in base coordinates: f0 = R Kf, n0 = R Kn + pos x f0; the six
              * inertia columns (c < 6) exert no force (K's force rows are zero there) */
-            for (int c = 0; c < 6; c++)
+            for (int c = 0; c < 6; c++) {
+                if (dj != NULL && dj[c] < 0)
+                    continue;
                 for (int r = 0; r < 3; r++) {
                     const double *R = Tj + 4 * r;
                     W[10 * r + c] = R[0] * K[c] + R[1] * K[10 + c] + R[2] * K[20 + c];
                 }
+            }
             for (int c = 6; c < 10; c++) {
+                if (dj != NULL && dj[c] < 0)
+                    continue;
                 double f[3], m[3];
                 for (int r = 0; r < 3; r++) {
                     const double *R = Tj + 4 * r;
@@ -162,20 +169,23 @@ static void regress(const Store *st, Py_ssize_t N, Py_ssize_t n,
             /* every joint from j back to the root carries link j */
             for (long long k = (long long)j; k >= 0; k = parents[k]) {
                 const double *Sk = S + 6 * k;
-                double row[10]; /* computed whole, then stored; no force in the inertia columns */
-                for (int c = 0; c < 6; c++)
-                    row[c] = Sk[0] * W[c] + Sk[1] * W[10 + c] + Sk[2] * W[20 + c];
-                for (int c = 6; c < 10; c++)
-                    row[c] = Sk[0] * W[c] + Sk[1] * W[10 + c] + Sk[2] * W[20 + c] + Sk[3] * W[30 + c]
-                             + Sk[4] * W[40 + c] + Sk[5] * W[50 + c];
+                /* S_k . W_c; no force in the inertia columns (c < 6) */
                 if (Ys != NULL) {
-                    memcpy(Ys + k * st->P + 10 * j, row, sizeof row);
+                    double *row = Ys + k * st->P + 10 * j;
+                    for (int c = 0; c < 6; c++)
+                        row[c] = Sk[0] * W[c] + Sk[1] * W[10 + c] + Sk[2] * W[20 + c];
+                    for (int c = 6; c < 10; c++)
+                        row[c] = Sk[0] * W[c] + Sk[1] * W[10 + c] + Sk[2] * W[20 + c] + Sk[3] * W[30 + c]
+                                 + Sk[4] * W[40 + c] + Sk[5] * W[50 + c];
                 } else {
-                    const long long *dj = st->dest + 10 * j;
                     double *col = st->Y + k * st->joint_stride + s;
-                    for (int c = 0; c < 10; c++)
+                    for (int c = 0; c < 6; c++)
                         if (dj[c] >= 0)
-                            col[dj[c] * st->row_stride] = row[c];
+                            col[dj[c] * st->row_stride] = Sk[0] * W[c] + Sk[1] * W[10 + c] + Sk[2] * W[20 + c];
+                    for (int c = 6; c < 10; c++)
+                        if (dj[c] >= 0)
+                            col[dj[c] * st->row_stride] = Sk[0] * W[c] + Sk[1] * W[10 + c] + Sk[2] * W[20 + c]
+                                                          + Sk[3] * W[30 + c] + Sk[4] * W[40 + c] + Sk[5] * W[50 + c];
                 }
             }
         }
