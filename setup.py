@@ -11,6 +11,7 @@ setup(
         Extension(
             "minparam_cli.dynamics._rnea",
             sources=["src/minparam_cli/dynamics/_rnea.c"],
+            depends=["src/minparam_cli/dynamics/_rnea_lanes.h"],  # the loop, included once per lane width
             optional=True,
         )
     ]

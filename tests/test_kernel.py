@@ -174,3 +174,32 @@ def test_columns_kernel_refuses_a_buffer_too_small_for_its_strides():
         reg.regressor_columns(chain, q, q, q, [0, 1], out=np.zeros((2, 1, 3)))
     with pytest.raises(ValueError, match="columns must lie"):
         reg.regressor_columns(chain, q, q, q, [20])
+
+
+@needs_kernel
+def test_every_lane_width_gives_the_same_numbers_bit_for_bit(robot_path):
+    """The kernel computes 1, 2 or 4 samples at a time (the widest the processor has is used); each
+    lane does the scalar arithmetic in the same order, so every width gives identical numbers,
+    also for sample counts that leave lanes empty."""
+    widths = reg._rnea.lane_widths()
+    assert widths[0] == 1
+    chain = build_chain(load_description(robot_path))
+    terms, axor, parents, revolute, g = reg._kernel_arrays(chain)
+    n = chain.n
+    dest = np.arange(10 * n, dtype=np.int64)
+    dest[::3] = -1  # some columns not asked for
+    for N in (1, 3, 4, 7, 33):
+        q, qd, qdd = (np.ascontiguousarray(x) for x in _states(chain, N, N))
+        ref = None
+        for lanes in widths:
+            Y = np.zeros((N, n, 10 * n))
+            reg._rnea.inertial_regressor(Y, q, qd, qdd, terms, axor, parents, revolute, g, N, n, 10 * n, lanes)
+            cols = np.full((n, 10 * n, N), np.nan)
+            reg._rnea.inertial_columns(cols, q, qd, qdd, terms, axor, parents, revolute, g, dest, N, n, 10 * n * N, N, lanes)
+            if ref is None:
+                ref = (Y, cols)
+            assert np.array_equal(Y, ref[0]) and np.array_equal(cols, ref[1], equal_nan=True)
+        kept = dest >= 0
+        assert np.array_equal(ref[1][:, dest[kept]], ref[0][:, :, kept].transpose(1, 2, 0))
+    with pytest.raises(ValueError, match="no kernel 3 samples wide"):
+        reg._rnea.inertial_regressor(np.zeros((1, n, 10 * n)), q[:1], qd[:1], qdd[:1], terms, axor, parents, revolute, g, 1, n, 10 * n, 3)

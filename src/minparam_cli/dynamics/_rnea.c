@@ -6,7 +6,9 @@
  *   forward pass  V_j = V_p + S_j qd_j,  A_j = A_p + S_j qdd_j + (V_j x_m S_j) qd_j,  A_0 = (0, -g),
  *   per link      the wrench about the link origin in link coordinates, K_j (6 x 10), linear in phi_j,
  *   projection    Y[k, 10 j + c] = S_k . (K_j moved to the base origin, base coordinates), k an ancestor of j.
- * One sample at a time, no allocation inside the loop; the GIL is released while it runs.
+ * Several samples at a time (_rnea_lanes.h, one instance per width: 1, 2 in 16-byte vectors,
+ * 4 in AVX2's 32-byte ones when the processor has them), each lane with exactly the scalar
+ * arithmetic; no allocation inside the loop; the GIL is released while it runs.
  * Two layouts of the result: inertial_regressor fills Y (N, n, P) sample-major, as regressor()
  * returns it; inertial_columns writes chosen columns joint-major, out[k, dest[c], s] (a strided
  * block: the rows identify's accumulators take), with no full regressor in between.
@@ -16,38 +18,8 @@
 #include <Python.h>
 #include <math.h>
 #include <stdlib.h>
+#include <stdint.h>
 #include <string.h>
-
-static inline void cross3(const double *a, const double *b, double *out)
-{
-    out[0] = a[1] * b[2] - a[2] * b[1];
-    out[1] = a[2] * b[0] - a[0] * b[2];
-    out[2] = a[0] * b[1] - a[1] * b[0];
-}
-
-/* x in base coordinates -> R^T x (R row-major in the 4x4 T). */
-static inline void to_local(const double *T, const double *x, double *out)
-{
-    for (int c = 0; c < 3; c++)
-        out[c] = T[c] * x[0] + T[4 + c] * x[1] + T[8 + c] * x[2];
-}
-
-/* Wrench regressor about the link origin, link coordinates: rows (moment; force), 10 columns
- * XX XY XZ YY YZ ZZ MX MY MZ M. */
-static void link_wrench(const double *w, const double *d, const double *a, double *K)
-{
-    const double w11 = w[0] * w[0], w22 = w[1] * w[1], w33 = w[2] * w[2];
-    const double w12 = w[0] * w[1], w13 = w[0] * w[2], w23 = w[1] * w[2];
-    const double k[60] = {
-        d[0], d[1] - w13, d[2] + w12, -w23, w22 - w33, w23, 0.0, a[2], -a[1], 0.0,
-        w13, d[0] + w23, w33 - w11, d[1], d[2] - w12, -w13, -a[2], 0.0, a[0], 0.0,
-        -w12, w11 - w22, d[0] - w23, w12, d[1] + w13, d[2], a[1], -a[0], 0.0, 0.0,
-        0.0, 0.0, 0.0, 0.0, 0.0, 0.0, -w22 - w33, w12 - d[2], w13 + d[1], a[0],
-        0.0, 0.0, 0.0, 0.0, 0.0, 0.0, w12 + d[2], -w11 - w33, w23 - d[0], a[1],
-        0.0, 0.0, 0.0, 0.0, 0.0, 0.0, w13 - d[1], w23 + d[0], -w11 - w22, a[2],
-    };
-    memcpy(K, k, sizeof k);
-}
 
 /* Where the kernel writes: sample-major Y (N, n, P) when dest is NULL, else joint-major:
  * column c of joint k's row at sample s goes to out[k * joint_stride + dest[c] * row_stride + s]
@@ -59,137 +31,89 @@ typedef struct {
     Py_ssize_t joint_stride, row_stride;
 } Store;
 
-static void regress(const Store *st, Py_ssize_t N, Py_ssize_t n,
-                    const double *q, const double *qd, const double *qdd,
-                    const double *terms, const double *axor, const long long *parents,
-                    const unsigned char *revolute, const double *g, double *work)
-{
-    double *T = work;      /* n x 16, row-major 4x4 link frames */
-    double *S = T + 16 * n; /* n x 6 joint screws at the base origin */
-    double *V = S + 6 * n;  /* n x 6 spatial velocities */
-    double *A = V + 6 * n;  /* n x 6 spatial accelerations (gravity included) */
-    const double zero6[6] = {0, 0, 0, 0, 0, 0};
-    const double a0[6] = {0, 0, 0, -g[0], -g[1], -g[2]};
+typedef void (*Kernel)(const Store *, Py_ssize_t, Py_ssize_t, const double *, const double *, const double *,
+                       const double *, const double *, const long long *, const unsigned char *, const double *,
+                       void *);
 
-    for (Py_ssize_t s = 0; s < N; s++) {
-        const double *qs = q + s * n, *qds = qd + s * n, *qdds = qdd + s * n;
-        double *Ys = st->dest == NULL ? st->Y + s * n * st->P : NULL;
-        for (Py_ssize_t j = 0; j < n; j++) {
-            const double *C0 = terms + 48 * j, *C1 = C0 + 16, *C2 = C0 + 32;
-            const double *ax = axor + 6 * j, *org = ax + 3;
-            const long long p = parents[j];
-            double L[16], z[3], o[3];
-            double *Tj = T + 16 * j;
-            if (revolute[j]) {
-                const double sn = sin(qs[j]), vc = 1.0 - cos(qs[j]);
-                for (int i = 0; i < 16; i++)
-                    L[i] = C0[i] + sn * C1[i] + vc * C2[i];
-            } else {
-                for (int i = 0; i < 16; i++)
-                    L[i] = C0[i] + qs[j] * C1[i];
-            }
-            if (p < 0) {
-                memcpy(Tj, L, sizeof L);
-                memcpy(z, ax, sizeof z);
-                memcpy(o, org, sizeof o);
-            } else {
-                const double *Tp = T + 16 * p;
-                for (int r = 0; r < 3; r++) {
-                    for (int c = 0; c < 4; c++)
-                        Tj[4 * r + c] = Tp[4 * r] * L[c] + Tp[4 * r + 1] * L[4 + c] + Tp[4 * r + 2] * L[8 + c]
-                                        + Tp[4 * r + 3] * L[12 + c];
-                    z[r] = Tp[4 * r] * ax[0] + Tp[4 * r + 1] * ax[1] + Tp[4 * r + 2] * ax[2];
-                    o[r] = Tp[4 * r] * org[0] + Tp[4 * r + 1] * org[1] + Tp[4 * r + 2] * org[2] + Tp[4 * r + 3];
-                }
-                Tj[12] = 0.0, Tj[13] = 0.0, Tj[14] = 0.0, Tj[15] = 1.0;
-            }
-            double *Sj = S + 6 * j, *Vj = V + 6 * j, *Aj = A + 6 * j;
-            if (revolute[j]) {
-                memcpy(Sj, z, sizeof z);
-                cross3(o, z, Sj + 3);
-            } else {
-                Sj[0] = Sj[1] = Sj[2] = 0.0;
-                memcpy(Sj + 3, z, sizeof z);
-            }
-            const double *Vp = p < 0 ? zero6 : V + 6 * p, *Ap = p < 0 ? a0 : A + 6 * p;
-            for (int i = 0; i < 6; i++)
-                Vj[i] = Vp[i] + Sj[i] * qds[j];
-            double c1[3], c2[3], c3[3];
-            cross3(Vj, Sj, c1);
-            cross3(Vj, Sj + 3, c2);
-            cross3(Vj + 3, Sj, c3);
-            for (int i = 0; i < 3; i++) {
-                Aj[i] = Ap[i] + Sj[i] * qdds[j] + c1[i] * qds[j];
-                Aj[3 + i] = Ap[3 + i] + Sj[3 + i] * qdds[j] + (c2[i] + c3[i]) * qds[j];
-            }
-            /* classical velocity and acceleration of the link origin, then link coordinates */
-            const double pos[3] = {Tj[3], Tj[7], Tj[11]};
-            double t[3], vo[3], ao[3], wl[3], dwl[3], al[3];
-            cross3(Vj, pos, t);
-            for (int i = 0; i < 3; i++)
-                vo[i] = Vj[3 + i] + t[i];
-            cross3(Aj, pos, t);
-            for (int i = 0; i < 3; i++)
-                ao[i] = Aj[3 + i] + t[i];
-            cross3(Vj, vo, t);
-            for (int i = 0; i < 3; i++)
-                ao[i] += t[i];
-            to_local(Tj, Vj, wl);
-            to_local(Tj, Aj, dwl);
-            to_local(Tj, ao, al);
-            double K[60], W[60];
-            link_wrench(wl, dwl, al, K);
-            /* joint-major: only the columns asked for (a regrouped parameter's are not) */
-            const long long *dj = st->dest == NULL ? NULL : st->dest + 10 * j;
-            /* to the base origin in base coordinates: f0 = R Kf, n0 = R Kn + pos x f0; the six
-             * inertia columns (c < 6) exert no force (K's force rows are zero there) */
-            for (int c = 0; c < 6; c++) {
-                if (dj != NULL && dj[c] < 0)
-                    continue;
-                for (int r = 0; r < 3; r++) {
-                    const double *R = Tj + 4 * r;
-                    W[10 * r + c] = R[0] * K[c] + R[1] * K[10 + c] + R[2] * K[20 + c];
-                }
-            }
-            for (int c = 6; c < 10; c++) {
-                if (dj != NULL && dj[c] < 0)
-                    continue;
-                double f[3], m[3];
-                for (int r = 0; r < 3; r++) {
-                    const double *R = Tj + 4 * r;
-                    f[r] = R[0] * K[30 + c] + R[1] * K[40 + c] + R[2] * K[50 + c];
-                    m[r] = R[0] * K[c] + R[1] * K[10 + c] + R[2] * K[20 + c];
-                }
-                cross3(pos, f, t);
-                for (int r = 0; r < 3; r++) {
-                    W[10 * r + c] = m[r] + t[r];
-                    W[10 * (3 + r) + c] = f[r];
-                }
-            }
-            /* every joint from j back to the root carries link j */
-            for (long long k = (long long)j; k >= 0; k = parents[k]) {
-                const double *Sk = S + 6 * k;
-                /* S_k . W_c; no force in the inertia columns (c < 6) */
-                if (Ys != NULL) {
-                    double *row = Ys + k * st->P + 10 * j;
-                    for (int c = 0; c < 6; c++)
-                        row[c] = Sk[0] * W[c] + Sk[1] * W[10 + c] + Sk[2] * W[20 + c];
-                    for (int c = 6; c < 10; c++)
-                        row[c] = Sk[0] * W[c] + Sk[1] * W[10 + c] + Sk[2] * W[20 + c] + Sk[3] * W[30 + c]
-                                 + Sk[4] * W[40 + c] + Sk[5] * W[50 + c];
-                } else {
-                    double *col = st->Y + k * st->joint_stride + s;
-                    for (int c = 0; c < 6; c++)
-                        if (dj[c] >= 0)
-                            col[dj[c] * st->row_stride] = Sk[0] * W[c] + Sk[1] * W[10 + c] + Sk[2] * W[20 + c];
-                    for (int c = 6; c < 10; c++)
-                        if (dj[c] >= 0)
-                            col[dj[c] * st->row_stride] = Sk[0] * W[c] + Sk[1] * W[10 + c] + Sk[2] * W[20 + c]
-                                                          + Sk[3] * W[30 + c] + Sk[4] * W[40 + c] + Sk[5] * W[50 + c];
-                }
-            }
-        }
+/* one sample at a time: any C compiler */
+#define LANES 1
+#define LANE(v, l) (v)
+#define NAME(f) f##1
+#define ATTR
+typedef double vd1;
+#define vd vd1
+#include "_rnea_lanes.h"
+#undef vd
+#undef LANES
+#undef LANE
+#undef NAME
+#undef ATTR
+
+#if defined(__GNUC__) || defined(__clang__)
+/* two samples at a time in 16-byte vectors (SSE2 on every x86-64, NEON on arm64) */
+#define LANES 2
+#define LANE(v, l) ((v)[l])
+#define NAME(f) f##2
+#define ATTR
+typedef double vd2 __attribute__((vector_size(16)));
+#define vd vd2
+#include "_rnea_lanes.h"
+#undef vd
+#undef LANES
+#undef LANE
+#undef NAME
+#undef ATTR
+#define HAVE_LANES2 1
+#endif
+
+#if (defined(__GNUC__) || defined(__clang__)) && defined(__x86_64__)
+/* four samples at a time in AVX2's 32-byte vectors, used when the processor has them */
+#define LANES 4
+#define LANE(v, l) ((v)[l])
+#define NAME(f) f##4
+#define ATTR __attribute__((target("avx2")))
+typedef double vd4 __attribute__((vector_size(32)));
+#define vd vd4
+#include "_rnea_lanes.h"
+#undef vd
+#undef LANES
+#undef LANE
+#undef NAME
+#undef ATTR
+#define HAVE_LANES4 1
+#endif
+
+/* The widest width this build and processor have, or ``lanes`` itself when it is one of them
+ * (tests compare every width); 0 when ``lanes`` is not available. */
+static int pick(int lanes, Kernel *kernel, size_t *vector_bytes)
+{
+    int best = 1;
+#ifdef HAVE_LANES2
+    best = 2;
+#endif
+#ifdef HAVE_LANES4
+    if (__builtin_cpu_supports("avx2"))
+        best = 4;
+#endif
+    if (lanes == 0)
+        lanes = best;
+    if (lanes == 1) {
+        *kernel = (Kernel)regress1, *vector_bytes = sizeof(vd1);
+        return 1;
     }
+#ifdef HAVE_LANES2
+    if (lanes == 2) {
+        *kernel = (Kernel)regress2, *vector_bytes = sizeof(vd2);
+        return 2;
+    }
+#endif
+#ifdef HAVE_LANES4
+    if (lanes == 4 && best == 4) {
+        *kernel = (Kernel)regress4, *vector_bytes = sizeof(vd4);
+        return 4;
+    }
+#endif
+    return 0;
 }
 
 static int need(Py_buffer *b, Py_ssize_t bytes, const char *what)
@@ -225,28 +149,56 @@ static int check_chain(Py_ssize_t N, Py_ssize_t n, Py_buffer *q, Py_buffer *qd, 
 }
 
 static int run(const Store *st, Py_ssize_t N, Py_ssize_t n, Py_buffer *q, Py_buffer *qd, Py_buffer *qdd,
-               Py_buffer *terms, Py_buffer *axor, Py_buffer *parents, Py_buffer *revolute, Py_buffer *g)
+               Py_buffer *terms, Py_buffer *axor, Py_buffer *parents, Py_buffer *revolute, Py_buffer *g, int lanes)
 {
-    double *work = (double *)malloc((size_t)(34 * n) * sizeof(double));
-    if (work == NULL) {
+    Kernel kernel;
+    size_t bytes;
+    if (!pick(lanes, &kernel, &bytes)) {
+        PyErr_Format(PyExc_ValueError, "_rnea: no kernel %d samples wide here", lanes);
+        return 0;
+    }
+    /* T, S, V, A and the lanes' states: 37 n vectors, aligned for them (malloc's alignment may be less) */
+    char *raw = (char *)malloc((size_t)(37 * n) * bytes + 32);
+    if (raw == NULL) {
         PyErr_NoMemory();
         return 0;
     }
+    void *work = raw + (32 - (size_t)((uintptr_t)raw % 32)) % 32;
     Py_BEGIN_ALLOW_THREADS
-    regress(st, N, n, (const double *)q->buf, (const double *)qd->buf, (const double *)qdd->buf,
-            (const double *)terms->buf, (const double *)axor->buf, (const long long *)parents->buf,
-            (const unsigned char *)revolute->buf, (const double *)g->buf, work);
+    kernel(st, N, n, (const double *)q->buf, (const double *)qd->buf, (const double *)qdd->buf,
+           (const double *)terms->buf, (const double *)axor->buf, (const long long *)parents->buf,
+           (const unsigned char *)revolute->buf, (const double *)g->buf, work);
     Py_END_ALLOW_THREADS
-    free(work);
+    free(raw);
     return 1;
+}
+
+static PyObject *lane_widths(PyObject *self, PyObject *args)
+{
+    PyObject *out = PyList_New(0);
+    Kernel kernel;
+    size_t bytes;
+    for (int lanes = 1; out != NULL && lanes <= 4; lanes *= 2) {
+        if (pick(lanes, &kernel, &bytes)) {
+            PyObject *v = PyLong_FromLong(lanes);
+            if (v == NULL || PyList_Append(out, v) < 0) {
+                Py_XDECREF(v);
+                Py_DECREF(out);
+                return NULL;
+            }
+            Py_DECREF(v);
+        }
+    }
+    return out;
 }
 
 static PyObject *inertial_regressor(PyObject *self, PyObject *args)
 {
     Py_buffer out, q, qd, qdd, terms, axor, parents, revolute, g;
     Py_ssize_t N, n, P;
-    if (!PyArg_ParseTuple(args, "w*y*y*y*y*y*y*y*y*nnn", &out, &q, &qd, &qdd, &terms, &axor, &parents,
-                          &revolute, &g, &N, &n, &P))
+    int lanes = 0;
+    if (!PyArg_ParseTuple(args, "w*y*y*y*y*y*y*y*y*nnn|i", &out, &q, &qd, &qdd, &terms, &axor, &parents,
+                          &revolute, &g, &N, &n, &P, &lanes))
         return NULL;
     PyObject *result = NULL;
     Store st = {(double *)out.buf, P, NULL, 0, 0};
@@ -258,7 +210,7 @@ static PyObject *inertial_regressor(PyObject *self, PyObject *args)
     }
     if (!need(&out, N * n * P * (Py_ssize_t)sizeof(double), "out"))
         goto done;
-    if (run(&st, N, n, &q, &qd, &qdd, &terms, &axor, &parents, &revolute, &g)) {
+    if (run(&st, N, n, &q, &qd, &qdd, &terms, &axor, &parents, &revolute, &g, lanes)) {
         result = Py_None;
         Py_INCREF(result);
     }
@@ -279,8 +231,9 @@ static PyObject *inertial_columns(PyObject *self, PyObject *args)
 {
     Py_buffer out, q, qd, qdd, terms, axor, parents, revolute, g, dest;
     Py_ssize_t N, n, joint_stride, row_stride;
-    if (!PyArg_ParseTuple(args, "w*y*y*y*y*y*y*y*y*y*nnnn", &out, &q, &qd, &qdd, &terms, &axor, &parents,
-                          &revolute, &g, &dest, &N, &n, &joint_stride, &row_stride))
+    int lanes = 0;
+    if (!PyArg_ParseTuple(args, "w*y*y*y*y*y*y*y*y*y*nnnn|i", &out, &q, &qd, &qdd, &terms, &axor, &parents,
+                          &revolute, &g, &dest, &N, &n, &joint_stride, &row_stride, &lanes))
         return NULL;
     PyObject *result = NULL;
     const long long *dst = (const long long *)dest.buf;
@@ -310,7 +263,7 @@ static PyObject *inertial_columns(PyObject *self, PyObject *args)
                 if (dst[10 * j + c] >= 0)
                     memset(st.Y + k * joint_stride + dst[10 * j + c] * row_stride, 0, (size_t)N * sizeof(double));
         }
-    if (run(&st, N, n, &q, &qd, &qdd, &terms, &axor, &parents, &revolute, &g)) {
+    if (run(&st, N, n, &q, &qd, &qdd, &terms, &axor, &parents, &revolute, &g, lanes)) {
         result = Py_None;
         Py_INCREF(result);
     }
@@ -331,11 +284,15 @@ done:
 static PyMethodDef methods[] = {
     {"inertial_regressor", inertial_regressor, METH_VARARGS,
      "inertial_regressor(out, q, qd, qdd, terms, axor, parents, revolute, gravity, N, n, P): fill the "
-     "10 n inertial columns of out (N, n, P), C-contiguous float64; other entries are left untouched."},
+     "10 n inertial columns of out (N, n, P), C-contiguous float64; other entries are left untouched. "
+     "lanes (optional): samples computed at a time, one of lane_widths() (0: the widest)."},
     {"inertial_columns", inertial_columns, METH_VARARGS,
      "inertial_columns(out, q, qd, qdd, terms, axor, parents, revolute, gravity, dest, N, n, joint_stride, "
      "row_stride): out[k * joint_stride + dest[c] * row_stride + s] = Y[s, k, c] for the 10 n inertial columns c "
-     "with dest[c] >= 0 (dest: int64), every joint k and sample s; out float64, C-contiguous."},
+     "with dest[c] >= 0 (dest: int64), every joint k and sample s; out float64, C-contiguous; lanes as above."},
+    {"lane_widths", lane_widths, METH_NOARGS,
+     "lane_widths(): the numbers of samples this build computes at a time on this processor (1, 2, 4); every "
+     "width gives the same numbers, bit for bit."},
     {NULL, NULL, 0, NULL},
 };
 
