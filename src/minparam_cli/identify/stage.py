@@ -76,8 +76,8 @@ def _stream(design: Design, sources: list[Source], n: int, opts: IdentifyOptions
     reports: list[DataReport] = []
     state = {"design": design}
     spare = _Spare()
-    # the factor update's first call imports scipy.linalg (about 0.2 s): done beside the readers'
-    # start, while this thread would only wait for the first rows
+    # the factor update's first call imports scipy.linalg (about 0.2 s), the diagnosis scipy.special:
+    # done beside the readers' start, while this thread would only wait for the first rows
     threading.Thread(target=_import_blas, name="minparam-import", daemon=True).start()
     for piece, sub, rows in ahead(_rows(state, sources, n, opts, slots, reports, spare)):
         if rows is not None:  # sub: (the samples of the rows, their design, the file)
@@ -104,6 +104,7 @@ def _stream(design: Design, sources: list[Source], n: int, opts: IdentifyOptions
 
 def _import_blas() -> None:
     import scipy.linalg.blas  # noqa: F401
+    import scipy.special  # noqa: F401  (the diagnosis's F test, after the stream)
 
 
 class _Spare:
