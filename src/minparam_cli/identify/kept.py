@@ -16,8 +16,8 @@ class _Thinned:
 
     def add(self, b: Block) -> None:
         # the samples held are those of index i % stride == 0 (ceil(seen / stride) of them): the
-        # stride after this block is known before anything is copied, so a chunk of 200 000
-        # samples is never copied whole only to be halved again and again
+        # stride after this block is known before anything is copied, so a chunk of samples
+        # is never copied whole only to be halved again and again
         total = self.seen + len(b)
         stride = self.stride
         while -(-total // stride) > self.cap:
