@@ -192,6 +192,16 @@ static PyObject *lane_widths(PyObject *self, PyObject *args)
     return out;
 }
 
+/* the buffers an entry point took; the last may be NULL (inertial_regressor has no dest) */
+static void release(Py_buffer *out, Py_buffer *q, Py_buffer *qd, Py_buffer *qdd, Py_buffer *terms, Py_buffer *axor,
+                    Py_buffer *parents, Py_buffer *revolute, Py_buffer *g, Py_buffer *dest)
+{
+    Py_buffer *all[] = {out, q, qd, qdd, terms, axor, parents, revolute, g, dest};
+    for (int i = 0; i < 10; i++)
+        if (all[i] != NULL)
+            PyBuffer_Release(all[i]);
+}
+
 static PyObject *inertial_regressor(PyObject *self, PyObject *args)
 {
     Py_buffer out, q, qd, qdd, terms, axor, parents, revolute, g;
@@ -215,15 +225,7 @@ static PyObject *inertial_regressor(PyObject *self, PyObject *args)
         Py_INCREF(result);
     }
 done:
-    PyBuffer_Release(&out);
-    PyBuffer_Release(&q);
-    PyBuffer_Release(&qd);
-    PyBuffer_Release(&qdd);
-    PyBuffer_Release(&terms);
-    PyBuffer_Release(&axor);
-    PyBuffer_Release(&parents);
-    PyBuffer_Release(&revolute);
-    PyBuffer_Release(&g);
+    release(&out, &q, &qd, &qdd, &terms, &axor, &parents, &revolute, &g, NULL);
     return result;
 }
 
@@ -268,16 +270,7 @@ static PyObject *inertial_columns(PyObject *self, PyObject *args)
         Py_INCREF(result);
     }
 done:
-    PyBuffer_Release(&out);
-    PyBuffer_Release(&q);
-    PyBuffer_Release(&qd);
-    PyBuffer_Release(&qdd);
-    PyBuffer_Release(&terms);
-    PyBuffer_Release(&axor);
-    PyBuffer_Release(&parents);
-    PyBuffer_Release(&revolute);
-    PyBuffer_Release(&g);
-    PyBuffer_Release(&dest);
+    release(&out, &q, &qd, &qdd, &terms, &axor, &parents, &revolute, &g, &dest);
     return result;
 }
 
