@@ -15,6 +15,13 @@
  * Only the buffer protocol is used (no numpy headers), so it builds with nothing but a C compiler.
  */
 #define PY_SSIZE_T_CLEAN
+/* no fused multiply-add: a contracted a*b + c rounds once, so a lane width whose instructions have
+ * FMA (arm64's NEON, say) would differ from the others in the last bit */
+#if defined(__clang__)
+#pragma clang fp contract(off)
+#elif defined(__GNUC__)
+#pragma GCC optimize("fp-contract=off")
+#endif
 #include <Python.h>
 #include <math.h>
 #include <stdlib.h>
