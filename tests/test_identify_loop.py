@@ -261,6 +261,7 @@ def test_final_refit_keeps_a_term_only_where_it_is_physical(tmp_path):
     keep_physical keeps it on the other joints, refits, and reports the step."""
     from minparam_cli.base.qr import derive_qr
     from minparam_cli.identify import stage
+    from minparam_cli.identify.stream import stream
     from minparam_cli.identify.data import time_span
     from minparam_cli.identify.design import Design, Term
     from minparam_cli.identify.fit import solve
@@ -279,7 +280,7 @@ def test_final_refit_keeps_a_term_only_where_it_is_physical(tmp_path):
     design = Design(chain, base.kept, base.base_names, terms=(Term("viscous", tuple(range(6))),))
     opts = stage.IdentifyOptions()
     sources = plan(path, None, (), opts.split, time_span(path, opts.data))
-    acc, _, _, _, design = stage._stream(design, sources, chain.n, opts, keep=False)
+    acc, _, _, _, design = stream(design, sources, chain.n, opts.data, opts.diagnosis_cap, keep=False)
     fit = solve(acc["fit"], design.names)
     before = term_coefficients(design, full_theta(fit, design.p))[0][:, 0]
     assert before[1] < 0 and np.all(np.delete(before, 1) > 0)

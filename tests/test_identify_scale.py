@@ -12,6 +12,7 @@ import numpy as np
 import pytest
 
 from minparam_cli.identify import accumulate, stage
+from minparam_cli.identify.stream import stream
 from minparam_cli.identify.accumulate import Accumulator
 from minparam_cli.identify.compressed import Compressed
 from minparam_cli.identify.data import time_span
@@ -144,7 +145,7 @@ def panda_setup(tmp_path_factory):
     opts = stage.IdentifyOptions()
     sources = plan(path, None, (), opts.split, time_span(path, opts.data))
     slots = slot_sources(EFFECT_IDS)
-    acc, thin, _, _, design = stage._stream(Design(chain, base.kept, base.base_names), sources, chain.n, opts, keep=True, slots=slots)
+    acc, thin, _, _, design = stream(Design(chain, base.kept, base.base_names), sources, chain.n, opts.data, opts.diagnosis_cap, keep=True, slots=slots)
     fit0 = solve(acc["fit"].restrict(list(range(design.p))), design.names)
     theta = np.zeros(design.p)
     theta[list(fit0.columns)] = fit0.theta
@@ -159,7 +160,7 @@ def test_final_fit_from_the_slots_equals_a_second_pass(panda_setup):
         final = final.with_term(term)
     maps = final_maps(final, slots)
     assert maps is not None
-    again, _, _, _, _ = stage._stream(final, sources, design.chain.n, opts, keep=False)
+    again, _, _, _, _ = stream(final, sources, design.chain.n, opts.data, opts.diagnosis_cap, keep=False)
     for part in ("fit", "selection", "test1"):
         a = solve(acc[part].transform(maps), final.names)
         b = solve(again[part], final.names)
