@@ -82,7 +82,7 @@ def _weakest(A: np.ndarray, norms: np.ndarray, names) -> str:
     return ", ".join(top)
 
 
-def _positions(old: Design, new: Design) -> list[int]:
+def positions(old: Design, new: Design) -> list[int]:
     """Columns of ``new`` (whose terms are a subset of ``old``'s, joint by joint) in ``old``'s order."""
     at, c = {}, len(old.kept)
     for t in old.terms:
@@ -120,7 +120,7 @@ def keep_physical(design: Design, fit, acc: dict, weighted: bool):
             bad = [(j, row) for j, row in zip(t.joints, c) if not in_bounds(t.effect, row)]
             changed.append((t, good, bad))
         new = replace(design, terms=tuple(terms))
-        cols = _positions(design, new)
+        cols = positions(design, new)
         acc = {k: a.restrict(cols) for k, a in acc.items()}
         fit = solve(acc["fit"], new.names, weighted)
         design = new

@@ -373,9 +373,9 @@ def relative_percent(theta: np.ndarray, std: np.ndarray) -> np.ndarray:
 
 def restrict_maps(maps: list[np.ndarray] | None, old, new, grams: BlockGrams) -> list[np.ndarray]:
     """The maps to ``old``'s columns followed by the choice of ``new``'s columns among them (keep_physical)."""
-    from minparam_cli.identify.quality import _positions
+    from minparam_cli.identify.quality import positions
 
-    cols = _positions(old, new)
+    cols = positions(old, new)
     width = grams.width if grams.packed else old.p + 1
     out = []
     for j in range(len(next(iter(grams.packed.values())))):

@@ -108,7 +108,7 @@ def lookup(path: object) -> Record | None:
 def chunks(record: Record, n: int, opts) -> Iterator[tuple[np.ndarray, dict]]:
     """``reading.raw_chunks`` of a record (time in the record's unit): the .npz route for arrays, the
     CSV column rules (``measured.columns.column_indices``) for a table."""
-    from minparam_cli.measured.tables import _layout, array_chunks
+    from minparam_cli.measured.tables import column_layout, array_chunks
     from minparam_cli.measured.columns import column_indices
 
     if record.kind == "arrays":
@@ -119,7 +119,7 @@ def chunks(record: Record, n: int, opts) -> Iterator[tuple[np.ndarray, dict]]:
         return
     assert record.table is not None
     idx = column_indices(list(record.header), n, opts.columns, record.name)
-    layout = _layout({k: ix is not None for k, ix in idx.items()}, n)
+    layout = column_layout({k: ix is not None for k, ix in idx.items()}, n)
     used = [c for k in KEYS for c in (idx[k] or [])]
     table = record.table
     if not len(table):

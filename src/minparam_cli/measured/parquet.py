@@ -17,7 +17,7 @@ def is_parquet(path: Path) -> bool:
 
 
 def _open(path: Path):
-    from minparam_cli.measured.tables import _short, require_data_file
+    from minparam_cli.measured.tables import short_error, require_data_file
     from minparam_cli.optional import import_optional
 
     pq = import_optional("pyarrow.parquet", "arrow", "reading Parquet files")
@@ -27,7 +27,7 @@ def _open(path: Path):
     except MemoryError:
         raise
     except Exception as e:  # noqa: BLE001 - pyarrow raises many kinds for a damaged file
-        raise DataError(f"{path}: cannot read Parquet ({_short(e)})") from None
+        raise DataError(f"{path}: cannot read Parquet ({short_error(e)})") from None
 
 
 def _floats(column, name: str, src: str) -> np.ndarray:
@@ -45,14 +45,14 @@ def _floats(column, name: str, src: str) -> np.ndarray:
 def parquet_chunks(path: Path, n: int, opts) -> Iterator[tuple[np.ndarray, dict]]:
     """Chunks of opts.chunk_rows rows: the used columns (t, q, [dq], [ddq], tau), time in the file's unit."""
     from minparam_cli.measured.records import KEYS
-    from minparam_cli.measured.tables import _layout
+    from minparam_cli.measured.tables import column_layout
     from minparam_cli.measured.columns import column_indices
 
     src = str(path)
     f = _open(path)
     names = list(f.schema_arrow.names)
     idx = column_indices(names, n, opts.columns, src)
-    layout = _layout({k: ix is not None for k, ix in idx.items()}, n)
+    layout = column_layout({k: ix is not None for k, ix in idx.items()}, n)
     used = [c for k in KEYS if idx[k] is not None for c in idx[k]]
     wanted = sorted(set(used))
     where = {c: j for j, c in enumerate(wanted)}

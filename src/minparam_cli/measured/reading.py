@@ -17,8 +17,8 @@ from minparam_cli.errors import DataError
 from minparam_cli.measured.records import KEYS, DataOptions
 from minparam_cli.measured.columns import TIME_UNITS, column_indices
 from minparam_cli.measured.tables import (
-    _layout,
-    _short,
+    column_layout,
+    short_error,
     array_chunks,
     csv_tables,
     open_npz,
@@ -92,13 +92,13 @@ def _file_chunks(path: Path, n: int, opts: DataOptions) -> Iterator[tuple[np.nda
             except MemoryError:
                 raise
             except Exception as e:  # noqa: BLE001 - a damaged member: zlib, zipfile, format or dtype errors
-                raise DataError(f"{src}: cannot read .npz ({_short(e)})") from None
+                raise DataError(f"{src}: cannot read .npz ({short_error(e)})") from None
         yield from array_chunks(arrays, src, n, opts)
         return
     tables = csv_tables(path, opts.chunk_rows)
     header = next(tables)
     idx = column_indices(header, n, opts.columns, src)
-    layout = _layout({k: ix is not None for k, ix in idx.items()}, n)
+    layout = column_layout({k: ix is not None for k, ix in idx.items()}, n)
     used = [c for k in KEYS if idx[k] is not None for c in idx[k]]
     try:
         for chunk in tables:

@@ -156,7 +156,7 @@ def _indices(header: list[str], part: Part, n: int, src: str) -> dict[str, list[
 def recording_chunks(path: Path, n: int, opts) -> Iterator[tuple[np.ndarray, dict]]:
     """Chunks of ``opts.chunk_rows`` rows of the joined files: the used columns (t, q, [dq], [ddq],
     tau) and their layout, as ``measured.reading.raw_chunks`` yields them, time in seconds."""
-    from minparam_cli.measured.tables import _layout, csv_tables
+    from minparam_cli.measured.tables import column_layout, csv_tables
 
     rec = read_description(path)
     if opts.columns:
@@ -168,7 +168,7 @@ def recording_chunks(path: Path, n: int, opts) -> Iterator[tuple[np.ndarray, dic
             readers.append(tables)
             for key, cols in _indices(next(tables), part, n, str(part.path)).items():
                 where[key] = (i, cols)
-        layout = _layout({k: (k in where) or (k == "t") for k in KEYS}, n)
+        layout = column_layout({k: (k in where) or (k == "t") for k in KEYS}, n)
         divisor = TIME_UNITS[rec.time_unit]
         rows = 0
         while True:

@@ -62,7 +62,7 @@ def require_bag(path: Path) -> None:
                 require_regular_file(entry, DataError)
 
 
-def _short(e: BaseException) -> str:
+def short_error(e: BaseException) -> str:
     text = " ".join(str(e).split()) or type(e).__name__
     return text if len(text) <= 160 else text[:157] + "..."
 
@@ -85,7 +85,7 @@ class _Bag:
         except MemoryError:
             raise
         except Exception as e:  # noqa: BLE001 - rosbags, sqlite3, yaml and zstd raise many kinds for a damaged bag
-            raise DataError(f"{self.src}: cannot read the bag ({_short(e)})") from None
+            raise DataError(f"{self.src}: cannot read the bag ({short_error(e)})") from None
         try:
             self.topic, self.connections = self._pick(opts.topic)
         except BaseException:
@@ -121,7 +121,7 @@ class _Bag:
         except (MemoryError, DataError, GeneratorExit):
             raise
         except Exception as e:  # noqa: BLE001 - a truncated or damaged record
-            raise DataError(f"{self.src}: cannot read message {k + 1} on {self.topic} ({_short(e)})") from None
+            raise DataError(f"{self.src}: cannot read message {k + 1} on {self.topic} ({short_error(e)})") from None
 
     def stamps(self) -> Iterator[int]:
         """The header stamps (ns) of the topic's messages, read from the serialized bytes without
@@ -141,7 +141,7 @@ class _Bag:
         except (MemoryError, DataError, GeneratorExit):
             raise
         except Exception as e:  # noqa: BLE001 - a truncated or damaged record
-            raise DataError(f"{self.src}: cannot read message {k + 1} on {self.topic} ({_short(e)})") from None
+            raise DataError(f"{self.src}: cannot read message {k + 1} on {self.topic} ({short_error(e)})") from None
 
     def close(self) -> None:
         try:
@@ -151,8 +151,8 @@ class _Bag:
 
 
 def bag_chunks(path: Path, n: int, opts: DataOptions) -> Iterator[tuple[np.ndarray, dict]]:
-    """Chunks of opts.chunk_rows messages: a table of t, q, [dq], tau and its layout (``reading._layout``)."""
-    from minparam_cli.measured.tables import _layout
+    """Chunks of opts.chunk_rows messages: a table of t, q, [dq], tau and its layout (``tables.column_layout``)."""
+    from minparam_cli.measured.tables import column_layout
 
     names = tuple(opts.joint_names)
     if len(names) != n:
@@ -175,7 +175,7 @@ def bag_chunks(path: Path, n: int, opts: DataOptions) -> Iterator[tuple[np.ndarr
                 if len(eff) == 0:
                     raise DataError(f"{src}: message 1 on {topic} has no effort (the joint torques); expected one a joint")
                 has_dq = len(vel) > 0
-                layout = _layout({"t": True, "q": True, "dq": has_dq, "ddq": False, "tau": True}, n)
+                layout = column_layout({"t": True, "q": True, "dq": has_dq, "ddq": False, "tau": True}, n)
                 width = 1 + n * (3 if has_dq else 2)
                 table = np.empty((opts.chunk_rows, width))
             row = table[rows]

@@ -17,7 +17,7 @@ TAIL_BYTES = 65536  # how much of the head and of the tail time_span reads
 
 def file_time_span(path: Path, name: str, opts: DataOptions) -> tuple[float, float]:
     """time_span of an .npz or CSV file, in the file's time unit."""
-    from minparam_cli.measured.tables import _short, open_npz, require_data_file
+    from minparam_cli.measured.tables import short_error, open_npz, require_data_file
     from minparam_cli.measured.columns import time_index
 
     if path.suffix.lower() == ".parquet":
@@ -32,7 +32,7 @@ def file_time_span(path: Path, name: str, opts: DataOptions) -> tuple[float, flo
             except MemoryError:
                 raise
             except Exception as e:  # noqa: BLE001 - a missing or damaged member
-                raise DataError(f"{path}: cannot read time array '{name}' ({_short(e)})") from None
+                raise DataError(f"{path}: cannot read time array '{name}' ({short_error(e)})") from None
         t = t[np.isfinite(t)]
         if len(t) < 2:
             raise DataError(f"{path}: fewer than two time stamps")

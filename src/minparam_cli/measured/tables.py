@@ -25,7 +25,7 @@ BACKGROUND_BYTES = 64 * 2**20
 
 
 
-def _layout(present: dict[str, bool], n: int) -> dict[str, slice | int | None]:
+def column_layout(present: dict[str, bool], n: int) -> dict[str, slice | int | None]:
     """Where each key lives in a chunk's table (columns t, q, [dq], [ddq], tau): an index, a slice or None."""
     out, c = {}, 0
     for k in KEYS:
@@ -113,7 +113,7 @@ def array_chunks(arrays: dict, src: str, n: int, opts: DataOptions) -> Iterator[
                 m = a.shape[1]
                 raise DataError(f"{src}: the data have {m} joint{'s' if m != 1 else ''} (array '{name}' has shape {shape}), the robot has {n}")
             arrays[k] = a
-    layout = _layout({k: a is not None for k, a in arrays.items()}, n)
+    layout = column_layout({k: a is not None for k, a in arrays.items()}, n)
     used = [a.reshape(N, -1) for a in arrays.values() if a is not None]
     for s in range(0, N, opts.chunk_rows):
         yield np.hstack([a[s : s + opts.chunk_rows] for a in used]), layout
@@ -132,7 +132,7 @@ def require_data_file(path: Path) -> None:
     require_regular_file(Path(path), DataError)
 
 
-def _short(e: BaseException) -> str:
+def short_error(e: BaseException) -> str:
     text = " ".join(str(e).split()) or type(e).__name__
     return text if len(text) <= 160 else text[:157] + "..."
 
@@ -156,7 +156,7 @@ def open_npz(path: Path):
     except MemoryError:
         raise
     except Exception as e:  # noqa: BLE001 - numpy and zipfile raise many kinds for a damaged file
-        raise DataError(f"{src}: cannot read .npz ({_short(e)})") from None
+        raise DataError(f"{src}: cannot read .npz ({short_error(e)})") from None
     if not isinstance(z, np.lib.npyio.NpzFile):
         raise DataError(f"{src}: not an .npz archive; expected arrays t, q, tau, ... saved by numpy.savez")
     with z:
