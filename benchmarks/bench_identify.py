@@ -20,7 +20,11 @@ system seconds of the identify process, all its threads) moves less with the
 machine's load than the wall time: identify's streaming pass runs on two
 threads, so on an idle 2-core machine the wall time is below the CPU time.
 
-Run: python benchmarks/bench_identify.py [--sizes 100000,300000,1000000] [--physical] [--readers pyarrow,numpy]
+Each command runs --repeats times (default 3): the table gives the median wall time, the mean CPU
+time and the largest peak, as the other benchmarks do (common.run_process), so that one run slowed
+by the host's neighbours does not stand for the code.
+
+Run: python benchmarks/bench_identify.py [--sizes 100000,300000,1000000] [--physical] [--readers pyarrow,numpy] [--repeats 3]
 """
 
 from __future__ import annotations
@@ -104,6 +108,7 @@ def main() -> None:
     ap.add_argument("--sizes", default="100000,300000,1000000")
     ap.add_argument("--physical", action="store_true", help="also time identify --physical")
     ap.add_argument("--readers", default="pyarrow,numpy", help="CSV readers to compare (pyarrow needs the [arrow] extra)")
+    ap.add_argument("--repeats", type=int, default=3, help="runs of each command (median wall time, largest peak)")
     args = ap.parse_args()
     readers = [r.strip() for r in args.readers.split(",") if r.strip()]
     rows, rates = [], []
@@ -121,15 +126,16 @@ def main() -> None:
                     cmd = minparam_cmd() + ["identify", "robots/panda.yaml", str(data), "--format", "json", "--quiet",
                                             "-o", str(report), *extra]
                     before_cpu = _children_cpu()
-                    t, peak = run_process(cmd, repeats=1)
-                    cpu = _children_cpu() - before_cpu
+                    t, peak = run_process(cmd, repeats=max(1, args.repeats))
+                    cpu = (_children_cpu() - before_cpu) / max(1, args.repeats)
                     solve = json.loads(report.read_text())["physical"]["elapsed_s"] if extra else None
                     rows.append([f"{n:,}", f"{size_mb:.0f} MB", reader, "physical" if extra else "least squares", f"{t:.1f} s", f"{cpu:.1f} s",
                                  "-" if solve is None else f"{solve:.2f} s", f"{peak:.0f} MB"])
             data.unlink()
     os.environ.pop("MINPARAM_CSV_READER", None)
     after = calibration()
-    print("minparam identify, Panda (7 joints), CSV with q, dq, ddq, tau; Coulomb + viscous hidden; diagnosis on")
+    print("minparam identify, Panda (7 joints), CSV with q, dq, ddq, tau; Coulomb + viscous hidden; diagnosis on;"
+          f" median of {max(1, args.repeats)} runs (CPU time: their mean; peak: the largest)")
     print(tabulate(rows, headers=["samples", "file", "CSV reader", "fit", "wall time", "CPU time", "convex solve", "peak RSS"], tablefmt="github"))
     print("\nCSV parsing alone (measured.reading.raw_chunks, all columns to float64), MB of CSV per second")
     print(tabulate(rates, headers=["samples", "file"] + readers, tablefmt="github"))
