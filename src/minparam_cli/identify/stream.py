@@ -75,10 +75,10 @@ def _import_blas() -> None:
 
 
 class _Spare:
-    """Row buffers handed back by the folding thread, for the reading thread to fill again: the
+    """Row buffers handed back by the folding thread, for the rows thread to fill again: the
     1 M-sample Panda run allocated and dropped 250 buffers of 14 MB, and the heap grew with them.
-    Never waits: with no buffer free, the reader makes a new one (the queue between the threads
-    bounds how many are in flight)."""
+    Never waits: with no buffer free, the rows thread makes a new one (the queue between the
+    threads bounds how many are in flight)."""
 
     def __init__(self):
         import queue
