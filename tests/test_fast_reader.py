@@ -191,20 +191,46 @@ def test_a_broken_parquet_file_is_one_line(tmp_path, case, message):
     assert len(r.stderr.strip().splitlines()) == 1
 
 
-def test_the_fast_reader_does_not_import_pandas(tmp_path):
+@pytest.mark.parametrize("kind", ["csv", "parquet"])
+def test_the_fast_readers_do_not_import_pandas(tmp_path, kind):
     """pyarrow's Array.to_numpy imports pandas on first use (about 50 MB of identify's peak memory):
-    the reader takes the column buffers itself. In a fresh process, since pandas may be loaded here."""
+    the CSV and Parquet readers take the column buffers themselves, a Parquet null still becoming
+    NaN. In a fresh process, since pandas may be loaded here."""
     import subprocess
     import sys
 
-    path = tmp_path / "d.csv"
     rows = np.random.default_rng(0).standard_normal((3000, 5))
-    path.write_text("t,q1,dq1,ddq1,tau1\n" + "\n".join(",".join(f"{v:.9g}" for v in r) for r in rows) + "\n")
+    names = ["t", "q1", "dq1", "ddq1", "tau1"]
+    if kind == "csv":
+        path = tmp_path / "d.csv"
+        path.write_text(",".join(names) + "\n" + "\n".join(",".join(f"{v:.9g}" for v in r) for r in rows) + "\n")
+        nulls = 0
+    else:
+        pa = pytest.importorskip("pyarrow")
+        pq = pytest.importorskip("pyarrow.parquet")
+        path = tmp_path / "d.parquet"
+        tau = pa.array(rows[:, 4], mask=np.arange(3000) == 1234)  # one null
+        pq.write_table(pa.table([pa.array(rows[:, j]) for j in range(4)] + [tau], names=names), path)
+        nulls = 1
     code = (
-        "import sys; from minparam_cli.measured.reading import raw_chunks;"
+        "import sys, numpy as np; from minparam_cli.measured.reading import raw_chunks;"
         "from minparam_cli.measured.records import DataOptions;"
-        f"n = sum(len(c[0]) for c in raw_chunks({str(path)!r}, 1, DataOptions()));"
-        "print(n, 'pandas' in sys.modules)"
+        f"cs = [c[0] for c in raw_chunks({str(path)!r}, 1, DataOptions())];"
+        "print(sum(len(c) for c in cs), int(sum(np.isnan(c).sum() for c in cs)), 'pandas' in sys.modules)"
     )
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout.split()
-    assert out == ["3000", "False"]
+    assert out == ["3000", str(nulls), "False"]
+
+
+def test_float_values_read_nulls_as_nan_at_any_offset():
+    """The buffers of a sliced pyarrow array start at an offset, its validity bitmap at a bit offset."""
+    pa = pytest.importorskip("pyarrow")
+    from minparam_cli.measured.arrow_csv import float_values
+
+    data = [1.0, None, 2.0, 3.0, None, 5.0, 6.0, 7.0, 8.0, None, 10.0]
+    whole = pa.array(data, type=pa.float64())
+    for start in range(len(data)):
+        part = whole.slice(start, len(data) - start - (start % 3))
+        expected = np.array([np.nan if v is None else v for v in part.to_pylist()])
+        assert np.array_equal(float_values(part), expected, equal_nan=True)
+    assert float_values(pa.array([], type=pa.float64())).shape == (0,)

@@ -88,7 +88,7 @@ def tables(pacsv, path, offset: int, rows: int, width: int) -> Iterator[tuple[in
             k, n = 0, batch.num_rows
             cols = np.empty((width, n))  # the batch's columns side by side (contiguous copies), then
             for j in range(width):  # one transposing copy into the row-major table: fewer strided writes
-                cols[j] = _values(batch.column(j))
+                cols[j] = float_values(batch.column(j))
             while k < n:
                 take = min(rows - filled, n - k)
                 out[filled : filled + take] = cols[:, k : k + take].T
@@ -102,10 +102,19 @@ def tables(pacsv, path, offset: int, rows: int, width: int) -> Iterator[tuple[in
         f.close()
 
 
-def _values(column) -> np.ndarray:
-    """The float64 values of a pyarrow array without nulls, as a numpy view of its data buffer.
-    Not ``Array.to_numpy``: in pyarrow 26 its first call imports pandas (about 50 MB and 0.3 s)."""
-    return np.frombuffer(column.buffers()[1], dtype=np.float64, count=len(column), offset=8 * column.offset)
+def float_values(column) -> np.ndarray:
+    """The values of a float64 pyarrow Array as numpy floats, a null as NaN: a read-only view of its
+    data buffer when it has no null (the CSV tables here, the Parquet columns of
+    ``measured.parquet``).  Not ``Array.to_numpy``, nor pyarrow's fill_null with a NaN scalar: in
+    pyarrow 26 both import pandas on first use (about 50 MB and 0.3 s)."""
+    n = len(column)
+    if not n:
+        return np.empty(0)
+    values = np.frombuffer(column.buffers()[1], dtype=np.float64, count=n, offset=8 * column.offset)
+    if not column.null_count:
+        return values
+    bits = np.unpackbits(np.frombuffer(column.buffers()[0], dtype=np.uint8), bitorder="little")  # 1: valid
+    return np.where(bits[column.offset : column.offset + n].astype(bool), values, np.nan)
 
 
 def after_lines(path, offset: int, lines: int) -> int:

@@ -37,9 +37,11 @@ def _floats(column, name: str, src: str) -> np.ndarray:
     if not (pa.types.is_floating(column.type) or pa.types.is_integer(column.type) or pa.types.is_decimal(column.type)):
         kind = "text" if pa.types.is_string(column.type) or pa.types.is_large_string(column.type) else str(column.type)
         raise DataError(f"{src}: column '{name}' holds {kind}, not numbers")
+    from minparam_cli.measured.arrow_csv import float_values
+
     if isinstance(column, pa.ChunkedArray):
         column = column.combine_chunks()
-    return pc.cast(column, pa.float64()).to_numpy(zero_copy_only=False)  # a null becomes NaN
+    return float_values(pc.cast(column, pa.float64()))  # a null becomes NaN
 
 
 def parquet_chunks(path: Path, n: int, opts) -> Iterator[tuple[np.ndarray, dict]]:
