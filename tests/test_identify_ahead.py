@@ -135,8 +135,9 @@ def test_block_grams_equal_the_grams_of_each_time_block(shuffle):
     for s in range(0, N, 777):
         g.add(t[s : s + 777], rows[s : s + 777])
     k = np.floor((t - t[0]) / 1.0).astype(int)
-    assert sorted(g.G) == sorted(set(k.tolist()))
-    for b, G in g.G.items():
+    assert sorted(g.packed) == sorted(set(k.tolist()))
+    for b in g.packed:
+        G = g.gram(b)
         sel = rows[k == b]
         assert g.rows[b] == len(sel)
         for j in range(n):

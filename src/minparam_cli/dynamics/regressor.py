@@ -44,6 +44,9 @@ import random
 import numpy as np
 
 from minparam_cli.chain import REVOLUTE, Chain, forward_kinematics
+from minparam_cli.params import FRICTION_KINDS
+
+JOINT_EXTRAS = ("rotor_inertia",) + FRICTION_KINDS  # extras of a joint's own signals (motor-side: transmission.py)
 
 try:  # compiled kernel (setup.py, optional): same numbers as the numpy reference below
     from minparam_cli.dynamics import _rnea
@@ -210,16 +213,21 @@ def joint_regressor(chain: Chain, q, qd, qdd, include_extras: bool = True, backe
         Y[:, :, : layout.n_inertial] = Yi[:, :, list(layout.inertial_columns)]
     if include_extras:
         for c, (k, kind) in enumerate(layout.extra_columns):
-            col = layout.n_inertial + c
-            if kind == "rotor_inertia":
-                Y[:, k, col] = qdd[:, k]
-            elif kind == "coulomb":
-                Y[:, k, col] = coulomb_column(qd[:, k], chain.coulomb_smoothing)
-            elif kind == "viscous":
-                Y[:, k, col] = qd[:, k]
-            elif kind == "offset":
-                Y[:, k, col] = 1.0
+            if kind in JOINT_EXTRAS:  # the motor-side ones: add_motor_columns
+                Y[:, k, layout.n_inertial + c] = _joint_extra(kind, k, qd, qdd, chain.coulomb_smoothing)
     return Y
+
+
+def _joint_extra(kind: str, k: int, qd: np.ndarray, qdd: np.ndarray, smoothing: float):
+    """Joint k's own extra column ``kind`` (it acts on joint k's row only): q̈_k, its Coulomb
+    signal, q̇_k, or 1 for the offset."""
+    if kind == "rotor_inertia":
+        return qdd[:, k]
+    if kind == "coulomb":
+        return coulomb_column(qd[:, k], smoothing)
+    if kind == "viscous":
+        return qd[:, k]
+    return 1.0  # offset
 
 
 def regressor_columns(chain: Chain, q, qd, qdd, columns, out: np.ndarray | None = None, backend: str = "auto") -> np.ndarray:
@@ -244,9 +252,8 @@ def regressor_columns(chain: Chain, q, qd, qdd, columns, out: np.ndarray | None 
         raise ValueError(f"expected a C-contiguous out of shape ({chain.dof}, >= {m}, >= {N})")
     if m and (columns.min() < 0 or columns.max() >= layout.size):
         raise ValueError(f"columns must lie in 0..{layout.size - 1}")
-    kinds = {"rotor_inertia", "coulomb", "viscous", "offset"}
     direct = (backend != "numpy" and _rnea is not None and chain.coupling is None and chain.transmission is None
-              and all(kind in kinds for _, kind in layout.extra_columns))
+              and all(kind in JOINT_EXTRAS for _, kind in layout.extra_columns))
     if not direct:
         Y = regressor(chain, q, qd, qdd, backend=backend)
         out[:, :m, :N] = Y[:, :, columns].transpose(1, 2, 0)
@@ -263,14 +270,7 @@ def regressor_columns(chain: Chain, q, qd, qdd, columns, out: np.ndarray | None 
     for i in np.flatnonzero(~inertial):
         k, kind = extras[int(columns[i]) - layout.n_inertial]
         out[:, i, :N] = 0.0
-        if kind == "rotor_inertia":
-            out[k, i, :N] = qdd[:, k]
-        elif kind == "coulomb":
-            out[k, i, :N] = coulomb_column(qd[:, k], chain.coulomb_smoothing)
-        elif kind == "viscous":
-            out[k, i, :N] = qd[:, k]
-        else:  # offset
-            out[k, i, :N] = 1.0
+        out[k, i, :N] = _joint_extra(kind, k, qd, qdd, chain.coulomb_smoothing)
     return out
 
 

@@ -83,11 +83,11 @@ class Design:
     def signals(self, b: Block, Xb: np.ndarray | None = None, tau_model: np.ndarray | None = None) -> Signals:
         """The signals the effects are built from; the model torque (load effects) from ``tau_model``
         when given, else from the base columns ``Xb`` (N, n, kept) or, without them, computed."""
-        if self.theta_model is not None and tau_model is None:
+        if self.theta_model is None:
+            tau_model = None
+        elif tau_model is None:
             Xb = self.base_columns(b) if Xb is None else Xb
             tau_model = Xb @ self.theta_model[: len(self.kept)]
-        elif self.theta_model is None:
-            tau_model = None
         motor = None
         if self.chain.transmission is not None:  # the motor-side effects of coupled motors
             motor = np.asarray(self.chain.transmission.matrix, dtype=float)

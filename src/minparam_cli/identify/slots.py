@@ -49,11 +49,10 @@ def all_joints(effect: str, s: Signals, n: int, hyper: float | None = None) -> n
     return out[:, :, None] if out.ndim == 2 else out.transpose(0, 2, 1)
 
 
-def block_rows(design: Design, sources, b: Block, with_slots: bool = True, out: np.ndarray | None = None) -> np.ndarray:
+def block_rows(design: Design, sources, b: Block, out: np.ndarray | None = None) -> np.ndarray:
     """Rows of a block for the accumulators, joint-major: (n, design.p + slots + 1, N), joint j's
     rows [design columns | slot columns of joint j | τ_j] transposed in [j] (C-contiguous: the
     layout ``Accumulator.add_columns`` and ``BlockGrams.add_columns`` take without a copy).
-    ``with_slots`` False leaves the slot columns unset, for ``fill_slots`` (on another thread).
     ``out``: a buffer of exactly that shape to fill (identify's streaming pass reuses a few)."""
     n, N = design.chain.dof, len(b)
     shape = (n, source_columns(sources, design.p)[1] + 1, N)
@@ -63,7 +62,7 @@ def block_rows(design: Design, sources, b: Block, with_slots: bool = True, out: 
         raise ValueError(f"block_rows: expected a C-contiguous buffer of shape {shape}")
     design.rows(b, out)
     out[:, -1] = b.tau.T
-    if sources and with_slots:
+    if sources:
         fill_slots(design, sources, b, out)
     return out
 

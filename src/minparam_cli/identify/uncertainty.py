@@ -166,11 +166,6 @@ class BlockGrams:
         G[:, k, i] = P
         return G
 
-    @property
-    def G(self) -> dict[int, np.ndarray]:
-        """Every block's Grams, whole (block index -> (n, w, w)); ``gram`` gives one at a time."""
-        return {b: self.gram(b) for b in self.packed}
-
     def span(self) -> float:
         return 0.0 if self.t0 is None or self.t_last is None else self.t_last - self.t0
 
