@@ -36,11 +36,12 @@ from tabulate import tabulate
 sys.path.insert(0, str(ROOT / "src"))
 
 from minparam_cli.base.qr import derive_qr  # noqa: E402
-from minparam_cli.excite.criterion import condition_number  # noqa: E402
-from minparam_cli.excite.design import ExciteOptions, base_regressor, chain_limits, design, output_times  # noqa: E402
-from minparam_cli.identify.simulate import child_generators  # noqa: E402
-from minparam_cli.identify.trajectory import fourier_excitation  # noqa: E402
-from minparam_cli.pipeline import DeriveOptions, load_chain  # noqa: E402
+from minparam_cli.experiment.excite.criterion import condition_number  # noqa: E402
+from minparam_cli.experiment.excite.design import ExciteOptions, base_regressor, chain_limits, design, output_times  # noqa: E402
+from minparam_cli.experiment.simulate import child_generators  # noqa: E402
+from minparam_cli.experiment.trajectory import fourier_excitation  # noqa: E402
+from minparam_cli.pipeline import load_chain  # noqa: E402
+from minparam_cli.robot import DeriveOptions
 
 ROBOTS = ("robots/puma560.yaml", "robots/panda.yaml", "robots/tx40.yaml")
 # (robot, friction) rows: the declared effects' columns in the regressor (SI criterion only)

@@ -25,8 +25,8 @@ IN_MEMORY = """
 import sys, numpy as np
 from minparam_cli.chain import build_chain
 from minparam_cli.describe import load_description
-from minparam_cli.identify.simulate import simulate
-from minparam_cli.identify.simulate_spec import SimulationOptions, parse_effects
+from minparam_cli.experiment.simulate import simulate
+from minparam_cli.experiment.simulate_spec import SimulationOptions, parse_effects
 from minparam_cli.measured.writing import csv_block
 chain = build_chain(load_description("robots/panda.yaml"))
 n = int(sys.argv[1])

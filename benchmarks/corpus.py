@@ -49,7 +49,8 @@ from tabulate import tabulate
 sys.path.insert(0, str(ROOT / "src"))
 
 from minparam_cli.errors import ComputationError, DescriptionError, MinparamError, UnsupportedError  # noqa: E402
-from minparam_cli.pipeline import DeriveOptions, derive_file  # noqa: E402
+from minparam_cli.pipeline import derive_file  # noqa: E402
+from minparam_cli.robot import DeriveOptions
 
 REFERENCE_RTOL = 1e-8
 

@@ -165,7 +165,7 @@ def test_external_entity_is_not_read(tmp_path):
 
 
 def test_oversized_file_is_refused_without_reading_it(tmp_path):
-    from minparam_cli.describe import safety
+    from minparam_cli import safety
 
     p = tmp_path / "huge.yaml"
     with open(p, "wb") as fh:

@@ -38,7 +38,7 @@ def test_json_contract_and_terms_reproduce_the_base_parameters():
     assert names[60:64] == ["Ia1", "Fc1", "Fv1", "Ia2"]
     # terms: base = sum coefficient * standard, kept parameter itself at coefficient 1
     from minparam_cli.base.qr import derive_qr
-    from minparam_cli.pipeline import DeriveOptions, load_chain
+    from minparam_cli.robot import DeriveOptions, load_chain
 
     _, chain = load_chain("robots/puma560_mdh.yaml", DeriveOptions(friction=("coulomb", "viscous"), rotor_inertia=True))
     b = derive_qr(chain)

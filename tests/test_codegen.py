@@ -177,7 +177,7 @@ def reference_torques(chain, phi, q, qd, qdd):
 def cases(robots):
     """Per robot: chain, base set, random states, random φ and the reference torques."""
     from minparam_cli.base.qr import derive_qr
-    from minparam_cli.pipeline import DeriveOptions, load_chain
+    from minparam_cli.robot import DeriveOptions, load_chain
 
     out = {}
     rng = np.random.default_rng(SEED)
@@ -294,7 +294,7 @@ def test_mimic_joints_give_the_generalized_forces(tmp_path):
     import test_mimic
 
     from minparam_cli.base.qr import derive_qr
-    from minparam_cli.pipeline import DeriveOptions, load_chain
+    from minparam_cli.robot import DeriveOptions, load_chain
 
     path = test_mimic.gripper_arm(tmp_path)
     _, chain = load_chain(path, DeriveOptions())
@@ -320,7 +320,7 @@ def test_the_torque_program_is_the_regressor_times_parameters(cases, key, tmp_pa
 
     from minparam_cli.codegen.programs import record_regressor, torque
     from minparam_cli.codegen.trace import evaluate
-    from minparam_cli.pipeline import DeriveOptions, load_chain
+    from minparam_cli.robot import DeriveOptions, load_chain
 
     if key == "mimic":
         _, chain = load_chain(test_mimic.gripper_arm(tmp_path), DeriveOptions(friction=("viscous", "offset"), rotor_inertia=True))
@@ -411,9 +411,9 @@ def saved_model_file(tmp_path, robot, smoothing):
     """A model file as identify --save-model writes it (random θ, every effect with a code form, a drift)."""
     from minparam_cli.base.qr import derive_qr
     from minparam_cli.measured.records import DataOptions
-    from minparam_cli.identify.design import Design, Term
-    from minparam_cli.identify.model import LoadSettings, SavedModel, dumps, sha256_hex
-    from minparam_cli.pipeline import load_chain
+    from minparam_cli.identify.passes.design import Design, Term
+    from minparam_cli.model.file import LoadSettings, SavedModel, dumps, sha256_hex
+    from minparam_cli.robot import load_chain
 
     load = LoadSettings(friction=("viscous",), coulomb_smoothing=smoothing)
     _, chain = load_chain(robot, load.derive_options(0))

@@ -10,8 +10,8 @@ import uncertainty_data as ud
 from typer.testing import CliRunner
 
 from minparam_cli.cli.app import app
-from minparam_cli.identify.model import dumps
-from minparam_cli.identify.model_parse import parse_model
+from minparam_cli.model.file import dumps
+from minparam_cli.model.parse import parse_model
 
 
 def _cli(*args):

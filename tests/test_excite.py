@@ -14,13 +14,13 @@ from typer.testing import CliRunner
 from minparam_cli.base.qr import derive_qr
 from minparam_cli.chain import build_chain
 from minparam_cli.describe import load_description
-from minparam_cli.excite import constraints as cons
-from minparam_cli.excite.criterion import criterion_gradient, criterion_value, sensitivities
-from minparam_cli.excite.design import ExciteOptions, base_regressor, chain_limits, design
-from minparam_cli.excite.fourier import basis, from_trajectory, project_to_rest, to_trajectory
-from minparam_cli.identify.simulate import rigid_torque
-from minparam_cli.identify.trajectory import FourierTrajectory
-from minparam_cli.pipeline import DeriveOptions, load_chain
+from minparam_cli.experiment.excite import constraints as cons
+from minparam_cli.experiment.excite.criterion import criterion_gradient, criterion_value, sensitivities
+from minparam_cli.experiment.excite.design import ExciteOptions, base_regressor, chain_limits, design
+from minparam_cli.experiment.excite.fourier import basis, from_trajectory, project_to_rest, to_trajectory
+from minparam_cli.experiment.simulate import rigid_torque
+from minparam_cli.experiment.trajectory import FourierTrajectory
+from minparam_cli.robot import DeriveOptions, load_chain
 
 runner = CliRunner()
 

@@ -22,8 +22,8 @@ from typer.testing import CliRunner
 from minparam_cli.cli.app import app
 from minparam_cli.dynamics.regressor import regressor
 from minparam_cli.dynamics.inertia import random_inertia
-from minparam_cli.pipeline import DeriveOptions, load_chain
-from minparam_cli.render import export_robot
+from minparam_cli.robot import DeriveOptions, load_chain
+from minparam_cli.model import export_robot
 
 TINY_URDF = """<?xml version="1.0"?>
 <robot name="tiny">
@@ -248,7 +248,7 @@ def test_fixed_links_lose_their_mass_to_the_identified_body(tmp_path):
 
 def test_yaml_export_loads_back_with_the_same_torques(tmp_path):
     for robot in ("puma560.yaml", "puma560_mdh.yaml", "stanford.yaml"):
-        from minparam_cli.describe.safety import read_yaml
+        from minparam_cli.safety import read_yaml
 
         path = ROOT / "robots" / robot
         _, chain = load_chain(path, DeriveOptions())

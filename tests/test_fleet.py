@@ -90,7 +90,8 @@ def test_a_worker_killed_mid_batch_loses_and_duplicates_nothing(tmp_path, cluste
     nanny starts a new worker, the scheduler runs the lost tasks again, and every item's result
     comes back exactly once, in input order, equal to the local run's."""
     from minparam_cli.cli.batch import run_batch
-    from minparam_cli.pipeline import DeriveOptions, derive_file
+    from minparam_cli.pipeline import derive_file
+    from minparam_cli.robot import DeriveOptions
 
     files = write_robots(tmp_path / "robots", 40, seed=7)
     log = tmp_path / "runs.log"

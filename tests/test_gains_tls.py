@@ -1,4 +1,4 @@
-"""Drive gains by Gautier & Briot's total least squares (identify/payload.py ``_tls``), reported beside
+"""Drive gains by Gautier & Briot's total least squares (identify/physical/payload.py ``_tls``), reported beside
 the Gauss–Newton fit on the currents: simulated PUMA 560 currents behind a coupled transmission,
 one recording without and one with a known 2.8 kg payload (the set-up of test_payload_gains.py)."""
 
@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 from test_payload_gains import GAINS, MASS, identify, recordings  # noqa: F401  (recordings: that module's fixture, the same set-up)
 
-from minparam_cli.identify.payload import _tls
+from minparam_cli.identify.physical.payload import _tls
 
 
 @pytest.fixture(scope="module")

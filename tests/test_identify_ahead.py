@@ -9,9 +9,9 @@ import numpy as np
 import pytest
 
 from minparam_cli.errors import DataError
-from minparam_cli.identify.ahead import ahead
+from minparam_cli.identify.passes.ahead import ahead
 from minparam_cli.measured.records import Block
-from minparam_cli.identify.kept import _Thinned
+from minparam_cli.identify.passes.kept import _Thinned
 
 
 def test_items_in_order_and_bounded():
@@ -122,7 +122,7 @@ def test_thinning_keeps_the_same_samples(seed):
 def test_block_grams_equal_the_grams_of_each_time_block(shuffle):
     """BlockGrams.add (runs of equal block index, one syrk per joint) against A_jᵀA_j of each
     block's rows computed directly; times in any order (runs of one block are summed)."""
-    from minparam_cli.identify.uncertainty import BlockGrams
+    from minparam_cli.identify.assess.uncertainty import BlockGrams
 
     rng = np.random.default_rng(3)
     N, n, w = 5000, 3, 6
@@ -149,7 +149,7 @@ def test_the_producer_sees_the_callers_context_variables():
     """The Python API registers in-memory arrays in a context variable; the reading thread must see them."""
     import contextvars
 
-    from minparam_cli.identify.ahead import ahead
+    from minparam_cli.identify.passes.ahead import ahead
 
     var: contextvars.ContextVar[str] = contextvars.ContextVar("probe", default="unset")
     var.set("caller's")
@@ -164,7 +164,7 @@ def test_the_producer_sees_the_callers_context_variables():
 def test_block_grams_of_column_subsets_land_in_their_place():
     """add_parts with each joint's own columns (a run, or scattered) stores, packed, the Gram the
     full rows would give: zeros where a joint has no column."""
-    from minparam_cli.identify.uncertainty import BlockGrams
+    from minparam_cli.identify.assess.uncertainty import BlockGrams
 
     rng = np.random.default_rng(4)
     w, N = 7, 300

@@ -9,9 +9,9 @@ from typer.testing import CliRunner
 
 from minparam_cli.cli.app import app
 from minparam_cli.errors import DataError
-from minparam_cli.identify.data import load_all
+from minparam_cli.measured.blocks import load_all
 from minparam_cli.measured.records import DataOptions, DataReport
-from minparam_cli.identify.fit import Accumulator, errors, solve
+from minparam_cli.identify.estimate.fit import Accumulator, errors, solve
 
 PANDA_CSV = SHARED / "data" / "panda-gaz2019" / "panda_exciting_traj_1.csv"
 
@@ -232,7 +232,7 @@ def test_smooth_asymmetric_coulomb_columns_sum_to_the_smooth_coulomb_column():
     """The single-pass fit derives coulomb from the two asymmetric slots: that must hold smoothed too."""
     import numpy as np
 
-    from minparam_cli.identify.effects import EFFECTS, Signals
+    from minparam_cli.dynamics.effects import EFFECTS, Signals
 
     rng = np.random.default_rng(0)
     dq = rng.standard_normal((50, 3)) * 0.1

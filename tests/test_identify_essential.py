@@ -10,7 +10,7 @@ from typer.testing import CliRunner
 
 from minparam_cli.cli.app import app
 from minparam_cli.identify.stage import IdentifyOptions, identify
-from minparam_cli.identify.uncertainty import UncertaintyOptions
+from minparam_cli.identify.assess.uncertainty import UncertaintyOptions
 
 
 def _run(path, bound=10.0, kind="hac"):
@@ -42,7 +42,7 @@ def test_reduced_fit_is_the_least_squares_fit_of_the_kept_columns(tmp_path):
     fit part with the dropped columns removed (regressor built directly, weights the report's σ_j)."""
     from minparam_cli.base.qr import derive_qr
     from minparam_cli.measured.records import Block
-    from minparam_cli.identify.design import Design
+    from minparam_cli.identify.passes.design import Design
 
     path = ud.write(tmp_path / "c.csv", 40.0, 3, 2.0)
     rep = _run(path, bound=5.0)

@@ -184,7 +184,7 @@ def test_well_excited_data_report_their_scaled_condition_number(tmp_path):
 
 
 def test_rise_of_a_joint_error_is_flagged():
-    from minparam_cli.identify.quality import flags
+    from minparam_cli.identify.assess.quality import flags
 
     class Fit:
         names, theta = ("ZZR1", "Fc2"), (1.0, -0.5)
@@ -261,15 +261,15 @@ def test_final_refit_keeps_a_term_only_where_it_is_physical(tmp_path):
     keep_physical keeps it on the other joints, refits, and reports the step."""
     from minparam_cli.base.qr import derive_qr
     from minparam_cli.identify import stage
-    from minparam_cli.identify.stream import stream
-    from minparam_cli.identify.data import time_span
-    from minparam_cli.identify.design import Design, Term
-    from minparam_cli.identify.fit import solve
-    from minparam_cli.identify.fit import full_theta
-    from minparam_cli.identify.quality import keep_physical
-    from minparam_cli.identify.diagnose import term_coefficients
-    from minparam_cli.identify.roles import plan
-    from minparam_cli.pipeline import DeriveOptions, load_chain
+    from minparam_cli.identify.passes.stream import stream
+    from minparam_cli.measured.blocks import time_span
+    from minparam_cli.identify.passes.design import Design, Term
+    from minparam_cli.identify.estimate.fit import solve
+    from minparam_cli.identify.estimate.fit import full_theta
+    from minparam_cli.identify.assess.quality import keep_physical
+    from minparam_cli.identify.diagnosis.diagnose import term_coefficients
+    from minparam_cli.identify.passes.roles import plan
+    from minparam_cli.robot import DeriveOptions, load_chain
 
     data = simulate(tmp_path / "d.csv", effects="viscous:amp=0.1")
     header, table = read(data)

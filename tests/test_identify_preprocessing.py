@@ -14,7 +14,7 @@ from typer.testing import CliRunner
 
 from minparam_cli.cli.app import app
 from minparam_cli.errors import DataError
-from minparam_cli.identify.data import Standstill, load_all
+from minparam_cli.measured.blocks import Standstill, load_all
 from minparam_cli.measured.records import Block, DataOptions, DataReport
 
 

@@ -55,7 +55,7 @@ def _bad_copy(path, line_no, new_line):
 def test_a_bad_row_is_named_by_its_file_line_in_both_readers(tmp_path, monkeypatch, line, expected, no):
     from minparam_cli.errors import DataError
     from minparam_cli.measured import tables
-    from minparam_cli.identify.data import load_all
+    from minparam_cli.measured.blocks import load_all
     from minparam_cli.measured.records import DataOptions
 
     N = 3000
@@ -76,7 +76,7 @@ def test_a_parsing_process_that_dies_mid_message_is_an_error_not_a_hang(tmp_path
     """The child killed while it sends a chunk (out of memory, kill -9): the read ends with EOF."""
     from minparam_cli.errors import ComputationError
     from minparam_cli.measured import tables
-    from minparam_cli.identify.data import load_all
+    from minparam_cli.measured.blocks import load_all
     from minparam_cli.measured.records import DataOptions
 
     def dying_worker(path, rows, out, theirs):  # the real worker's signature: dies of the cut, not of a TypeError
@@ -174,7 +174,7 @@ def test_ctrl_c_ends_both_processes_quietly(tmp_path):
     ids=["time jumps back", "nan row", "time reset", "blank lines", "comment"],
 )
 def test_a_last_row_the_cleaning_drops_does_not_move_the_hold_out_split(tmp_path, tail):
-    from minparam_cli.identify.data import time_span
+    from minparam_cli.measured.blocks import time_span
     from minparam_cli.measured.records import DataOptions
 
     t = np.arange(3000) / 100.0
@@ -185,7 +185,7 @@ def test_a_last_row_the_cleaning_drops_does_not_move_the_hold_out_split(tmp_path
 
 def test_the_tail_window_never_reads_a_cut_line_as_a_row(tmp_path):
     """The last 64 KiB start inside a line: '3.123456789,...' cut to '23456789,...' is not a time."""
-    from minparam_cli.identify.data import time_span
+    from minparam_cli.measured.blocks import time_span
     from minparam_cli.measured.records import DataOptions
     from minparam_cli.measured.spans import TAIL_BYTES
 
@@ -246,7 +246,7 @@ def test_reading_goes_on_after_the_thread_that_started_it_ends(tmp_path, monkeyp
 
 
 def test_the_time_span_of_a_file_with_carriage_returns_only(tmp_path):
-    from minparam_cli.identify.data import time_span
+    from minparam_cli.measured.blocks import time_span
     from minparam_cli.measured.records import DataOptions
 
     lines = ["t,q1,q2,dq1,dq2,ddq1,ddq2,tau1,tau2"] + [f"{i / 100},1,1,1,1,1,1,1,1" for i in range(3000)]
@@ -259,7 +259,7 @@ def test_the_time_span_of_a_file_with_carriage_returns_only(tmp_path):
 def test_a_long_comment_line_is_not_the_bad_row(tmp_path):
     """numpy skips a comment of any length; the line named is the one it refused."""
     from minparam_cli.errors import DataError
-    from minparam_cli.identify.data import load_all
+    from minparam_cli.measured.blocks import load_all
     from minparam_cli.measured.records import DataOptions
     from minparam_cli.measured.tables import MAX_LINE_CHARS
 

@@ -11,18 +11,20 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from minparam_cli.identify import accumulate, stage
-from minparam_cli.identify.stream import stream
-from minparam_cli.identify.accumulate import Accumulator
-from minparam_cli.identify.compressed import Compressed
-from minparam_cli.identify.data import time_span
-from minparam_cli.identify.design import Design, Term
-from minparam_cli.identify.diagnose import _basis, diagnose
-from minparam_cli.identify.effects import EFFECT_IDS
-from minparam_cli.identify.fit import independent_columns, solve
-from minparam_cli.identify.roles import plan
-from minparam_cli.identify.scoring import score
-from minparam_cli.identify.slots import final_maps, slot_sources
+from minparam_cli.identify import stage
+
+from minparam_cli.identify.estimate import accumulate
+from minparam_cli.identify.passes.stream import stream
+from minparam_cli.identify.estimate.accumulate import Accumulator
+from minparam_cli.identify.diagnosis.compressed import Compressed
+from minparam_cli.measured.blocks import time_span
+from minparam_cli.identify.passes.design import Design, Term
+from minparam_cli.identify.diagnosis.diagnose import _basis, diagnose
+from minparam_cli.dynamics.effects import EFFECT_IDS
+from minparam_cli.identify.estimate.fit import independent_columns, solve
+from minparam_cli.identify.passes.roles import plan
+from minparam_cli.identify.diagnosis.scoring import score
+from minparam_cli.identify.passes.slots import final_maps, slot_sources
 
 
 def _rows(rng, N, n=3):
@@ -137,7 +139,7 @@ def _panda_sample(tmp_path: Path, samples: int = 12_000) -> Path:
 @pytest.fixture(scope="module")
 def panda_setup(tmp_path_factory):
     from minparam_cli.base.qr import derive_qr
-    from minparam_cli.pipeline import DeriveOptions, load_chain
+    from minparam_cli.robot import DeriveOptions, load_chain
 
     path = _panda_sample(tmp_path_factory.mktemp("scale"))
     _, chain = load_chain(Path("robots/panda.yaml"), DeriveOptions())
@@ -209,7 +211,7 @@ def test_diagnosis_finds_the_hidden_effects_and_drift_has_one_origin(panda_setup
 def test_background_parsing_gives_the_same_chunks_and_errors(tmp_path, monkeypatch):
     from minparam_cli.errors import DataError
     from minparam_cli.measured import tables
-    from minparam_cli.identify.data import load_all
+    from minparam_cli.measured.blocks import load_all
     from minparam_cli.measured.records import DataOptions, DataReport
 
     rng = np.random.default_rng(2)

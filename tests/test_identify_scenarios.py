@@ -27,7 +27,7 @@ def rotor_joints(robot: str) -> tuple[int, ...]:
     """Joints (1-based) whose rotor inertia is a base parameter of its own, from the derive stage: the others
     regroup (Ia1 into ZZR1 when joint 1's axis is fixed in the base) and cannot be told apart."""
     from minparam_cli.base.qr import derive_qr
-    from minparam_cli.pipeline import DeriveOptions, load_chain
+    from minparam_cli.robot import DeriveOptions, load_chain
 
     _, chain = load_chain(f"robots/{robot}", DeriveOptions(rotor_inertia=True))
     names = derive_qr(chain, seed=0).base_names

@@ -12,7 +12,7 @@ from typer.testing import CliRunner
 
 from minparam_cli.cli.app import app
 from minparam_cli.identify.stage import IdentifyOptions, identify
-from minparam_cli.identify.uncertainty import UncertaintyOptions
+from minparam_cli.identify.assess.uncertainty import UncertaintyOptions
 
 SEEDS = 30
 DURATION = 40.0  # s; the fit part (60 %) holds 24 blocks of 1 s

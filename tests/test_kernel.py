@@ -147,7 +147,7 @@ def test_columns_on_a_tree_a_floating_base_and_mimic_joints(tmp_path):
     from test_floating_base import biped
     from test_mimic import gripper_arm
 
-    from minparam_cli.pipeline import DeriveOptions, load_chain
+    from minparam_cli.robot import DeriveOptions, load_chain
 
     _columns_agree(_tree_with_prismatic(tmp_path), 6)
     _, floating = load_chain(biped(tmp_path, 2, True), DeriveOptions())

@@ -61,3 +61,79 @@ def test_the_checker_sees_a_lazy_import_pair(tmp_path, monkeypatch):
     modules = _modules()
     assert _imports("pkg.a", modules["pkg.a"], modules) == {"pkg.b"}
     assert _imports("pkg.b", modules["pkg.b"], modules) == {"pkg.a"}
+
+
+# The map, from the bottom up (docs/architecture.md): a module may import its own room, the rooms
+# of its own layer and the layers below, never a layer above.  A room is a top-level module or
+# package of minparam_cli, or a subpackage of identify/.
+LAYERS = (
+    ("minparam_cli", "errors", "params", "safety", "optional", "runtime", "output"),
+    ("describe",),
+    ("joint_matrices", "chain", "robot"),
+    ("dynamics",),
+    ("base", "kinematics", "codegen"),
+    ("measured",),
+    ("experiment", "identify.estimate"),
+    ("identify.passes",),
+    ("identify.diagnosis", "identify.physical"),
+    ("identify.assess",),
+    ("identify",),
+    ("model",),
+    ("render",),
+    ("pipeline",),
+    ("api",),
+    ("cli", "__main__"),
+)
+MAX_LINES = 400
+
+
+def _room(module: str) -> str:
+    parts = module.split(".")[1:]
+    if not parts:
+        return "minparam_cli"
+    if parts[0] == "identify" and len(parts) > 2:  # identify.<subpackage>.<module>
+        return f"identify.{parts[1]}"
+    if parts[0] == "identify" and len(parts) == 2 and (SRC / "minparam_cli" / "identify" / parts[1]).is_dir():
+        return f"identify.{parts[1]}"
+    return parts[0]
+
+
+def _layer(room: str) -> int:
+    for i, rooms in enumerate(LAYERS):
+        if room in rooms:
+            return i
+    raise AssertionError(f"room {room!r} is not on the map (tests/test_layout.py LAYERS, docs/architecture.md)")
+
+
+def _upward_imports() -> list[str]:
+    modules = _modules()
+    found = []
+    for name, path in sorted(modules.items()):
+        if not name.startswith("minparam_cli"):
+            continue
+        here = _layer(_room(name))
+        for imported in sorted(_imports(name, path, modules)):
+            if imported.startswith("minparam_cli") and _layer(_room(imported)) > here:
+                found.append(f"{name} -> {imported}")
+    return found
+
+
+def test_every_room_is_on_the_map_and_no_import_runs_up_it():
+    assert not _upward_imports()
+
+
+def test_the_map_check_sees_an_upward_import(monkeypatch):
+    """The check can fail: a stage importing the command line is found."""
+    real = _imports
+
+    def with_upward(name, path, modules):
+        found = real(name, path, modules)
+        return found | {"minparam_cli.cli.app"} if name == "minparam_cli.dynamics.regressor" else found
+
+    monkeypatch.setattr(__import__(__name__), "_imports", with_upward)
+    assert _upward_imports() == ["minparam_cli.dynamics.regressor -> minparam_cli.cli.app"]
+
+
+def test_no_source_file_passes_the_line_limit():
+    long = {str(p.relative_to(SRC)): n for p in SRC.rglob("*.py") if (n := len(p.read_text(encoding="utf-8").splitlines())) > MAX_LINES}
+    assert not long, f"split these files (over {MAX_LINES} lines): {long}"

@@ -19,7 +19,8 @@ from minparam_cli.base.qr import chain_scales, derive_qr, sample_rng, stacked_re
 from minparam_cli.cli.app import app
 from minparam_cli.dynamics.regressor import joint_regressor, random_states, regressor
 from minparam_cli.errors import DescriptionError, UnsupportedError
-from minparam_cli.pipeline import DeriveOptions, derive_file, load_chain
+from minparam_cli.pipeline import derive_file
+from minparam_cli.robot import DeriveOptions, load_chain
 
 
 def link(name: str, k: int) -> str:

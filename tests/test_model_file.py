@@ -84,8 +84,8 @@ def test_predictions_csv_holds_measured_and_predicted_torques(run):
 
 
 def test_model_file_contents_and_json_round_trip(run):
-    from minparam_cli.identify.model import dumps
-    from minparam_cli.identify.model_parse import parse_model
+    from minparam_cli.model.file import dumps
+    from minparam_cli.model.parse import parse_model
 
     text = run["model"].read_text()
     doc = json.loads(text)

@@ -15,7 +15,7 @@ from typer.testing import CliRunner
 from minparam_cli.chain import build_chain
 from minparam_cli.describe import load_description
 from minparam_cli.errors import DescriptionError
-from minparam_cli.identify.trajectory import LIMIT_MARGIN, fourier_excitation
+from minparam_cli.experiment.trajectory import LIMIT_MARGIN, fourier_excitation
 
 runner = CliRunner()
 

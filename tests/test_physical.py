@@ -17,7 +17,7 @@ PANDA_CSV = SHARED / "data" / "panda-gaz2019" / "panda_exciting_traj_1.csv"
 def base_truth(robot: str, phi: np.ndarray) -> dict:
     """The base parameters K·φ of the derive stage, for the true standard parameters."""
     from minparam_cli.base.qr import derive_qr
-    from minparam_cli.pipeline import DeriveOptions, load_chain
+    from minparam_cli.robot import DeriveOptions, load_chain
 
     _, chain = load_chain(f"robots/{robot}", DeriveOptions())
     base = derive_qr(chain, seed=0)
@@ -57,9 +57,9 @@ def test_torques_no_body_can_make_are_not_fitted_with_impossible_bodies(tmp_path
     """Torques made with ZZ6 < 0 (link 6's inertia about its own axis, a base parameter of its own):
     no mass distribution has that, so the unconstrained fit reproduces the data and the physical fit
     returns real bodies only and pays for it on joint 6."""
-    from minparam_cli.identify.simulate import rigid_torque, simulate
-    from minparam_cli.identify.simulate_spec import SimulationOptions
-    from minparam_cli.pipeline import DeriveOptions, load_chain
+    from minparam_cli.experiment.simulate import rigid_torque, simulate
+    from minparam_cli.experiment.simulate_spec import SimulationOptions
+    from minparam_cli.robot import DeriveOptions, load_chain
 
     _, chain = load_chain("robots/puma560_mdh.yaml", DeriveOptions())
     phi = np.array(chain.phi_nominal, dtype=float)
@@ -80,9 +80,9 @@ def test_the_prior_holds_what_the_data_do_not_inform(tmp_path):
     """Only joint 1 moves: most directions of the outer links' parameters are not in the data.  Without a
     prior that is poor excitation (exit 1); with --prior nominal the fit succeeds, link 6's inertia stays
     at the description's values, and the report counts the directions the data set per link."""
-    from minparam_cli.identify.simulate import rigid_torque, simulate
-    from minparam_cli.identify.simulate_spec import SimulationOptions
-    from minparam_cli.pipeline import DeriveOptions, load_chain
+    from minparam_cli.experiment.simulate import rigid_torque, simulate
+    from minparam_cli.experiment.simulate_spec import SimulationOptions
+    from minparam_cli.robot import DeriveOptions, load_chain
 
     _, chain = load_chain("robots/puma560_mdh.yaml", DeriveOptions())
     sim = simulate(chain, SimulationOptions(noise=0.0), np.random.default_rng(6))

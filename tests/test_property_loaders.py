@@ -16,7 +16,7 @@ from hypothesis import HealthCheck, given, settings, strategies as st  # noqa: E
 
 from minparam_cli.chain import build_chain  # noqa: E402
 from minparam_cli.describe import RobotDescription, load_description  # noqa: E402
-from minparam_cli.describe.bodies import body_verdicts  # noqa: E402
+from minparam_cli.dynamics.bodies import body_verdicts  # noqa: E402
 from minparam_cli.describe.platform_yaml import PlatformDescription, load_platform  # noqa: E402
 from minparam_cli.errors import InputError  # noqa: E402
 from minparam_cli.measured.records import DataOptions  # noqa: E402

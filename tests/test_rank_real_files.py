@@ -19,7 +19,8 @@ from minparam_cli.base.qr import derive_qr
 from minparam_cli.base.result import RANK_RTOL, WEAK_RTOL
 from minparam_cli.cli.app import app
 from minparam_cli.errors import ComputationError, DescriptionError
-from minparam_cli.pipeline import DeriveOptions, derive_file, load_chain
+from minparam_cli.pipeline import derive_file
+from minparam_cli.robot import DeriveOptions, load_chain
 
 LINK = (
     '<link name="{n}"><inertial><origin xyz="0.01 0.02 0.03" rpy="0 0 0"/><mass value="1.0"/>'

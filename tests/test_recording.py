@@ -13,7 +13,7 @@ import pytest
 from conftest import cli as run
 
 from minparam_cli.errors import DataError
-from minparam_cli.identify.data import time_span
+from minparam_cli.measured.blocks import time_span
 from minparam_cli.measured.records import DataOptions
 from minparam_cli.measured.reading import raw_chunks
 

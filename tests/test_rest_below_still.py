@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 from conftest import cli as run
 
-from minparam_cli.identify.data import iter_blocks
+from minparam_cli.measured.blocks import iter_blocks
 from minparam_cli.measured.records import Block, DataOptions, DataReport
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -70,7 +70,7 @@ def test_velocities_read_from_the_file_are_never_changed(tmp_path, recording):
 
 
 def test_a_saved_model_keeps_the_choice_and_an_older_one_reads_as_the_plain_sign(tmp_path, recording):
-    from minparam_cli.identify.model_parse import read_model
+    from minparam_cli.model.parse import read_model
 
     model = tmp_path / "m.json"
     r = run("identify", ROBOT, recording, "--no-diagnose", "--friction", "coulomb", "--cutoff", "20", "--save-model", model, "-q")

@@ -182,7 +182,7 @@ def test_evaluate_reads_a_bag(sim, tmp_path):
 
 
 def test_puma_joint_names():
-    from minparam_cli.pipeline import DeriveOptions, load_chain
+    from minparam_cli.robot import DeriveOptions, load_chain
 
     _, chain = load_chain(PUMA, DeriveOptions())
     assert tuple(chain.joint_names) == tuple(NAMES)

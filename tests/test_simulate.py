@@ -13,11 +13,11 @@ from minparam_cli.chain import build_chain
 from minparam_cli.describe import load_description
 from minparam_cli.dynamics.regressor import regressor
 from minparam_cli.errors import InputError
-from minparam_cli.identify.effects import COGGING_GRID, EFFECTS, STRIBECK_GRID, Signals, effect_torque
+from minparam_cli.dynamics.effects import COGGING_GRID, EFFECTS, STRIBECK_GRID, Signals, effect_torque
 from minparam_cli.dynamics.inertia import pseudo_inertia_from_standard, random_inertia, standard_from_com
-from minparam_cli.identify.simulate import simulate
-from minparam_cli.identify.simulate_spec import SimulationOptions, data_columns, parse_effects
-from minparam_cli.identify.trajectory import LIMIT_MARGIN, excursion_bounds, fourier_excitation, joint_ranges
+from minparam_cli.experiment.simulate import simulate
+from minparam_cli.experiment.simulate_spec import SimulationOptions, data_columns, parse_effects
+from minparam_cli.experiment.trajectory import LIMIT_MARGIN, excursion_bounds, fourier_excitation, joint_ranges
 from minparam_cli.params import standard_names
 
 ROBOTS = Path(__file__).resolve().parents[1] / "robots"

@@ -13,8 +13,8 @@ import pytest
 from minparam_cli.chain import build_chain
 from minparam_cli.cli.app import app
 from minparam_cli.describe import load_description
-from minparam_cli.identify.simulate import Stream, plan, simulate
-from minparam_cli.identify.simulate_spec import SimulationOptions, parse_effects
+from minparam_cli.experiment.simulate import Stream, plan, simulate
+from minparam_cli.experiment.simulate_spec import SimulationOptions, parse_effects
 from minparam_cli.measured.writing import CsvWriter, NpzWriter, csv_block
 
 ROOT = Path(__file__).resolve().parents[1]

@@ -13,7 +13,8 @@ from minparam_cli.base.qr import derive_qr
 from minparam_cli.base.symbolic import add_symbolic, geometry_symbols, symbolic_base
 from minparam_cli.chain import build_chain
 from minparam_cli.describe import load_description
-from minparam_cli.pipeline import DeriveOptions, derive_file
+from minparam_cli.pipeline import derive_file
+from minparam_cli.robot import DeriveOptions
 
 
 def symbolic_set(path) -> dict[str, sp.Expr]:

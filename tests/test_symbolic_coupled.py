@@ -18,7 +18,8 @@ import test_mimic as tm
 from test_symbolic_exact import RTOL, compare_with_numeric
 
 from minparam_cli.base.symbolic_coupled import Coupled, _collisions, _complement, _multiple_angle
-from minparam_cli.pipeline import DeriveOptions, derive_file
+from minparam_cli.pipeline import derive_file
+from minparam_cli.robot import DeriveOptions
 
 ALL = dict(friction=("coulomb", "viscous", "offset"), rotor_inertia=True)
 
@@ -89,7 +90,7 @@ def test_exact_state_rules():
 
 
 def test_coupled_plan_reads_the_coupling(tmp_path):
-    from minparam_cli.pipeline import load_chain
+    from minparam_cli.robot import load_chain
 
     _desc, chain = load_chain(mixed_arm(tmp_path), DeriveOptions())
     plan = Coupled(chain, "x")
@@ -156,7 +157,7 @@ def test_more_than_seven_joints_on_one_coordinate(tmp_path):
     for i in range(1, 9):  # a planar chain: eight joints about parallel axes, all driven by j0
         joints.append(j(f"j{i}", "revolute", f"l{i - 1}", f"l{i}", "0.3 0 0", "0 0 1", mimic=("j0", i / 2, 0)))
     path = tm.write(tmp_path, "snake", joints, ["base"] + [f"l{i}" for i in range(9)])
-    from minparam_cli.pipeline import load_chain
+    from minparam_cli.robot import load_chain
 
     _desc, chain = load_chain(path, DeriveOptions())
     plan = Coupled(chain, "snake")

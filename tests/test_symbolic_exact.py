@@ -14,7 +14,8 @@ from minparam_cli.base.qr import derive_qr, sample_rng, stacked_regressor
 from minparam_cli.base.symbolic import RIGHT_ANGLE_TOL, geometry_symbols
 from minparam_cli.base.symbolic_urdf import axes_at, symbolic_description
 from minparam_cli.chain import build_chain
-from minparam_cli.pipeline import DeriveOptions, derive_file, load_chain
+from minparam_cli.pipeline import derive_file
+from minparam_cli.robot import DeriveOptions, load_chain
 
 RTOL = 1e-12  # the identity W_dep = W_kept·β at the numeric regressor (rounding: ~1e-15)
 BETA_RTOL = 1e-9  # against the QR route's β (its own accuracy at skewed geometries: ~1e-11)

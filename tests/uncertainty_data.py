@@ -5,8 +5,8 @@ from __future__ import annotations
 import numpy as np
 from scipy.signal import butter, sosfiltfilt
 
-from minparam_cli.identify.simulate import rigid_torque
-from minparam_cli.pipeline import DeriveOptions, load_chain
+from minparam_cli.experiment.simulate import rigid_torque
+from minparam_cli.robot import DeriveOptions, load_chain
 
 ROBOT = "robots/planar2r.yaml"
 RATE = 100.0  # Hz

@@ -21,7 +21,7 @@ import numpy as np
 
 from minparam_cli.identify.simulate import rigid_torque, simulate
 from minparam_cli.identify.simulate_spec import SimulationOptions, parse_effects
-from minparam_cli.pipeline import DeriveOptions, load_chain
+from minparam_cli.robot import DeriveOptions, load_chain
 
 ROBOT = Path(__file__).resolve().parents[2] / "robots" / "puma560_mdh.yaml"
 STOPS = (5.0, 10.0, 15.0)  # s of motion after which the robot stops

@@ -112,3 +112,14 @@ def split_name(name: str) -> tuple[str, int]:
     if i == len(name) or i == 0:
         raise ValueError(f"not a standard parameter name: {name!r}")
     return name[:i], int(name[i:])
+
+
+def latex_name(name: str) -> str:
+    """'XXR2' -> '\\mathrm{XX}^{R}_{2}', 'Ia3' -> '\\mathrm{Ia}_{3}'."""
+    kind, link = split_name(name)
+    sup = ""
+    if kind.endswith("R") and kind not in ("R",):
+        plain = kind[:-1]
+        if plain in ("XX", "XY", "XZ", "YY", "YZ", "ZZ", "MX", "MY", "MZ", "M", "Ia", "Fc", "Fv", "OFF"):
+            kind, sup = plain, "^{R}"
+    return rf"\mathrm{{{kind}}}{sup}_{{{link}}}"

@@ -7,63 +7,12 @@ with the result.  Used by ``derive`` for single files and by batch workers.
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Callable
 
 import numpy as np
 
-from minparam_cli.params import EXTRA_ORDER
-
-METHODS = ("qr", "projection")
-
-
-@dataclass(frozen=True)
-class DeriveOptions:
-    """What ``derive`` computes for each robot file: method, extras, gravity override, sampling."""
-
-    method: str = "qr"
-    friction: tuple[str, ...] = ()
-    rotor_inertia: bool = False
-    gravity: tuple[float, float, float] | None = None
-    samples: int = 100
-    seed: int = 0
-    symbolic: bool | None = None  # None (the default): numeric
-    snap_angles: float | None = None  # rad: round angles this close to a multiple of 15° (None: never)
-    explain_weak: bool = True  # look for the geometry behind weakly identifiable parameters
-    mimic: str = "coupled"  # URDF mimic joints: "coupled" (move with their master) or "fixed" (frozen at their offset)
-    floating_base: bool = False  # the URDF's root link is free: six virtual base joints in front of it
-    symbolic_numbers: bool = False  # with symbolic: lengths and rational axes as the file's exact numbers
-
-
-def load_chain(path: str | Path, opts: DeriveOptions):
-    """Description and chain with the CLI's extras and gravity applied."""
-    from minparam_cli.chain import build_chain
-    from minparam_cli.describe import load_description
-
-    desc = load_description(path, opts.snap_angles, opts.mimic, opts.floating_base)
-    if opts.gravity is not None:
-        desc = replace(desc, gravity=tuple(opts.gravity), gravity_source="cli")
-    extras = []
-    for j in desc.joints:
-        if j.virtual:  # a floating base's coordinates: no friction, rotor or offset
-            extras.append(())
-            continue
-        ex = set(j.extras) | set(opts.friction)
-        if opts.rotor_inertia:
-            ex.add("rotor_inertia")
-        extras.append(tuple(k for k in EXTRA_ORDER if k in ex))
-    return desc, build_chain(desc, extras=tuple(extras))
-
-
-def require_fixed_base(chain, command: str) -> None:
-    """One-line refusal for the commands that read or write joint data (identify, simulate): a
-    floating base (no base motion columns)."""
-    from minparam_cli.errors import UnsupportedError
-
-    if chain.floating_base:
-        raise UnsupportedError(f"{command} of floating-base robots needs base motion columns: not supported yet", chain.source)
-
+from minparam_cli.robot import DeriveOptions, load_chain
 
 def derive_file(path: str | Path, opts: DeriveOptions, progress: Callable[[int, int], None] | None = None) -> dict:
     """Report dict (the JSON contract) for one robot file."""
@@ -86,7 +35,7 @@ def derive_all(path: str | Path, opts: DeriveOptions, progress: Callable[[int, i
 
         base = derive_qr(chain, samples=opts.samples, seed=opts.seed)
     report = base_report(chain, base, 0.0)
-    from minparam_cli.describe.bodies import body_problems, problems_text
+    from minparam_cli.dynamics.bodies import body_problems, problems_text
 
     problems = body_problems(desc)
     if problems:  # derive never uses them: a warning, not an error
@@ -111,7 +60,7 @@ def check_file(path: str | Path) -> dict:
     from minparam_cli.chain import build_chain
     from minparam_cli.describe import load_description
 
-    from minparam_cli.describe.bodies import body_verdicts, problems_text
+    from minparam_cli.dynamics.bodies import body_verdicts, problems_text
     from minparam_cli.errors import DescriptionError
 
     desc = load_description(path)

@@ -22,8 +22,8 @@ if TYPE_CHECKING:
 
     from minparam_cli.base.result import BaseSet as StageBaseSet
     from minparam_cli.chain import Chain
-    from minparam_cli.excite.constraints import Limits
-    from minparam_cli.excite.design import ExciteOptions, ExciteResult
+    from minparam_cli.experiment.excite.constraints import Limits
+    from minparam_cli.experiment.excite.design import ExciteOptions, ExciteResult
 
 CRITERIA = ("cond", "logdet")
 SCALINGS = ("si", "columns")
@@ -92,7 +92,7 @@ def excite_options(harmonics: int = 5, base_frequency: float = 0.1, rate: float 
                    criterion: str = "cond", scaling: str = "si", rest: bool = False, margin: float = 0.1,
                    starts: int = 4, max_iterations: int = 150) -> ExciteOptions:
     """The design's options, checked with the CLI's messages."""
-    from minparam_cli.excite.design import ExciteOptions, validate
+    from minparam_cli.experiment.excite.design import ExciteOptions, validate
 
     opts = ExciteOptions(harmonics=int(harmonics), base_frequency=float(base_frequency), rate=float(rate),
                          periods=int(periods), criterion=choice(criterion, CRITERIA, "--criterion"),
@@ -109,8 +109,8 @@ def prepare_excite(robot: Path, opts: ExciteOptions, friction: tuple[str, ...], 
     import numpy as np
 
     from minparam_cli.base.qr import derive_qr
-    from minparam_cli.excite.design import chain_limits
-    from minparam_cli.pipeline import DeriveOptions, load_chain, require_fixed_base
+    from minparam_cli.experiment.excite.design import chain_limits
+    from minparam_cli.robot import DeriveOptions, load_chain, require_fixed_base
 
     _, chain = load_chain(robot, DeriveOptions(friction=friction, rotor_inertia=rotor_inertia, mimic=mimic))
     require_fixed_base(chain, "excite")
@@ -134,7 +134,7 @@ def run_design(prep: Prepared, opts: ExciteOptions, seed: int, progress: Any = N
     """The design stage, from one generator seeded with ``seed``."""
     import numpy as np
 
-    from minparam_cli.excite.design import design
+    from minparam_cli.experiment.excite.design import design
 
     return design(prep.chain, prep.base, opts, prep.limits, np.random.default_rng(seed), phi=prep.phi, progress=progress)
 

@@ -47,9 +47,9 @@ def model_chain(model: Path, robot: Path, robot_bytes: bytes, which: str | None)
     """Chain, base set and parameters of a saved model, refused when made for another robot file."""
     from minparam_cli.base.qr import derive_qr
     from minparam_cli.codegen.functions import ModelParameters
-    from minparam_cli.identify.model import check_robot, model_design
-    from minparam_cli.identify.model_parse import read_model
-    from minparam_cli.pipeline import load_chain, require_fixed_base
+    from minparam_cli.model.file import check_robot, model_design
+    from minparam_cli.model.parse import read_model
+    from minparam_cli.robot import load_chain, require_fixed_base
 
     m = read_model(model)
     check_robot(m, str(model), str(robot), robot_bytes)
@@ -71,9 +71,9 @@ def generate(robot: Path, lang: str, output: Path | None = None, model: Path | N
     "coulomb,viscous", ``gravity`` "X,Y,Z" text), and the file stem the C source includes."""
     from minparam_cli import __version__
     from minparam_cli.codegen.functions import Meta, generate_code, identifier
-    from minparam_cli.describe.safety import read_bounded
-    from minparam_cli.identify.model import sha256_hex
-    from minparam_cli.pipeline import DeriveOptions, load_chain
+    from minparam_cli.safety import read_bounded
+    from minparam_cli.model.file import sha256_hex
+    from minparam_cli.robot import DeriveOptions, load_chain
 
     lang = choice(lang, LANGS, "--lang")
     method = choice(method, METHODS, "--method")

@@ -24,8 +24,8 @@ if TYPE_CHECKING:
     import numpy as np
 
     from minparam_cli.measured.records import DataOptions
-    from minparam_cli.identify.design import Design
-    from minparam_cli.identify.model import SavedModel
+    from minparam_cli.identify.passes.design import Design
+    from minparam_cli.model.file import SavedModel
 
 TIME_UNITS = ("s", "ms", "us", "ns")
 PRIORS = ("none", "nominal")
@@ -82,7 +82,7 @@ def _payload(data: Any, mass: float | None, com: Sequence[float] | None, inertia
         if any(v is not None for v in (mass, com, inertia)):
             raise InputError("--payload-mass, --payload-com and --payload-inertia need --payload-data")
         return None
-    from minparam_cli.identify.payload import PayloadSpec, check_spec
+    from minparam_cli.identify.physical.payload import PayloadSpec, check_spec
 
     def floats(values, count: int, what: str):
         if values is None:
@@ -126,14 +126,14 @@ def identify(robot: Robot | str | Path, data: Any, *, validate: Any = None, test
     (docs/methods/transmission.md).
     """
     from minparam_cli.measured.records import DataOptions
-    from minparam_cli.identify.uncertainty import UncertaintyOptions, check_options
-    from minparam_cli.identify.diagnose import DiagnosisOptions
-    from minparam_cli.identify.effects import EFFECT_IDS
-    from minparam_cli.identify.model import LoadSettings, saved_model
+    from minparam_cli.identify.assess.uncertainty import UncertaintyOptions, check_options
+    from minparam_cli.identify.diagnosis.diagnose import DiagnosisOptions
+    from minparam_cli.dynamics.effects import EFFECT_IDS
+    from minparam_cli.model.file import LoadSettings, saved_model
     from minparam_cli.identify.stage import IdentifyOptions, identify as run
     from minparam_cli.measured.arrays import registered
     from minparam_cli.measured.rosbag import coordinate_names
-    from minparam_cli.pipeline import DeriveOptions, load_chain, require_fixed_base
+    from minparam_cli.robot import DeriveOptions, load_chain, require_fixed_base
 
     path = robot_path(robot)
     base = robot.options if isinstance(robot, Robot) else None
@@ -177,13 +177,13 @@ def identify(robot: Robot | str | Path, data: Any, *, validate: Any = None, test
     column_map = _columns(columns)
     physical_opts = None
     if physical:
-        from minparam_cli.identify.physical import PhysicalOptions
+        from minparam_cli.identify.physical.convex import PhysicalOptions
 
         physical_opts = PhysicalOptions(prior=prior, prior_weight=prior_weight)
     _, chain = load_chain(path, DeriveOptions(friction=kinds, rotor_inertia=rotor, gravity=g, mimic=mimic_mode))
     require_fixed_base(chain, "identify")
     if physical and prior == "nominal":
-        from minparam_cli.describe.bodies import nominal_problems, nominal_problems_text
+        from minparam_cli.dynamics.bodies import nominal_problems, nominal_problems_text
 
         if nominal_problems(chain):
             raise InputError("--prior nominal: " + nominal_problems_text(str(path), nominal_problems(chain)))
@@ -222,8 +222,8 @@ def identify(robot: Robot | str | Path, data: Any, *, validate: Any = None, test
     try:
         with registered(records):
             report, art = run(chain, data_name, opts, progress=bar)
-            if payload is not None:  # identify/payload.py: the second recording, with a known payload
-                from minparam_cli.identify.payload import payload_report
+            if payload is not None:  # identify/physical/payload.py: the second recording, with a known payload
+                from minparam_cli.identify.physical.payload import payload_report
 
                 gains_unknown = scale_note is not None
                 report["payload"] = payload_report(art.design, data_name, payload_name, opts.data, payload, gains_unknown)
@@ -232,7 +232,7 @@ def identify(robot: Robot | str | Path, data: Any, *, validate: Any = None, test
         close(bar)
     if scale_note:
         report.setdefault("flags", []).append(scale_note)
-    from minparam_cli.describe.safety import read_bounded  # the robot file's bytes, for its hash
+    from minparam_cli.safety import read_bounded  # the robot file's bytes, for its hash
 
     load = LoadSettings(friction=kinds, rotor_inertia=rotor, gravity=g, coulomb_smoothing=smoothing, mimic=mimic_mode)
     saved = saved_model(str(path), read_bounded(Path(path)), load, opts.data, opts.seed, art, report)
@@ -314,7 +314,7 @@ def evaluate(model: Model | str | Path, data: Any, *, which: str | None = None, 
     mappings of arrays, DataFrames), read with the model's settings.  ``which``: "physical" or "fit"
     (default: physical when the model has one).
     """
-    from minparam_cli.identify.evaluation import evaluate as run
+    from minparam_cli.model.evaluation import evaluate as run
     from minparam_cli.measured.arrays import as_record, is_in_memory, registered
 
     if isinstance(model, Model):

@@ -7,17 +7,17 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:
-    from minparam_cli.identify.design import Design
-    from minparam_cli.identify.model import SavedModel
+    from minparam_cli.identify.passes.design import Design
+    from minparam_cli.model.file import SavedModel
 
 
 def open_model(model: str | Path, robot: str | Path | None = None) -> tuple[SavedModel, Path, Design]:
     """Read a model file, check its robot file's SHA-256 and rebuild its design: (model, robot file,
     design).  ``robot``: the robot file to use instead of the one the model names."""
-    from minparam_cli.describe.safety import read_bounded
-    from minparam_cli.identify.model import ModelError, check_robot, model_design
-    from minparam_cli.identify.model_parse import read_model
-    from minparam_cli.pipeline import load_chain, require_fixed_base
+    from minparam_cli.safety import read_bounded
+    from minparam_cli.model.file import ModelError, check_robot, model_design
+    from minparam_cli.model.parse import read_model
+    from minparam_cli.robot import load_chain, require_fixed_base
 
     model = Path(model)
     m = read_model(model)

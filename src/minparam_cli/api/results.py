@@ -17,9 +17,9 @@ if TYPE_CHECKING:
 
     from minparam_cli.chain import Chain
     from minparam_cli.describe.records import RobotDescription
-    from minparam_cli.excite.design import ExciteResult
-    from minparam_cli.identify.design import Design
-    from minparam_cli.identify.model import SavedModel
+    from minparam_cli.experiment.excite.design import ExciteResult
+    from minparam_cli.identify.passes.design import Design
+    from minparam_cli.model.file import SavedModel
 
 
 class _Report:
@@ -204,7 +204,7 @@ class Model:
 
     def save(self, path: str | Path) -> None:
         """Write the model file (JSON) atomically."""
-        from minparam_cli.identify.model import dumps
+        from minparam_cli.model.file import dumps
         from minparam_cli.output import write_output
 
         write_output(dumps(self.saved), Path(path))
@@ -223,7 +223,7 @@ class Model:
 
         from minparam_cli.errors import InputError
         from minparam_cli.measured.records import Block
-        from minparam_cli.identify.evaluation import predict as run
+        from minparam_cli.model.evaluation import predict as run
 
         n = self.design.chain.dof
         arrays = [np.atleast_2d(np.asarray(x, dtype=float)) for x in (q, dq, ddq)]

@@ -33,7 +33,7 @@ def load_options(robot: Any, friction: str | Iterable[str] | None = None, rotor_
 
 
 def derive_options(opts: LoadOptions, **kw: Any):
-    from minparam_cli.pipeline import DeriveOptions
+    from minparam_cli.robot import DeriveOptions
 
     return DeriveOptions(friction=opts.friction, rotor_inertia=opts.rotor_inertia, gravity=opts.gravity,
                          mimic=opts.mimic, floating_base=opts.floating_base, **kw)
@@ -50,7 +50,7 @@ def load_robot(path: str | Path, *, friction: str | Iterable[str] | None = None,
     """
     import math
 
-    from minparam_cli.pipeline import load_chain
+    from minparam_cli.robot import load_chain
 
     if not (math.isfinite(coulomb_smoothing) and coulomb_smoothing >= 0):
         raise InputError(f"coulomb_smoothing: must be a finite velocity >= 0 (0: sign), got {coulomb_smoothing!r}")

@@ -37,14 +37,14 @@ class SimulationSetup:
         ``seed``."""
         import numpy as np
 
-        from minparam_cli.identify.simulate import Stream, plan as make_plan
+        from minparam_cli.experiment.simulate import Stream, plan as make_plan
 
         p = make_plan(self.chain, self.options, np.random.default_rng(self.seed), progress=progress, given=self.given)
         return p, Stream(p, progress=progress, transforms=self.transforms)
 
     def record(self, plan, include_ddq: bool, limits) -> dict[str, Any]:
         """The truth record (``--truth``) of a streamed plan."""
-        from minparam_cli.identify.simulate_truth import truth_record
+        from minparam_cli.experiment.simulate_truth import truth_record
 
         record = truth_record(plan, str(self.robot), self.seed, self.chain.name, include_ddq, limits=limits)
         record.update(self.extra_record)
@@ -56,7 +56,7 @@ def read_given_trajectory(trajectory: str | Path, n: int):
     text = str(trajectory)
     if text == "fourier":
         return None
-    from minparam_cli.identify.trajectory_file import MAX_BYTES, parse_trajectory_csv, parse_trajectory_json
+    from minparam_cli.experiment.trajectory_file import MAX_BYTES, parse_trajectory_csv, parse_trajectory_json
 
     path = Path(text)
     suffix = path.suffix.lower()
@@ -81,7 +81,7 @@ def _payload(mass, com, inertia):
         if com is not None or inertia is not None:
             raise InputError("--payload-com and --payload-inertia need --payload-mass")
         return None
-    from minparam_cli.identify.payload import PayloadSpec, check_spec
+    from minparam_cli.identify.physical.payload import PayloadSpec, check_spec
 
     try:
         m = float(mass)
@@ -109,7 +109,7 @@ def _side_gains(chain, side: str, current: bool):
 
 
 def _motor_values(motor_params: str | Mapping[str, float], chain) -> dict[str, float]:
-    from minparam_cli.identify.motor_side import parse_motor_params
+    from minparam_cli.identify.physical.motor_side import parse_motor_params
 
     if isinstance(motor_params, Mapping):
         motor_params = ",".join(f"{k}={v}" for k, v in motor_params.items())
@@ -126,8 +126,8 @@ def prepare_simulation(robot: Robot | str | Path, *, trajectory: str | Path = "f
     trajectory, the payload and motor-side transforms); every refusal is one ``InputError`` line."""
     from minparam_cli.chain import build_chain
     from minparam_cli.describe import load_description
-    from minparam_cli.identify.simulate_spec import SimulationOptions, parse_effects, validate_options
-    from minparam_cli.pipeline import require_fixed_base
+    from minparam_cli.experiment.simulate_spec import SimulationOptions, parse_effects, validate_options
+    from minparam_cli.robot import require_fixed_base
 
     if seed < 0:
         raise InputError(f"--seed must be >= 0, got {seed}")
@@ -165,14 +165,14 @@ def prepare_simulation(robot: Robot | str | Path, *, trajectory: str | Path = "f
 
     transforms: list[Callable] = []
     extra: dict[str, Any] = {}
-    if payload is not None:  # identify/payload.py: the payload's torque Y_n φ_L
-        from minparam_cli.identify.payload import with_payload
+    if payload is not None:  # identify/physical/payload.py: the payload's torque Y_n φ_L
+        from minparam_cli.identify.physical.payload import with_payload
 
         transforms.append(lambda c: with_payload(c, chain, payload))
         extra["payload"] = {"mass": payload.mass, "com": list(payload.com), "inertia": list(payload.inertia),
                             "standard_parameters": payload.known()}
-    if motor_values or side == "motor":  # motor parameters and motor-side signals: identify/motor_side.py
-        from minparam_cli.identify.motor_side import to_motor_side, with_motor_params
+    if motor_values or side == "motor":  # motor parameters and motor-side signals: identify/physical/motor_side.py
+        from minparam_cli.identify.physical.motor_side import to_motor_side, with_motor_params
 
         smooth = chain.with_coulomb_smoothing(opts.coulomb_smoothing)
         transforms.append(lambda c: with_motor_params(c, smooth, motor_values))

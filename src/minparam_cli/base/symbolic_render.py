@@ -218,7 +218,7 @@ def base_parameter_expressions(result) -> list[dict]:
     """One dict per base parameter of the generic set: name and its three symbolic forms."""
     import sympy as sp
 
-    from minparam_cli.render.text import latex_name
+    from minparam_cli.params import latex_name
 
     generic, coefficients, symbols = result["generic"], result["coefficients"], result["symbols"]
     exact = result.get("exact", {})
@@ -267,7 +267,7 @@ def base_parameter_expressions(result) -> list[dict]:
 
 
 def latex_block(items: list[dict], comment: str) -> str:
-    from minparam_cli.render.text import latex_name
+    from minparam_cli.params import latex_name
 
     lines = [f"% {comment}", r"\begin{align*}"]
     for i, b in enumerate(items):

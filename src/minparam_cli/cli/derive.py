@@ -75,7 +75,8 @@ def derive(
 @guarded
 def _derive(paths, method, fmt, friction, rotor_inertia, gravity, samples, seed, symbolic, snap_angles, output, recursive, jobs, quiet,
             mimic=MimicMode.coupled, floating_base=False, scheduler=None, symbolic_numbers=False):
-    from minparam_cli.pipeline import DeriveOptions, derive_file
+    from minparam_cli.pipeline import derive_file
+    from minparam_cli.robot import DeriveOptions
 
     method = Method(method).value
     kinds = tuple(k.strip() for k in friction.split(",") if k.strip())

@@ -55,7 +55,7 @@ def _evaluate(model, data, which, predictions, fmt, output, robot, time_unit, to
     from minparam_cli.api.identification import check_data_file, evaluation_report, evaluation_setup
     from minparam_cli.api.model_file import open_model
     from minparam_cli.errors import InputError
-    from minparam_cli.identify.evaluation import evaluate as run
+    from minparam_cli.model.evaluation import evaluate as run
 
     if predictions is not None and len(data) > 1:
         raise InputError(f"--predictions writes one file: give one DATA file (got {len(data)})")
@@ -83,8 +83,8 @@ def _band(m, kind: str, n: int, source: str, level: float):
     """The prediction band of the model file's covariance (one line, exit 2 where it cannot be made)."""
     import numpy as np
 
-    from minparam_cli.identify.bands import Band, check_level
-    from minparam_cli.identify.model import ModelError
+    from minparam_cli.model.bands import Band, check_level
+    from minparam_cli.model.file import ModelError
 
     check_level(level)
     if kind != "fit":

@@ -159,12 +159,12 @@ def _identify(robot, data, validate, test, split, columns, time_unit, topic, cut
               prior_weight, sigma, block_length, replicates, consistency, essential, essential_bound, ols, fmt, output, plot, seed, save_model, export_urdf, export_yaml, mimic, quiet, jobs=1, scheduler=None,
               side="joint", current=False, payload_data=None, payload_mass=None, payload_com=None, payload_inertia=None):
     from minparam_cli.measured.records import DataOptions
-    from minparam_cli.identify.diagnose import DiagnosisOptions
-    from minparam_cli.identify.effects import EFFECT_IDS
+    from minparam_cli.identify.diagnosis.diagnose import DiagnosisOptions
+    from minparam_cli.dynamics.effects import EFFECT_IDS
     from minparam_cli.identify.stage import IdentifyOptions, identify as run
     from minparam_cli.measured.rosbag import coordinate_names
     from minparam_cli.params import FRICTION_KINDS
-    from minparam_cli.pipeline import DeriveOptions, load_chain, require_fixed_base
+    from minparam_cli.robot import DeriveOptions, load_chain, require_fixed_base
 
     kinds = tuple(k.strip() for k in friction.split(",") if k.strip())
     for k in kinds:
@@ -198,7 +198,7 @@ def _identify(robot, data, validate, test, split, columns, time_unit, topic, cut
     _check_exports(robot, physical, export_urdf, export_yaml)
     physical_opts = None
     if physical:
-        from minparam_cli.identify.physical import PhysicalOptions
+        from minparam_cli.identify.physical.convex import PhysicalOptions
 
         physical_opts = PhysicalOptions(prior=prior.value, prior_weight=prior_weight)
     g = parse_floats(gravity, 3, "--gravity") if gravity is not None else None
@@ -206,7 +206,7 @@ def _identify(robot, data, validate, test, split, columns, time_unit, topic, cut
                                                mimic=MimicMode(mimic).value))
     require_fixed_base(chain, "identify")
     if physical and prior == Prior.nominal:  # refused before any data are read
-        from minparam_cli.describe.bodies import nominal_problems, nominal_problems_text
+        from minparam_cli.dynamics.bodies import nominal_problems, nominal_problems_text
         from minparam_cli.errors import InputError
 
         if nominal_problems(chain):
@@ -235,7 +235,7 @@ def _identify(robot, data, validate, test, split, columns, time_unit, topic, cut
     )
     if len(data) == 1:
         from minparam_cli.cli.identify_batch import maybe_batch
-        from minparam_cli.identify.model import LoadSettings
+        from minparam_cli.model.file import LoadSettings
 
         load = LoadSettings(friction=kinds, rotor_inertia=rotor_inertia, gravity=g, coulomb_smoothing=coulomb_smoothing, mimic=MimicMode(mimic).value)
         single = {"validate": validate, "test": test, "plot": plot, "save_model": save_model, "export_urdf": export_urdf, "export_yaml": export_yaml}
@@ -261,8 +261,8 @@ def _identify(robot, data, validate, test, split, columns, time_unit, topic, cut
         if len(art.models) == 1:
             save_png(residual_vs_velocity(art.hold, art.models[0], art.models[0], f"{chain.name}: rigid-body residual (selection data)"), plot / "residual_vs_velocity_step0.png")
         save_png(measured_vs_predicted(art.hold, art.models[-1], f"{chain.name}: selection-data torque"), plot / "measured_vs_predicted.png")
-    if payload is not None:  # identify/payload.py: a second recording with a known payload
-        from minparam_cli.identify.payload import payload_report
+    if payload is not None:  # identify/physical/payload.py: a second recording with a known payload
+        from minparam_cli.identify.physical.payload import payload_report
 
         gains_unknown = scale_note is not None
         report["payload"] = payload_report(art.design, data, payload_data, opts.data, payload, gains_unknown)
@@ -271,7 +271,7 @@ def _identify(robot, data, validate, test, split, columns, time_unit, topic, cut
         report.setdefault("flags", []).append(scale_note)
     if save_model is not None or export_urdf is not None or export_yaml is not None:
         from minparam_cli.cli.model_files import write_identify_outputs
-        from minparam_cli.identify.model import LoadSettings
+        from minparam_cli.model.file import LoadSettings
 
         load = LoadSettings(friction=kinds, rotor_inertia=rotor_inertia, gravity=g, coulomb_smoothing=coulomb_smoothing,
                             mimic=MimicMode(mimic).value)
@@ -290,7 +290,7 @@ def _identify(robot, data, validate, test, split, columns, time_unit, topic, cut
 
 
 def _uncertainty(sigma, block_length, replicates, seed):
-    from minparam_cli.identify.uncertainty import UncertaintyOptions, check_options
+    from minparam_cli.identify.assess.uncertainty import UncertaintyOptions, check_options
 
     u = UncertaintyOptions(kind=Sigma(sigma).value, block_s=block_length, replicates=replicates, seed=seed)
     check_options(u)
@@ -313,7 +313,7 @@ def _payload_spec(payload_data, mass, com, inertia):
         if any(v is not None for v in (mass, com, inertia)):
             raise InputError("--payload-mass, --payload-com and --payload-inertia need --payload-data")
         return None
-    from minparam_cli.identify.payload import PayloadSpec, check_spec
+    from minparam_cli.identify.physical.payload import PayloadSpec, check_spec
 
     spec = PayloadSpec(None if mass is None else float(mass), parse_floats(com, 3, "--payload-com") if com is not None else None,
                        parse_floats(inertia, 6, "--payload-inertia") if inertia is not None else None)

@@ -64,7 +64,7 @@ def batch_recordings(robot: Path, data: Path) -> list[Recording] | None:
 
 
 def _manifest_rows(path: Path, robot: Path) -> list[tuple[Path, Path]]:
-    from minparam_cli.describe.safety import read_bounded
+    from minparam_cli.safety import read_bounded
 
     try:
         text = read_bounded(path, MANIFEST_MAX_BYTES).decode("utf-8")
@@ -109,15 +109,15 @@ def identify_recording(data: Path, robot: Path, load, opts, nominal_prior: bool)
     """The worker's task: one recording identified against its robot file; the report and the saved
     model's text (written by the client, so workers on other machines write nothing)."""
     from minparam_cli.cli.model_files import read_robot_bytes
-    from minparam_cli.identify.model import dumps, saved_model
+    from minparam_cli.model.file import dumps, saved_model
     from minparam_cli.identify.stage import identify as run
     from minparam_cli.measured.rosbag import coordinate_names
-    from minparam_cli.pipeline import load_chain, require_fixed_base
+    from minparam_cli.robot import load_chain, require_fixed_base
 
     _, chain = load_chain(robot, load.derive_options(opts.seed))
     require_fixed_base(chain, "identify")
     if nominal_prior:
-        from minparam_cli.describe.bodies import nominal_problems, nominal_problems_text
+        from minparam_cli.dynamics.bodies import nominal_problems, nominal_problems_text
 
         if nominal_problems(chain):
             raise InputError("--prior nominal: " + nominal_problems_text(str(robot), nominal_problems(chain)))

@@ -9,7 +9,7 @@ from minparam_cli.output import write_output
 
 def read_robot_bytes(robot: Path) -> bytes:
     """The robot file's bytes (for its hash): a regular file within the description size cap."""
-    from minparam_cli.describe.safety import read_bounded
+    from minparam_cli.safety import read_bounded
 
     return read_bounded(Path(robot))
 
@@ -18,12 +18,12 @@ def write_identify_outputs(robot: Path, chain, load, opts, report: dict, art, sa
     """Write the model file and the robot exports of one identify run."""
     data = read_robot_bytes(robot)
     if save_model is not None:
-        from minparam_cli.identify.model import dumps, saved_model
+        from minparam_cli.model.file import dumps, saved_model
 
         write_output(dumps(saved_model(str(robot), data, load, opts.data, opts.seed, art, report)), save_model)
     if export_urdf is None and export_yaml is None:
         return
-    from minparam_cli.render import export_robot
+    from minparam_cli.model import export_robot
 
     phi = art.physical.phi
     note = f"inertials: physical fit of minparam identify on {report['data']} (robot file {robot})"
@@ -34,6 +34,6 @@ def write_identify_outputs(robot: Path, chain, load, opts, report: dict, art, sa
             text = export_robot.urdf_from_chain(chain, phi, note)
         write_output(text, export_urdf)
     if export_yaml is not None:
-        from minparam_cli.describe.safety import read_yaml
+        from minparam_cli.safety import read_yaml
 
         write_output(export_robot.yaml_with_inertials(read_yaml(robot), chain, phi, note), export_yaml)

@@ -166,7 +166,7 @@ def write_npz(stream, include_ddq: bool, output: Path) -> None:
 def write_csv(stream, include_ddq: bool, output: Path) -> None:
     """The stream as CSV (header t, q1..qn, dq1..dqn, [ddq1..ddqn,] tau1..taun), chunk by chunk,
     through ``atomic_write`` (``-``: stdout)."""
-    from minparam_cli.identify.simulate_spec import data_columns
+    from minparam_cli.experiment.simulate_spec import data_columns
     from minparam_cli.measured.writing import CsvWriter
 
     n = stream.plan.chain.dof

@@ -288,7 +288,7 @@ def inverse_dynamics(rec: Recorded, kept, theta, terms=(), theta_model=None, smo
 
     tau = torque(rec, standard(theta))
     tau_model = None if theta_model is None else torque(rec, standard(theta_model))
-    from minparam_cli.identify.effects import EFFECTS
+    from minparam_cli.dynamics.effects import EFFECTS
 
     c = nb
     omitted = []

@@ -9,7 +9,7 @@ import re
 from fractions import Fraction
 from typing import Any
 
-from minparam_cli.describe.safety import MAX_ABS_VALUE, finite_number, short_repr
+from minparam_cli.safety import MAX_ABS_VALUE, finite_number, short_repr
 from minparam_cli.errors import DescriptionError
 
 _PI_RE = re.compile(r"^\s*([+-]?(?:\d+(?:\.\d*)?|\.\d+)?)\s*\*?\s*pi\s*(?:/\s*(\d+(?:\.\d*)?))?\s*$")

@@ -30,7 +30,7 @@ from pathlib import Path
 from typing import Any
 
 from minparam_cli.describe.angles import parse_angle
-from minparam_cli.describe.safety import finite_number, key_list, read_yaml, short_repr
+from minparam_cli.safety import finite_number, key_list, read_yaml, short_repr
 from minparam_cli.errors import DescriptionError
 
 LENGTH_UNITS = ("mm", "cm", "m")

@@ -28,7 +28,7 @@ from typing import Any
 import numpy as np
 
 from minparam_cli.describe.records import Transmission
-from minparam_cli.describe.safety import finite_number, key_list, read_yaml, short_repr
+from minparam_cli.safety import finite_number, key_list, read_yaml, short_repr
 from minparam_cli.errors import DescriptionError
 from minparam_cli.params import MOTOR_FRICTION_KINDS, MOTOR_KINDS
 

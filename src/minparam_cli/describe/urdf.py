@@ -45,7 +45,7 @@ from pathlib import Path
 import numpy as np
 
 from minparam_cli.describe.records import RobotDescription
-from minparam_cli.describe.safety import parse_xml_safely, read_bounded
+from minparam_cli.safety import parse_xml_safely, read_bounded
 from minparam_cli.describe.urdf_elements import ACTUATED, read_elements
 from minparam_cli.describe.urdf_tree import build_description
 from minparam_cli.errors import DescriptionError

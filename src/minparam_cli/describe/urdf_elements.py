@@ -8,7 +8,7 @@ import math
 
 import numpy as np
 
-from minparam_cli.describe.safety import MAX_ABS_VALUE, MAX_NUMBER_CHARS, bounded, short_repr
+from minparam_cli.safety import MAX_ABS_VALUE, MAX_NUMBER_CHARS, bounded, short_repr
 from minparam_cli.errors import DescriptionError, UnsupportedError
 
 ACTUATED = {"revolute": "revolute", "continuous": "revolute", "prismatic": "prismatic"}

@@ -11,7 +11,7 @@ from fractions import Fraction
 import numpy as np
 
 from minparam_cli.describe.records import GeomValue, Inertial, JointRecord, RobotDescription
-from minparam_cli.describe.safety import MAX_JOINTS
+from minparam_cli.safety import MAX_JOINTS
 from minparam_cli.describe.urdf_elements import ACTUATED
 from minparam_cli.describe.urdf_tool import default_tool
 from minparam_cli.errors import DescriptionError, UnsupportedError

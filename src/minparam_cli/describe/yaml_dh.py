@@ -26,7 +26,7 @@ from typing import Any
 
 from minparam_cli.describe.angles import parse_angle
 from minparam_cli.describe.records import GeomValue, Inertial, JointRecord, RobotDescription
-from minparam_cli.describe.safety import MAX_JOINTS, finite_number, key_list, read_yaml, short_repr
+from minparam_cli.safety import MAX_JOINTS, finite_number, key_list, read_yaml, short_repr
 from minparam_cli.errors import DescriptionError, NotARobotError
 from minparam_cli.params import FRICTION_KINDS
 

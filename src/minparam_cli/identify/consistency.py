@@ -25,7 +25,7 @@ from typing import cast
 import numpy as np
 
 from minparam_cli.errors import DataError
-from minparam_cli.identify.uncertainty import Uncertainty, from_weighted, relative_percent, weighted_blocks
+from minparam_cli.identify.assess.uncertainty import Uncertainty, from_weighted, relative_percent, weighted_blocks
 
 LEVEL = 0.99  # a parameter is flagged when χ² exceeds this quantile
 

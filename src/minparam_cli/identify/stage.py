@@ -21,18 +21,18 @@ import numpy as np
 
 from minparam_cli.chain import Chain
 from minparam_cli.errors import DataError
-from minparam_cli.identify.data import time_span
+from minparam_cli.measured.blocks import time_span
 from minparam_cli.measured.records import Block, DataOptions
-from minparam_cli.identify.design import Design
-from minparam_cli.identify.diagnose import DiagnosisOptions, diagnose
-from minparam_cli.identify.fit import errors, full_theta, solve
-from minparam_cli.identify.explain import describe_rejected, describe_terms, nominal_notes
-from minparam_cli.identify.physical import PhysicalOptions
-from minparam_cli.identify.quality import COND_LIMIT, check_excitation, flags, keep_physical
-from minparam_cli.identify.roles import DEFAULT_SPLIT, FIT, SELECTION, TEST, describe, plan
-from minparam_cli.identify.slots import final_maps, slot_sources
-from minparam_cli.identify.stream import stream
-from minparam_cli.identify.uncertainty import BlockGrams, UncertaintyOptions, block_length, estimate, relative_percent
+from minparam_cli.identify.passes.design import Design
+from minparam_cli.identify.diagnosis.diagnose import DiagnosisOptions, diagnose
+from minparam_cli.identify.estimate.fit import errors, full_theta, solve
+from minparam_cli.identify.diagnosis.explain import describe_rejected, describe_terms, nominal_notes
+from minparam_cli.identify.physical.convex import PhysicalOptions
+from minparam_cli.identify.assess.quality import COND_LIMIT, check_excitation, flags, keep_physical
+from minparam_cli.identify.passes.roles import DEFAULT_SPLIT, FIT, SELECTION, TEST, describe, plan
+from minparam_cli.identify.passes.slots import final_maps, slot_sources
+from minparam_cli.identify.passes.stream import stream
+from minparam_cli.identify.assess.uncertainty import BlockGrams, UncertaintyOptions, block_length, estimate, relative_percent
 
 DIAGNOSIS_CAP = 12_000  # samples kept for the diagnosis (fit part; half as many of the selection part)
 
@@ -141,7 +141,7 @@ def _identify(chain: Chain, data_path: Path, opts: IdentifyOptions, progress) ->
             kept_before = final_design
             final_design, final_fit, acc_final, removed = keep_physical(final_design, final_fit, acc_final, opts.weighted)
             if removed:  # keep_physical refits on fewer columns: the blocks follow the accumulators' columns
-                from minparam_cli.identify.uncertainty import restrict_maps
+                from minparam_cli.identify.assess.uncertainty import restrict_maps
 
                 maps = restrict_maps(maps, kept_before, final_design, grams)
             steps_out += removed
@@ -154,7 +154,7 @@ def _identify(chain: Chain, data_path: Path, opts: IdentifyOptions, progress) ->
     artifacts.grams = (grams, maps)
     essential = None
     if opts.essential is not None and grams is not None:
-        from minparam_cli.identify.essential import essential_report
+        from minparam_cli.identify.assess.essential import essential_report
 
         essential = essential_report(grams, maps, final_fit, opts.uncertainty, opts.essential, acc_final, test_keys)
     artifacts.design, artifacts.base = final_design, base
@@ -243,7 +243,7 @@ def _honest_sigma(grams, maps, fit, opts: IdentifyOptions, progress):
 def _physical(chain: Chain, base, design: Design, fit, acc: dict, popts: PhysicalOptions, test_keys: list):
     """The convex fit on the fit data (same weights as the unconstrained fit), its errors on the
     selection and test data beside the unconstrained ones, and its bodies."""
-    from minparam_cli.identify.physical import fit_physical, link_bodies
+    from minparam_cli.identify.physical.convex import fit_physical, link_bodies
 
     weights = fit.sigma if fit.method == "wls" else np.ones(chain.dof)
     R = acc[FIT].stacked(weights)

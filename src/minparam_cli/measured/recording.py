@@ -61,7 +61,7 @@ def is_description(path: Path) -> bool:
 
 def read_description(path: Path) -> Recording:
     """The description's files, signals and rate, checked; DataError (one line) otherwise."""
-    from minparam_cli.describe.safety import read_yaml
+    from minparam_cli.safety import read_yaml
     from minparam_cli.errors import DescriptionError
 
     src = str(path)

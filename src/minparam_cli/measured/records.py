@@ -1,7 +1,7 @@
 """The records of measured joint data shared by every reader and the processing: the options
 (``DataOptions``), a block of samples (``Block``), what was read and dropped (``DataReport``), and
 the sampling step of time stamps.  Below the readers (``measured/reading.py`` and the other ``measured/*``) and the
-processing (``measured/filtering.py``, ``identify/data.py``), so that none of them imports another
+processing (``measured/filtering.py``, ``measured/blocks.py``), so that none of them imports another
 to get these."""
 
 from __future__ import annotations

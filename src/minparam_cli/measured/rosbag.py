@@ -47,7 +47,7 @@ def is_bag(path: Path) -> bool:
 def require_bag(path: Path) -> None:
     """A bag file must be a regular file; a rosbag2 folder must hold regular files only (a FIFO or a
     device among them would hang or never end), refused without opening anything."""
-    from minparam_cli.describe.safety import require_regular_file
+    from minparam_cli.safety import require_regular_file
 
     if not path.is_dir():
         require_regular_file(path, DataError)

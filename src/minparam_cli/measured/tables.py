@@ -127,7 +127,7 @@ MAX_NPZ_BYTES = 16 * 2**30
 def require_data_file(path: Path) -> None:
     """A data file must be a regular file: a FIFO would wait for a writer, a device (/dev/zero,
     /dev/urandom) never ends, a folder is not data.  Refused at once, without opening it."""
-    from minparam_cli.describe.safety import require_regular_file
+    from minparam_cli.safety import require_regular_file
 
     require_regular_file(Path(path), DataError)
 

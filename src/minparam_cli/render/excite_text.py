@@ -12,7 +12,7 @@ SERIES = ("q_j(t) = q0_j + sum_l a_jl/(w l) sin(w l t) - b_jl/(w l) cos(w l t), 
 
 def csv_text(result) -> str:
     """t, q1..qn, dq1..dqn, ddq1..ddqn (SI): the header of ``simulate``'s data files without tau."""
-    from minparam_cli.identify.simulate_spec import data_columns
+    from minparam_cli.experiment.simulate_spec import data_columns
 
     n = result.q.shape[1]
     header = data_columns(n, True)[: 1 + 3 * n]

@@ -7,7 +7,7 @@ nothing).
 
 from __future__ import annotations
 
-from minparam_cli.identify.roles import span_text
+from minparam_cli.identify.passes.roles import span_text
 from minparam_cli.render.columns import columns
 
 

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import re
 
-from minparam_cli.params import split_name
+from minparam_cli.params import latex_name
 from minparam_cli.render.columns import columns
 from minparam_cli.render.report import format_coefficient
 
@@ -123,17 +123,6 @@ def render_markdown(r: dict) -> str:
         lines += ["", "```", *notes, "```"]
     lines += [f"- {ln}" for ln in _symbolic_footer(r) if ln]
     return "\n".join(lines) + "\n"
-
-
-def latex_name(name: str) -> str:
-    """'XXR2' -> '\\mathrm{XX}^{R}_{2}', 'Ia3' -> '\\mathrm{Ia}_{3}'."""
-    kind, link = split_name(name)
-    sup = ""
-    if kind.endswith("R") and kind not in ("R",):
-        plain = kind[:-1]
-        if plain in ("XX", "XY", "XZ", "YY", "YZ", "ZZ", "MX", "MY", "MZ", "M", "Ia", "Fc", "Fv", "OFF"):
-            kind, sup = plain, "^{R}"
-    return rf"\mathrm{{{kind}}}{sup}_{{{link}}}"
 
 
 def latex_terms(terms: dict[str, float]) -> str:

@@ -1,0 +1,339 @@
+"""Design an excitation trajectory: seeded multi-start SLSQP on Swevers' Fourier coefficients.
+
+Minimises the criterion of ``criterion`` (the base regressor's column-scaled
+condition number by default) over X = (q0, a, b) of every joint, subject to
+the limits of ``constraints`` on the grid of GRID_POINTS_PER_HARMONIC points
+per period of the highest harmonic, and (``rest``) the two linear rest
+conditions of ``fourier``.  The optimiser is scipy.optimize's SLSQP (Kraft
+1988): it takes the many linear limit constraints with their exact
+Jacobians, the gradient of the criterion is semi-analytic (``criterion``),
+and it needs no further dependency.
+
+Starts: ``starts`` random series drawn exactly as ``simulate`` draws its
+excitation (``identify.trajectory.fourier_excitation``: standard normal
+coefficients scaled into the margin-shrunk range and rate limits), one child
+generator per start from the one seeded generator; with ``rest`` each start
+is projected onto the rest conditions and scaled back into the limits.  The
+best end point that passes the dense check wins, after its repair
+(``constraints``), and the reported figures are computed on the output samples.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from minparam_cli.base.result import BaseSet
+from minparam_cli.chain import Chain
+from minparam_cli.errors import ComputationError, InputError
+from minparam_cli.experiment.excite import constraints as cons
+from minparam_cli.experiment.excite import starts
+from minparam_cli.experiment.excite.criterion import CRITERIA, condition_number, criterion_value, sensitivities
+from minparam_cli.experiment.excite.fourier import basis, from_trajectory, rest_rows, to_trajectory
+from minparam_cli.experiment.trajectory import FourierTrajectory
+
+GRID_POINTS_PER_HARMONIC = 16
+BOX_GRID_POINTS_PER_HARMONIC = 64  # the box constraint is cheap (forward kinematics): a finer grid
+# The optimiser keeps the point this far inside the --box (m); SQP ends can break a constraint by a hair,
+# and an end point is accepted when it is at least half of this inside the box (and within the effort
+# limits themselves) on the grid.
+BOX_MARGIN = 0.005
+REGRESSOR_CHUNK = 2048
+
+
+@dataclass(frozen=True)
+class ExciteOptions:
+    harmonics: int = 5
+    base_frequency: float = 0.1  # Hz
+    rate: float = 200.0  # Hz, output samples
+    periods: int = 1
+    criterion: str = "cond"
+    scaled: bool = False  # criterion of the base regressor in SI units (True: with unit-norm columns)
+    starts: int = 4
+    max_iterations: int = 150
+    margin: float = 0.1
+    rest: bool = False
+
+
+@dataclass(frozen=True)
+class StartRecord:
+    start_criterion: float  # κ (cond) or the logdet criterion of the start, on the grid
+    end_criterion: float
+    iterations: int
+    message: str
+
+
+@dataclass(frozen=True, eq=False)
+class ExciteResult:
+    trajectory: FourierTrajectory
+    options: ExciteOptions
+    limits: cons.Limits
+    criterion: float  # on the grid: κ for cond, f for logdet
+    cond_output: float  # κ(W D⁻¹) of the base regressor on the output samples
+    cond_output_si: float  # κ(W), W in SI units, on the output samples
+    t: np.ndarray
+    q: np.ndarray
+    dq: np.ndarray
+    ddq: np.ndarray
+    tau: np.ndarray | None  # nominal rigid-body torque (None without inertial values)
+    box_path: np.ndarray | None
+    starts: tuple[StartRecord, ...]
+    best_start: int
+    repair_scale: tuple[float, ...]  # per joint, the factor of the final repair (1: none)
+    base_names: tuple[str, ...]
+    elapsed_s: float
+    grid_points: int
+    cpu_s: float = 0.0  # CPU time of this process (the one-core figure on a busy machine)
+    extra: dict = field(default_factory=dict)
+
+
+def validate(options: ExciteOptions) -> None:
+    o = options
+    if o.harmonics < 1:
+        raise InputError(f"--harmonics must be at least 1, got {o.harmonics}")
+    for value, flag in ((o.base_frequency, "--base-frequency"), (o.rate, "--rate")):
+        if not (math.isfinite(value) and value > 0):
+            raise InputError(f"{flag} must be a positive number of Hz, got {value:g}")
+    if o.harmonics * o.base_frequency >= o.rate / 2:
+        raise InputError(f"the highest harmonic ({o.harmonics} x {o.base_frequency:g} Hz) must be below half the --rate ({o.rate / 2:g} Hz)")
+    if o.rest and o.harmonics < 2:
+        raise InputError("--rest needs at least 2 harmonics (with one, starting at rest means not moving)")
+    if o.periods < 1:
+        raise InputError(f"--periods must be at least 1, got {o.periods}")
+    if o.starts < 1:
+        raise InputError(f"--starts must be at least 1, got {o.starts}")
+    if o.max_iterations < 1:
+        raise InputError(f"--max-iterations must be at least 1, got {o.max_iterations}")
+    if not 0 <= o.margin < 0.5:
+        raise InputError(f"--margin must be in [0, 0.5), got {o.margin:g}")
+    if o.criterion not in CRITERIA:
+        raise InputError(f"--criterion must be one of {', '.join(CRITERIA)}, got {o.criterion!r}")
+
+
+def chain_limits(chain: Chain, margin: float, box=None, point=None) -> cons.Limits:
+    """The description's limits for the independent coordinates (position defaults as simulate's)."""
+    from minparam_cli.experiment.trajectory import joint_ranges
+
+    coords = chain.coordinates
+    given = [chain.limits[j] for j in coords] if chain.limits else [None] * len(coords)
+    ranges = np.array(joint_ranges(chain.coordinate_types, given), dtype=float)
+    defaulted = tuple(i for i, g in enumerate(given) if g is None)
+
+    def per(values):
+        if not values:
+            return np.full(len(coords), np.nan)
+        return np.array([np.nan if values[j] is None else float(values[j]) for j in coords])
+
+    lim = cons.Limits(ranges[:, 0], ranges[:, 1], per(chain.velocity_limits), per(chain.acceleration_limits),
+                      per(chain.effort_limits), float(margin), defaulted, box, point)
+    for j in range(lim.n):
+        if not lim.upper[j] > lim.lower[j]:
+            raise InputError(f"joint {j + 1}: empty position range [{lim.lower[j]:g}, {lim.upper[j]:g}]")
+    return lim
+
+
+def _report_value(f: float, kind: str) -> float:
+    return float(np.exp(f)) if kind == "cond" else float(f)
+
+
+def output_times(options: ExciteOptions) -> np.ndarray:
+    samples = int(round(options.periods * options.rate / options.base_frequency))
+    return np.arange(samples + (1 if options.rest else 0)) / options.rate
+
+
+def base_regressor(chain: Chain, kept, q, dq, ddq) -> np.ndarray:
+    """Stacked base regressor (N·n, p) at the samples, in chunks."""
+    from minparam_cli.dynamics.regressor import regressor
+
+    kept = list(kept)
+    rows = []
+    for s in range(0, q.shape[0], REGRESSOR_CHUNK):
+        e = s + REGRESSOR_CHUNK
+        Y = regressor(chain, q[s:e], dq[s:e], ddq[s:e])[:, :, kept]
+        rows.append(Y.reshape(-1, len(kept)))
+    return np.vstack(rows)
+
+
+def design(chain: Chain, base: BaseSet, options: ExciteOptions, limits: cons.Limits, rng: np.random.Generator,
+           phi=None, progress=None) -> ExciteResult:
+    """The excitation trajectory of ``chain`` (module docstring).  ``phi``: nominal standard inertial
+    parameters for the torque limits (None: no torque limits); ``progress(done, total)``."""
+    from scipy.optimize import minimize
+
+    validate(options)
+    t0, c0 = time.perf_counter(), time.process_time()
+    n, H, kind = chain.dof, options.harmonics, options.criterion
+    m = 1 + 2 * H
+    N = GRID_POINTS_PER_HARMONIC * max(H, 4)
+    period = 1.0 / options.base_frequency
+    tg = np.arange(N) * (period / N)
+    Bq, Bv, Ba = basis(tg, options.base_frequency, H)
+    A, b = cons.linear_constraints(limits, Bq, Bv, Ba)
+    use_tau = phi is not None and bool(np.isfinite(limits.effort).any())
+    tau_joints = np.flatnonzero(np.isfinite(limits.effort)) if use_tau else np.zeros(0, int)
+    kept = list(base.kept)
+    centre = starts.feasible_centre(chain, limits, phi if use_tau else None) if (use_tau or limits.box is not None) else None
+
+    cache: dict = {}
+
+    def evaluate(x):
+        key = x.tobytes()
+        if key not in cache:
+            cache.clear()
+            X = x.reshape(n, m)
+            q, dq, ddq = Bq @ X.T, Bv @ X.T, Ba @ X.T
+            sens = sensitivities(chain, kept, q, dq, ddq, kind, phi if use_tau else None, options.scaled)
+            grad = sens.dq.T @ Bq + sens.ddq_v.T @ Bv + sens.ddq_a.T @ Ba
+            cache[key] = (sens, grad.ravel(), q)
+        return cache[key]
+
+    def fun(x):
+        sens, grad, _ = evaluate(x)
+        return sens.value, grad
+
+    constraints = [{"type": "ineq", "fun": lambda x: b - A @ x, "jac": lambda x: -A}]
+    slack = [0.0]  # per constraint: how far below 0 its value may go with the limits themselves still met
+    if options.rest:
+        R = np.kron(np.eye(n), rest_rows(H))
+        constraints.append({"type": "eq", "fun": lambda x: R @ x, "jac": lambda x: R})
+        slack.append(0.0)
+    if use_tau:
+        e = limits.shrunk(limits.effort[tau_joints])
+
+        def tau_fun(x):
+            tau = evaluate(x)[0].tau[:, tau_joints]
+            return np.concatenate([(e - tau).ravel(), (e + tau).ravel()])
+
+        def tau_jac(x):
+            s = evaluate(x)[0]
+            J = cons.state_jacobian(s.tau_q[:, tau_joints], s.tau_v[:, tau_joints], s.tau_a[:, tau_joints], Bq, Bv, Ba)
+            return np.vstack([-J, J])
+
+        constraints.append({"type": "ineq", "fun": tau_fun, "jac": tau_jac})
+        slack.append(np.tile(np.repeat(limits.margin * limits.effort[tau_joints][None, :], N, axis=0).ravel(), 2))
+    if limits.box is not None:
+        axes = [(c, side) for c in range(3) for side in (0, 1) if np.isfinite(limits.box[c, side])]
+
+        tb = np.arange(BOX_GRID_POINTS_PER_HARMONIC * max(H, 4)) * (period / (BOX_GRID_POINTS_PER_HARMONIC * max(H, 4)))
+        Bq_box = basis(tb, options.base_frequency, H)[0]
+
+        def box_fun(x):
+            p = cons.box_point(chain, Bq_box @ x.reshape(n, m).T, limits.point)
+            return np.concatenate([(p[:, c] - limits.box[c, 0] - BOX_MARGIN) if side == 0 else (limits.box[c, 1] - BOX_MARGIN - p[:, c])
+                                   for c, side in axes])
+
+        def box_jac(x):
+            dp = cons.box_point_jacobian(chain, Bq_box @ x.reshape(n, m).T, limits.point)  # (N_box, 3, n)
+            rows = []
+            for c, side in axes:
+                d = dp[:, c:c + 1] * (1.0 if side == 0 else -1.0)
+                rows.append(cons.state_jacobian(d, np.zeros_like(d), np.zeros_like(d), Bq_box, Bq_box, Bq_box))
+            return np.vstack(rows)
+
+        constraints.append({"type": "ineq", "fun": box_fun, "jac": box_jac})
+        slack.append(BOX_MARGIN / 2)
+
+    records, ends = [], []
+    total = options.starts * options.max_iterations
+    for i, child in enumerate(_children(rng, options.starts)):
+        start = starts.random_start(limits, options, child)
+        if centre is not None:
+            start = starts.feasible_start(chain, start, limits, phi if use_tau else None, centre, tg)
+        x0 = from_trajectory(start).ravel()
+        f0 = fun(x0)[0]
+        count = [0]
+
+        def step(_xk, i=i, count=count):
+            count[0] += 1
+            if progress:
+                progress(i * options.max_iterations + count[0], total)
+
+        res = minimize(fun, x0, jac=True, method="SLSQP", constraints=constraints, callback=step,
+                       options={"maxiter": options.max_iterations, "ftol": 1e-7})
+        x = np.asarray(res.x)
+        feasible = _grid_feasible(x, A, b, constraints, slack)
+        f = fun(x)[0] if feasible else np.inf
+        if not feasible:  # SLSQP stopped outside the limits: keep the start's (feasible) value
+            x = x0
+            f = f0 if _grid_feasible(x0, A, b, constraints, slack) else np.inf
+        records.append(StartRecord(_report_value(f0, kind), _report_value(f, kind), int(res.nit), str(res.message)))
+        if progress:
+            progress((i + 1) * options.max_iterations, total)
+        if np.isfinite(f):
+            ends.append((f, i, x))
+    if not ends:
+        raise ComputationError("no start met the limits (torque limits or the Cartesian box may be infeasible)")
+
+    t = output_times(options)
+    failures = []
+    for _, best, best_x in sorted(ends, key=lambda e: e[0]):  # the best end point that passes the dense check
+        traj, scale, broken = _checked(chain, to_trajectory(best_x.reshape(n, m), options.base_frequency), limits,
+                                       phi if use_tau else None, t)
+        if not broken:
+            break
+        failures.append(broken)
+    else:
+        raise ComputationError("the designed motion breaks a limit between grid points (" + "; ".join(failures[0])
+                               + "); try a wider --box, a larger --margin or another --seed")
+    q, dq, ddq = traj.evaluate(t)
+    W = base_regressor(chain, kept, q, dq, ddq)
+    tau = None
+    if phi is not None:
+        from minparam_cli.experiment.simulate import rigid_torque
+
+        tau = rigid_torque(chain, q, dq, ddq, phi)
+    box_path = cons.box_point(chain, q, limits.point) if limits.box is not None else None
+    qg, dqg, ddqg = traj.evaluate(tg)
+    final = criterion_value(base_regressor(chain, kept, qg, dqg, ddqg), kind, options.scaled)
+    return ExciteResult(
+        trajectory=traj, options=options, limits=limits, criterion=_report_value(final, kind),
+        cond_output=condition_number(W), cond_output_si=condition_number(W, scaled=False), t=t, q=q, dq=dq, ddq=ddq, tau=tau, box_path=box_path,
+        starts=tuple(records), best_start=best, repair_scale=tuple(float(s) for s in scale),
+        base_names=base.base_names, elapsed_s=time.perf_counter() - t0, grid_points=N,
+        cpu_s=time.process_time() - c0,
+    )
+
+
+def _checked(chain, traj: FourierTrajectory, limits: cons.Limits, phi, t):
+    """``traj`` repaired and checked densely (``constraints``): the all-instant repair of positions and
+    rates, then torques and the box, shrinking the motion about its mean while they fail (which lowers
+    the dynamic torques; for the box it helps only when the mean lies well inside).  Returns the trajectory, the per-joint scale and
+    the limits still broken (empty: none)."""
+    scale = cons.rigorous_scale(traj, limits)
+    traj = cons.scaled(traj, scale)
+    if phi is None and limits.box is None:
+        return traj, scale, []
+    check_t = cons.dense_times(traj, t)
+    broken: list[str] = []
+    for _ in range(cons.REPAIR_STEPS):
+        broken = cons.nonlinear_violations(chain, traj, limits, phi, check_t)
+        if not broken:
+            break
+        traj = cons.scaled(traj, cons.REPAIR_FACTOR)
+        scale = scale * cons.REPAIR_FACTOR
+    return traj, scale, broken
+
+
+def _grid_feasible(x, A, b, constraints, slack, rtol: float = 1e-6) -> bool:
+    """Every constraint holds on the grid: the linear ones and the rest conditions up to rtol of their
+    bound's size, the torque and box ones up to their ``slack`` (the limits themselves, not the
+    optimiser's tighter targets)."""
+    scale = max(1.0, float(np.abs(b).max()))
+    if np.any(A @ x - b > rtol * scale):
+        return False
+    for c, sl in zip(constraints[1:], slack[1:]):
+        v = c["fun"](x)
+        if c["type"] == "eq" and np.any(np.abs(v) > rtol * scale):
+            return False
+        if c["type"] == "ineq" and np.any(v + sl < -rtol * max(1.0, float(np.abs(v).max()))):
+            return False
+    return True
+
+
+def _children(rng: np.random.Generator, count: int) -> list[np.random.Generator]:
+    from minparam_cli.experiment.simulate import child_generators
+
+    return child_generators(rng, count)

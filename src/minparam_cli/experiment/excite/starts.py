@@ -1,0 +1,83 @@
+"""Starting points of the design: simulate's random series, moved and shrunk into torque and box limits.
+
+``random_start`` draws a series exactly as ``simulate`` draws its excitation
+(``identify.trajectory.fourier_excitation``), projected onto the rest
+conditions when asked and scaled into the all-instant limits.  With torque
+limits or a box, ``feasible_centre`` picks a standing position that meets
+them (the best of STATIC_SAMPLES fixed-seed positions; none: the limits are
+refused as infeasible), and ``feasible_start`` moves a series there and
+shrinks it until it meets them on the grid, so that SLSQP starts feasible.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from minparam_cli.chain import Chain
+from minparam_cli.errors import InputError
+from minparam_cli.experiment.excite import constraints as cons
+from minparam_cli.experiment.excite.fourier import from_trajectory, project_to_rest, to_trajectory
+from minparam_cli.experiment.trajectory import FourierTrajectory, fourier_excitation
+
+
+def random_start(limits: cons.Limits, options, rng: np.random.Generator) -> FourierTrajectory:
+    """simulate's random series for ``options`` (harmonics, base_frequency, rest), inside ``limits``."""
+    vel = [None if not np.isfinite(v) else float(v) for v in limits.velocity]
+    acc = [None if not np.isfinite(v) else float(v) for v in limits.acceleration]
+    ranges = np.column_stack([limits.lower, limits.upper])
+    traj = fourier_excitation(ranges, options.harmonics, options.base_frequency, rng, limits.margin, vel, acc)
+    if options.rest:
+        traj = to_trajectory(project_to_rest(from_trajectory(traj)), options.base_frequency)
+    return cons.scaled(traj, cons.rigorous_scale(traj, limits))
+
+
+STATIC_SAMPLES = 4096
+START_SHRINK = 0.7  # a start that breaks a torque or box limit is shrunk by this factor until it does not
+START_SHRINK_STEPS = 20
+
+
+def feasible_centre(chain: Chain, limits: cons.Limits, phi) -> np.ndarray:
+    """A position that meets the torque limits standing still (margin included) and puts the point in
+    the box: the best of STATIC_SAMPLES positions spread over the shrunk ranges (fixed-seed sampler,
+    the centre first).  None there is: the limits are refused as infeasible (a necessary condition)."""
+    from minparam_cli.experiment.simulate import rigid_torque
+
+    lo, hi = limits.shrunk_range()
+    u = np.random.default_rng(0).uniform(size=(STATIC_SAMPLES, limits.n))
+    q = np.vstack([(lo + hi) / 2.0, lo + u * (hi - lo)])
+    badness = np.zeros(q.shape[0])
+    if phi is not None:
+        tau = np.abs(rigid_torque(chain, q, np.zeros_like(q), np.zeros_like(q), phi))
+        e = limits.shrunk(limits.effort)
+        has = np.isfinite(e)
+        ratio = np.where(has, tau / np.where(has, e, 1.0), 0.0)
+        worst = ratio.max(axis=1)
+        if np.all(worst > 1.0):
+            best = int(np.argmin(worst))
+            j = int(np.argmax(ratio[best]))
+            raise InputError(f"infeasible limits: standing still, joint {j + 1} needs at least {tau[best, j]:.4g} N·m (or N) "
+                             f"against gravity in every position tried, above its effort limit less the margin ({e[j]:.4g})")
+        badness = np.maximum(worst - 1.0, 0.0)
+    if limits.box is not None:
+        p = cons.box_point(chain, q, limits.point)
+        with np.errstate(invalid="ignore"):
+            out = np.nan_to_num(np.maximum(limits.box[:, 0] - p, 0.0)) + np.nan_to_num(np.maximum(p - limits.box[:, 1], 0.0))
+        miss = out.sum(axis=1)
+        if np.all(miss > 0):
+            raise InputError("infeasible limits: the --box point lies outside the box in every position tried")
+        badness = badness + 1e3 * miss
+        # among the feasible positions, the one deepest inside the box
+        depth = np.nan_to_num(np.minimum(p - limits.box[:, 0], limits.box[:, 1] - p), nan=np.inf).min(axis=1)
+        badness = badness - 1e-3 * np.where(np.isfinite(depth), depth, 0.0)
+    return q[int(np.argmin(badness))]
+
+
+def feasible_start(chain, traj: FourierTrajectory, limits: cons.Limits, phi, centre, t) -> FourierTrajectory:
+    """``traj`` moved to ``centre`` and shrunk until it meets the torque and box limits at times t."""
+    traj = FourierTrajectory(traj.base_frequency, np.asarray(centre, dtype=float), traj.a, traj.b)
+    traj = cons.scaled(traj, cons.rigorous_scale(traj, limits))
+    for _ in range(START_SHRINK_STEPS):
+        if not cons.nonlinear_violations(chain, traj, limits, phi, t, shrunk=True):
+            break
+        traj = cons.scaled(traj, START_SHRINK)
+    return traj

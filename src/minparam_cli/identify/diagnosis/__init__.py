@@ -1,0 +1,1 @@
+"""The residual diagnosis: candidate effects scored on the held-out part, the loop, explanations."""

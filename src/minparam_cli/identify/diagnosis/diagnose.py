@@ -1,0 +1,345 @@
+"""Stepwise diagnosis: trace the residual to effects the model lacks.
+
+At every step, with Gautier's per-joint weights from the current fit:
+
+1. an orthonormal basis Q of the current weighted design's range (thin SVD,
+   rank-revealing), residual r0;
+2. for every candidate term E (an effect of the library on one joint or on all
+   joints, and every grid value of its nonlinear parameter), its new part
+   E⊥ = E − Q Qᵀ E, the refit g = argmin ‖r0 − E⊥ g‖ and the updated model
+   parameters θ' = θ − X⁺ E g (exact least squares for [X E], without
+   refactoring);
+3. score each candidate on the selection data (never on the fit data, never
+   on the test data): ΔBIC = N_s ln(RSS_s1/RSS_s0) + m ln N_s (m = the rank
+   of E⊥, so columns already in the model cost nothing and gain nothing),
+   with the fit-data F-test beside it;
+4. a candidate qualifies when ΔBIC < −10 (very strong evidence, Kass &
+   Raftery 1995), it removes at least ``min_gain`` of the weighted selection
+   residual energy, the unweighted selection error falls, and its fitted
+   coefficients lie in the effect's physical range on every joint it is added
+   to (``effects.in_bounds``: friction dissipates, inertia is positive, a
+   gain stays within 0.5..1.5).  A group term whose coefficients leave the
+   range on some joints is scored again on the joints where they do not.
+   The qualifying candidate of lowest ΔBIC is added; when none qualifies the
+   pass stops.  A candidate that would qualify but for its sign, and beats
+   the one added, is kept as a ``rejected`` note: the residual it explains is
+   real, its physical name is not.
+
+Columns that are combinations of the model's (rotor inertia of a joint whose
+axis is fixed in the base, for instance) have E⊥ = 0: they regroup with the
+base parameters and are never reported as effects.
+
+The sample is compressed once to per-joint triangular factors (``compressed``),
+and each step scores all its candidates together (``scoring``): a step costs
+O(K²) per candidate with K the number of catalogue columns, not O(samples).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from minparam_cli.identify.diagnosis.compressed import Compressed
+from minparam_cli.measured.records import Block
+from minparam_cli.identify.passes.design import Design, Term
+from minparam_cli.dynamics.effects import EFFECT_IDS, EFFECTS, in_bounds
+from minparam_cli.identify.diagnosis.scoring import score
+
+BIC_THRESHOLD = -10.0
+# a selection error below this (relative) is the data's own rounding: no effect is looked for in it
+ROUNDING = 1e-9
+DEFAULT_MIN_GAIN = 0.02
+MAX_STEPS = 25
+PER_JOINT_ONLY = {"cogging"}
+# a term that contains a simpler one: tried again after the forward pass (the greedy path can
+# pick asymmetric Coulomb, which also absorbs part of another effect, where plain Coulomb is enough)
+SIMPLER = {"asymmetric_coulomb": ("coulomb",), "load_coulomb": ("coulomb",)}
+DECLARED = {"coulomb": "coulomb", "viscous": "viscous", "offset": "offset", "rotor_inertia": "rotor_inertia"}
+
+
+@dataclass(frozen=True)
+class DiagnosisOptions:
+    effects: tuple[str, ...] = EFFECT_IDS
+    min_gain: float = DEFAULT_MIN_GAIN
+    bic_threshold: float = BIC_THRESHOLD
+    max_steps: int = MAX_STEPS
+    weighted: bool = True  # Gautier's per-joint weights (False: OLS, as --ols)
+
+
+@dataclass
+class Step:
+    term: Term | None
+    statistic: dict
+    errors: dict  # selection data, unweighted: rms_per_joint, rms_total, relative_error
+    design: Design | None = None
+    theta: np.ndarray | None = None
+
+
+@dataclass(frozen=True)
+class Rejected:
+    """A candidate that explained the residual but with coefficients outside its physical range."""
+
+    term: Term
+    coefficients: np.ndarray  # (joints, columns)
+    gain: float  # share of the weighted selection residual energy it would remove
+    delta_bic: float
+
+
+@dataclass
+class Diagnosis:
+    steps: list[Step] = field(default_factory=list)
+    design: Design | None = None
+    candidates_per_step: int = 0
+    stop_reason: str = ""
+    rejected: list[Rejected] = field(default_factory=list)
+
+
+def present_effects(design: Design) -> set[tuple[str, int]]:
+    """(effect, joint) already in the model: declared extras and added terms (asymmetric Coulomb
+    contains plain Coulomb: its two columns sum to sign q̇)."""
+    present = {(t.effect, j) for t in design.terms for j in t.joints}
+    coordinate = {joint: k for k, joint in enumerate(design.chain.coordinates)}  # terms number the data's joints
+    for j, extras in enumerate(design.chain.layout.extras):
+        for e in extras:
+            if j in coordinate:
+                present.add((DECLARED.get(e, e), coordinate[j]))
+    present |= {("coulomb", j) for e, j in list(present) if e == "asymmetric_coulomb"}
+    tr = design.chain.transmission
+    if tr is not None:  # a declared motor-side column of motor k covers the effect on every joint motor k moves
+        for k, extras in enumerate(tr.motor_extras):
+            present |= {(e, coordinate[j]) for e in extras for j, v in enumerate(tr.matrix[k]) if v != 0 and j in coordinate}
+    return present
+
+
+def candidates(design: Design, allowed: tuple[str, ...]) -> list[Term]:
+    n = design.chain.dof
+    present = present_effects(design)
+    out = []
+    for eid in allowed:
+        e = EFFECTS[eid]
+        if e.needs_model and design.theta_model is None:
+            continue
+        groups = [(j,) for j in range(n)]
+        if eid not in PER_JOINT_ONLY and n > 1:
+            groups.insert(0, tuple(range(n)))
+        for g in groups:
+            free = tuple(j for j in g if (eid, j) not in present)
+            if len(free) != len(g):
+                continue
+            for h in e.grid or (None,):
+                out.append(Term(eid, g, h))
+    return out
+
+
+def _basis(Xw: np.ndarray, rows: int) -> tuple[np.ndarray, np.ndarray]:
+    """Orthonormal basis Q of the weighted design's range and B with X⁺ = B Qᵀ (thin SVD, rank-revealing).
+
+    A design can be rank deficient (gain on every joint is a rescaling of the base parameters): Q
+    then spans only the range, so a candidate's new part E − QQᵀE is exact.  Tolerance as numpy's
+    lstsq on the uncompressed ``rows``.
+    """
+    U, s, Vt = np.linalg.svd(Xw, full_matrices=False)
+    r = int(np.sum(s > s.max(initial=0.0) * max(rows, Xw.shape[1]) * np.finfo(float).eps))
+    return U[:, :r], Vt[:r].T / s[:r]
+
+
+def _good_joints(t: Term, c: np.ndarray, new: np.ndarray) -> tuple[int, ...]:
+    """The joints of ``t`` on which it adds something and its coefficients are physical."""
+    return tuple(j for j, row, fresh in zip(t.joints, c, new) if fresh and in_bounds(t.effect, row))
+
+
+def _physical(cands: list[Term], scores) -> np.ndarray:
+    """Candidates that add something on every joint of the term, with physical coefficients there."""
+    return np.array([c is not None and len(_good_joints(t, c, nw)) == len(t.joints)
+                     for t, c, nw in zip(cands, scores.coefficients, scores.new)], dtype=bool)
+
+
+def _restricted(cands: list[Term], scores, ok: np.ndarray) -> list[Term]:
+    """Group terms that add nothing, or have coefficients outside the physical range, on some joints:
+    the same terms on the other joints."""
+    out, seen = [], set(cands)
+    for i, (t, c) in enumerate(zip(cands, scores.coefficients)):
+        if not ok[i] or c is None or len(t.joints) < 2:
+            continue
+        good = _good_joints(t, c, scores.new[i])
+        if 0 < len(good) < len(t.joints):
+            new = Term(t.effect, good, t.hyper)
+            if new not in seen:
+                seen.add(new)
+                out.append(new)
+    return out
+
+
+def _merge(a, b):
+    """Scores of two candidate lists, one after the other."""
+    from minparam_cli.identify.diagnosis.scoring import Scores
+
+    return Scores(np.concatenate([a.m, b.m]), np.concatenate([a.rss1, b.rss1]), np.concatenate([a.rssh1, b.rssh1]),
+                  np.concatenate([a.rssh1_joint, b.rssh1_joint]), a.coefficients + b.coefficients, a.new + b.new)
+
+
+def diagnose(design: Design, train: Block, hold: Block, opts: DiagnosisOptions, progress=None) -> Diagnosis:
+    """Add effects one at a time while the selection data say they are real and physical.
+
+    ``train``: a sample of the fit data; ``hold``: a sample of the selection data."""
+    simpler = tuple(a for e in opts.effects for a in SIMPLER.get(e, ()) if a not in opts.effects)
+    data = Compressed.of(design, train, hold, tuple(opts.effects) + tuple(dict.fromkeys(simpler)))
+    out = Diagnosis(design=design)
+    N, Nh = data.N * data.n, data.Nh * data.n  # fit and selection equations
+    noted: set = set()
+
+    for step in range(opts.max_steps + 1):
+        sel = data.selection(out.design)
+        sigma = data.joint_sigma(sel, opts.weighted)
+        Xw, yw = data.stack(sel, sigma)
+        Q, back = _basis(Xw, N)
+        theta = back @ (Q.T @ yw)
+        r0 = yw - Xw @ theta
+        rss0 = float(r0 @ r0)
+        Xhw, yhw = data.stack(sel, sigma, hold=True)
+        rh0 = yhw - Xhw @ theta
+        rssh0 = float(rh0 @ rh0)
+        rssh0_plain = float(data.joint_rss(sel, theta, hold=True).sum())
+        errs = data.selection_errors(sel, theta)
+        if step == 0:
+            out.steps.append(Step(None, {"rss_fit_weighted": rss0, "rss_selection_weighted": rssh0}, errs, out.design, theta))
+        if step == opts.max_steps:
+            break
+        rel = errs["relative_error"]
+        if rel < ROUNDING:
+            out.stop_reason = (f"the model explains the selection data to their rounding (relative error {rel:.1g}): "
+                               "nothing left to trace")
+            break
+        cands = candidates(out.design, opts.effects)
+        scores = score(data, sel, sigma, Q, back, r0, rh0, cands)
+        usable = np.isfinite(scores.rss1) & (scores.m > 0)
+        extra = _restricted(cands, scores, usable)
+        if extra:
+            cands = cands + extra
+            scores = _merge(scores, score(data, sel, sigma, Q, back, r0, rh0, extra))
+        out.candidates_per_step = max(out.candidates_per_step, len(cands))
+        if progress:
+            progress(len(cands), len(cands))
+        ok = np.isfinite(scores.rss1) & (scores.m > 0) & (scores.rssh1 > 0) & (rssh0 > 0)
+        if not np.any(ok):
+            break
+        dbic = np.where(ok, Nh * np.log(np.where(ok, scores.rssh1, 1.0) / rssh0) + scores.m * np.log(Nh), np.inf)
+        gain = 1.0 - scores.rssh1 / rssh0 if rssh0 > 0 else np.zeros(len(cands))
+        plain = (scores.rssh1_joint * sigma**2).sum(axis=1)  # unweighted selection RSS
+        strong = ok & (dbic < opts.bic_threshold) & (gain >= opts.min_gain) & (plain < rssh0_plain)
+        physical = _physical(cands, scores)
+        wrong_sign = np.array([c is not None and not all(in_bounds(t.effect, row) for row, fresh in zip(c, nw) if fresh)
+                               for t, c, nw in zip(cands, scores.coefficients, scores.new)], dtype=bool)
+        qualifies = strong & physical
+        best_any = int(np.argmin(np.where(ok & physical, dbic, np.inf))) if np.any(ok & physical) else None
+        if not np.any(qualifies):
+            _note_rejected(out, cands, scores, strong & wrong_sign, dbic, gain, np.inf, noted)
+            if best_any is None:
+                out.stop_reason = "no candidate with coefficients in its physical range"
+            else:
+                t = cands[best_any]
+                out.stop_reason = (
+                    f"best remaining candidate {t.label()}: ΔBIC {dbic[best_any]:.1f}, removes "
+                    f"{100 * gain[best_any]:.2f} % of the selection residual energy (needs ΔBIC < {opts.bic_threshold:g}, "
+                    f"{100 * opts.min_gain:g} % and a falling selection error)"
+                )
+            break
+        i = int(np.argmin(np.where(qualifies, dbic, np.inf)))
+        _note_rejected(out, cands, scores, strong & wrong_sign, dbic, gain, dbic[i], noted)
+        term, m, rss1 = cands[i], int(scores.m[i]), float(scores.rss1[i])
+        F = ((rss0 - rss1) / m) / (rss1 / max(N - Xw.shape[1] - m, 1)) if rss1 > 0 else np.inf
+        from scipy.special import fdtrc
+
+        p_value = float(fdtrc(m, max(N - Xw.shape[1] - m, 1), F)) if np.isfinite(F) else 0.0
+        out.design = out.design.with_term(term)
+        sel = data.selection(out.design)
+        sig = data.joint_sigma(sel, opts.weighted)
+        theta_all, *_ = np.linalg.lstsq(*data.stack(sel, sig), rcond=None)
+        stat = {"delta_bic_selection": float(dbic[i]), "selection_gain": float(gain[i]), "F": float(F), "p_value": p_value, "rank": m}
+        out.steps.append(Step(term, stat, data.selection_errors(sel, theta_all), out.design, theta_all))
+    else:
+        out.stop_reason = f"stopped after {opts.max_steps} steps"
+    if not out.stop_reason:
+        out.stop_reason = "no candidate left"
+    _simplify(out, data, opts)
+    return out
+
+
+def _note_rejected(out: Diagnosis, cands, scores, mask, dbic, gain, beat: float, noted: set) -> None:
+    """Keep the strongest wrong-sign candidate of a step when it beats the one added (``beat``)."""
+    if not np.any(mask):
+        return
+    k = int(np.argmin(np.where(mask, dbic, np.inf)))
+    t = cands[k]
+    if dbic[k] >= beat or (t.effect, t.joints) in noted:
+        return
+    noted.add((t.effect, t.joints))
+    out.rejected.append(Rejected(t, np.asarray(scores.coefficients[k]), float(gain[k]), float(dbic[k])))
+
+
+def _selection_score(data: Compressed, design: Design, sigma: np.ndarray) -> tuple[float, float, np.ndarray, dict, bool]:
+    """Selection-data BIC of a design fitted on the fit data under the given weights ``sigma`` (the same
+    for every design compared), its unweighted selection RSS, theta, errors and whether its added
+    terms' coefficients lie in their physical ranges."""
+    sel = data.selection(design)
+    Xw, yw = data.stack(sel, sigma)
+    theta, *_ = np.linalg.lstsq(Xw, yw, rcond=None)
+    sv = np.linalg.svd(Xw, compute_uv=False)
+    # the rank as np.linalg.matrix_rank gives it on the uncompressed rows (its tolerance grows with their number)
+    rank = int(np.sum(sv > sv.max(initial=0.0) * max(data.N * data.n, Xw.shape[1]) * np.finfo(float).eps))
+    Xhw, yhw = data.stack(sel, sigma, hold=True)
+    rssh = float(np.sum((yhw - Xhw @ theta) ** 2))
+    Nh = data.Nh * data.n
+    plain = float(data.joint_rss(sel, theta, hold=True).sum())
+    physical = all(in_bounds(t.effect, c) for t, c in zip(design.terms, term_coefficients(design, theta)))
+    return Nh * np.log(rssh) + rank * np.log(Nh), plain, theta, data.selection_errors(sel, theta), physical
+
+
+def term_coefficients(design: Design, theta: np.ndarray) -> list[np.ndarray]:
+    """Each added term's coefficients in ``theta`` (the design's column order), as (joints, columns)."""
+    out, c = [], len(design.kept)
+    for t in design.terms:
+        w = t.width()
+        out.append(np.asarray(theta[c : c + w]).reshape(len(t.joints), -1))
+        c += w
+    return out
+
+
+# a simpler term may raise the unweighted selection error by at most this share to replace a larger one
+SIMPLER_TOLERANCE = 0.01
+
+
+def _simplify(out: Diagnosis, data: Compressed, opts: DiagnosisOptions) -> None:
+    """Replace a term by a simpler one when the selection BIC prefers it.
+
+    Never a replacement that is already in the model on one of the term's joints (declared, added, or
+    inside asymmetric Coulomb): that would only delete the term.  Both models are scored under the same
+    weights (those of the current model), the replacement's coefficients must be physical, and its
+    unweighted selection error may rise by at most ``SIMPLER_TOLERANCE``.
+    """
+    from dataclasses import replace
+
+    changed = True
+    while changed:
+        changed = False
+        sigma = data.joint_sigma(data.selection(out.design), opts.weighted)
+        current, plain0, _, _, _ = _selection_score(data, out.design, sigma)
+        for i, term in enumerate(out.design.terms):
+            others = replace(out.design, terms=out.design.terms[:i] + out.design.terms[i + 1 :])
+            present = present_effects(others)  # the model without this term
+            for alt in SIMPLER.get(term.effect, ()):
+                if any((alt, j) in present for j in term.joints):
+                    continue
+                new = Term(alt, term.joints, None)
+                terms = out.design.terms[:i] + (new,) + out.design.terms[i + 1 :]
+                cand = replace(out.design, terms=terms)
+                score_, plain, theta, errs, physical = _selection_score(data, cand, sigma)
+                if score_ < current and physical and plain <= plain0 * (1 + SIMPLER_TOLERANCE) ** 2:
+                    out.design = cand
+                    stat = {"replaces": term.label(), "delta_bic_selection": float(score_ - current)}
+                    out.steps.append(Step(new, stat, errs, cand, theta))
+                    changed = True
+                    break
+            if changed:
+                break

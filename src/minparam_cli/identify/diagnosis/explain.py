@@ -1,0 +1,179 @@
+"""What each effect of the final model means, written from its fitted values.
+
+The library's one-line explanation says what an effect could be; the report
+says what it is on this robot: the size and sign of what was fitted, in
+physical units.  A candidate the diagnosis rejected for its sign is
+described by what it most likely is instead of by its physical name.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from minparam_cli.identify.passes.design import Design, Term
+from minparam_cli.identify.diagnosis.diagnose import Rejected, term_coefficients
+from minparam_cli.dynamics.effects import EFFECTS, in_bounds
+from minparam_cli.identify.estimate.fit import full_theta
+
+
+# one line per single-column effect: {v} its fitted values (1 + G for a gain, % for load_coulomb), {T} the
+# torque unit (mass or inertia for rotor_inertia), {V} the velocity unit, {on} the joints
+ONE_COLUMN = {
+    "coulomb": "dry friction against the motion, Fc = {v} {T} on {on}",
+    "viscous": "friction proportional to velocity, Fv = {v} {T} per {V} on {on}",
+    "offset": "a constant torque of {v} {T} on {on}: a sensor or current offset, or a static load",
+    "rotor_inertia": "an inertia seen at the joint (motor, gears), Ia = {v} {T} on {on}",
+    "load_coulomb": "friction that grows with the load, {v} % of |τ_model| against the motion on {on}",
+    "gain": "the measured torque is {v} × the model torque on {on}: a drive gain or torque-constant error",
+    "drift": "a drift of {v} {T}/s over the recording on {on} (temperature, sensor drift)",
+}
+MIN_PERIODS = 3  # a ripple seen over fewer periods than this is not told apart from a smooth position error
+
+
+def _units(design: Design, joints) -> tuple[str, str]:
+    """(torque unit, velocity unit) of these joints."""
+    prismatic = [design.chain.coordinate_types[j] == "prismatic" for j in joints]
+    if all(prismatic):
+        return "N", "m/s"
+    if any(prismatic):
+        return "N·m or N", "rad/s or m/s"
+    return "N·m", "rad/s"
+
+
+def _list(values, digits: int = 3) -> str:
+    return ", ".join(f"{v:.{digits}g}" for v in values)
+
+
+def _on(joints) -> str:
+    return f"joint{'s' if len(joints) > 1 else ''} {', '.join(str(j + 1) for j in joints)}"
+
+
+def _spring_swing(c: np.ndarray, lo: float, hi: float) -> float:
+    """How much Kq·q + Ks·sin q + Kc·cos q varies over [lo, hi]."""
+    if not (np.isfinite(lo) and np.isfinite(hi)) or hi <= lo:
+        return float("nan")
+    q = np.linspace(lo, hi, 201)
+    f = c[0] * q + c[1] * np.sin(q) + c[2] * np.cos(q)
+    return float(f.max() - f.min())
+
+
+def explain(term: Term, c: np.ndarray, design: Design, motion=None) -> str:
+    """One line for ``term`` with coefficients ``c`` (joints, columns)."""
+    T, V = _units(design, term.joints)
+    on = _on(term.joints)
+    e = term.effect
+    if e in ONE_COLUMN:
+        values = 1 + c[:, 0] if e == "gain" else 100 * c[:, 0] if e == "load_coulomb" else c[:, 0]
+        unit = ("kg" if T == "N" else "kg·m²") if e == "rotor_inertia" else T
+        return ONE_COLUMN[e].format(v=_list(values, 4 if e == "gain" else 3), T=unit, V=V, on=on)
+    if e == "stribeck":
+        return (f"breakaway friction {_list(c[:, 0])} {T} above the Coulomb level at standstill on {on}, "
+                f"gone by |q̇| ≈ {2 * term.hyper:g} {V}")
+    if e == "asymmetric_coulomb":
+        return (f"dry friction of {_list(c[:, 0])} {T} in the positive direction and {_list(c[:, 1])} {T} in the "
+                f"negative direction on {on}")
+    if e == "spring":
+        swings = [_spring_swing(row, motion.lo[j], motion.hi[j]) if motion is not None else float("nan")
+                  for j, row in zip(term.joints, c)]
+        return (f"a torque that depends on position, varying by {_list(swings)} {T} over the fitted motion on {on} "
+                "(Kq·q + Ks·sin q + Kc·cos q): a spring, cable, gravity compensator or a gravity model error")
+    if e == "cogging":
+        amp = np.hypot(c[:, 0], c[:, 1])
+        text = f"a ripple of amplitude {_list(amp)} {T}, {term.hyper:g} periods per turn (every {360 / term.hyper:.3g}°) on {on}"
+        if motion is not None:
+            periods = min(float(motion.range[j]) * term.hyper / (2 * math.pi) for j in term.joints)
+            if periods < MIN_PERIODS:
+                return (f"{text}; the fitted motion spans only {periods:.2g} of its periods, so it is as likely a "
+                        "smooth position-dependent model error (gravity, cable) as cogging")
+        return f"{text}: motor cogging or gear meshing"
+    return EFFECTS[e].explanation
+
+
+def describe_terms(design: Design, fit, motion=None) -> list[dict]:
+    """The final model's added effects: ids, joints, coefficients and a line written from them."""
+    out = []
+    for t, c in zip(design.terms, term_coefficients(design, full_theta(fit, design.p))):
+        names = t.names()
+        out.append({"effect": t.effect, "joints": [j + 1 for j in t.joints], "hyper": t.hyper,
+                    "coefficients": {nm: float(v) for nm, v in zip(names, c.reshape(-1))},
+                    "explanation": explain(t, c, design, motion)})
+    return out
+
+
+STILL_NOTE = 0.10  # share of still samples on a joint worth naming beside a wrong-sign friction term
+
+
+def describe_rejected(r: Rejected, data_reports: list[dict]) -> dict:
+    """A wrong-sign candidate: what it would have removed, its values, and what it most likely is."""
+    e = EFFECTS[r.term.effect]
+    lo, hi = e.bounds
+    bad = [(j, row) for j, row in zip(r.term.joints, r.coefficients) if not in_bounds(r.term.effect, row)]
+    shown = ", ".join(f"{e.column_names[0]}{j + 1} = {row[0]:.3g}" for j, row in bad)
+    rng = f"≥ {lo:g}" if math.isinf(hi) else f"in [{lo:g}, {hi:g}]"
+    share = (data_reports[0].get("still_share") or []) if data_reports else []
+    still = [(j, share[j]) for j, _ in bad if j < len(share) and share[j] > STILL_NOTE]
+    text = (f"{r.term.label()} would remove {100 * r.gain:.1f} % of the selection residual energy, but {shown} "
+            f"(physical range {rng}): most likely {e.misfit}")
+    if still:
+        least, most = min(s for _, s in still), max(s for _, s in still)
+        pct = f"{100 * least:.0f} %" if round(100 * least) == round(100 * most) else f"{100 * least:.0f}-{100 * most:.0f} %"
+        text += f" ({_on([j for j, _ in still])} still {pct} of the time)"
+    return {"effect": r.term.effect, "joints": [j + 1 for j in r.term.joints], "hyper": r.term.hyper,
+            "selection_gain": r.gain, "delta_bic_selection": r.delta_bic,
+            "coefficients": {nm: float(v) for nm, v in zip(r.term.names(), np.asarray(r.coefficients).reshape(-1))},
+            "reading": text}
+
+
+def _rotor_homes(chain, seed: int) -> dict[str, list[tuple[int, float]]]:
+    """Base parameter name -> (joint, coefficient) of the rotor inertias that regroup into it (when not declared)."""
+    from minparam_cli.base.qr import derive_qr
+    from minparam_cli.params import EXTRA_ORDER
+
+    extras = tuple(tuple(k for k in EXTRA_ORDER if k in ex or k == "rotor_inertia") for ex in chain.layout.extras)
+    base = derive_qr(chain.with_extras(extras), seed=seed)
+    names = base.standard_names
+    homes: dict[str, list[int]] = {}
+    for j in chain.coordinates:
+        col = names.index(f"Ia{j + 1}")
+        for i, bname in enumerate(base.base_names):
+            if bname != f"Ia{j + 1}" and abs(base.K[i, col]) > 0:
+                homes.setdefault(bname, []).append((j, float(base.K[i, col])))
+    return homes
+
+
+def nominal_notes(chain, base, fit, seed: int = 0) -> list[str]:
+    """Base parameters far from the description's nominal values.
+
+    A payload or a wrong link mass shows here.  So does an undeclared rotor inertia of a joint whose
+    Ia regroups into a base parameter (Ia1 into ZZR1 when joint 1's axis is fixed in the base):
+    that is said instead of a payload when it can be the cause.  Parameters that hold declared
+    rotor or friction extras have no nominal value and are left out."""
+    if chain.phi_nominal is None:
+        return []
+    phi = np.zeros(chain.layout.size)
+    phi[: len(chain.phi_nominal)] = chain.phi_nominal
+    nominal = base.K @ phi
+    notes = []
+    scale = np.max(np.abs(nominal)) if np.any(nominal) else 1.0
+    where = {c: k for k, c in enumerate(fit.columns)}
+    n_inertial = chain.layout.n_inertial
+    homes = None
+    for i, name in enumerate(base.base_names):
+        if i not in where or np.any(np.abs(base.K[i, n_inertial:]) > 0):
+            continue
+        k = where[i]
+        v, nom = fit.theta[k], nominal[i]
+        sd = abs(v) * fit.std_percent[k] / 100 if np.isfinite(fit.std_percent[k]) else np.inf
+        if abs(v - nom) > max(3 * sd, 0.2 * abs(nom), 0.02 * scale):
+            homes = _rotor_homes(chain, seed) if homes is None else homes
+            # a rotor inertia Ia > 0 moves the parameter by coefficient·Ia: only that direction is explained
+            rotors = [j for j, c in homes.get(name, []) if c * (v - nom) > 0]
+            if rotors:
+                js = ", ".join(f"Ia{j + 1}" for j in rotors)
+                notes.append(f"{name} = {v:.4g} differs from its nominal {nom:.4g} by {v - nom:+.4g}: most likely rotor inertia "
+                             f"({js} regroups into {name}; declare --rotor-inertia to name it), else a payload or a wrong link inertia")
+            else:
+                notes.append(f"{name} = {v:.4g} differs from its nominal {nom:.4g}: a payload, a wrong link mass or inertia, not an effect")
+    return notes

@@ -1,0 +1,149 @@
+"""identify's one pass over the data: the per-joint factors of every part (fit, selection, tests),
+the block Gram matrices of σ, the thinned diagnosis samples and the motion, with memory bounded by
+the chunk size, not the file (see docs/methods/streaming.md)."""
+
+from __future__ import annotations
+
+import threading
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+
+from minparam_cli.errors import DataError
+from minparam_cli.identify.estimate.accumulate import NonFiniteRows
+from minparam_cli.measured.blocks import iter_blocks
+from minparam_cli.identify.passes.design import Design
+from minparam_cli.dynamics.effects import source_columns
+from minparam_cli.identify.estimate.fit import Accumulator
+from minparam_cli.identify.passes.kept import Motion, _Thinned
+from minparam_cli.identify.passes.roles import FIT, SELECTION, Source, parts
+from minparam_cli.identify.passes.slots import block_rows
+from minparam_cli.measured.records import Block, DataOptions, DataReport
+
+REGRESSOR_ROWS = 4096  # samples a block of rows: n x (p + slots + 1) x 4096 numbers, 14 MB for the Panda
+
+
+def stream(design: Design, sources: list[Source], n: int, data: DataOptions, diagnosis_cap: int, keep: bool, slots=(),
+           grams=None):
+    """One pass over the data: per-joint factors of [design columns | slot columns | τ] for every part
+    (fit, selection, test1, ...), the thinned diagnosis samples (fit and selection), the motion of
+    the fit part, the data reports, and the design with its drift origin set.
+
+    Three threads (``identify.ahead``): one reads and filters the file, one builds the rows of the
+    regressor and the slot columns, and this one folds them into the factors; the parser, the
+    kernel, numpy's ufuncs and BLAS release the GIL, so the three overlap on two cores.  The rows
+    reach the factors in the same order as on one thread, so every number is the same."""
+    from minparam_cli.identify.passes.ahead import ahead
+
+    width = source_columns(slots, design.p)[1]
+    acc = {k: Accumulator(n, width) for k in parts(sources)}
+    thin = {FIT: _Thinned(diagnosis_cap), SELECTION: _Thinned(diagnosis_cap // 2)}
+    motion = Motion(n)
+    reports: list[DataReport] = []
+    state = {"design": design}
+    spare = _Spare()
+    # the factor update's first call imports scipy.linalg (about 0.2 s), the diagnosis scipy.special:
+    # done beside the readers' start, while this thread would only wait for the first rows
+    threading.Thread(target=_import_blas, name="minparam-import", daemon=True).start()
+    for piece, sub, rows in ahead(_rows(state, sources, n, data, slots, reports, spare)):
+        if rows is not None:  # sub: (the samples of the rows, their design, the file)
+            sub, design_used, path = sub
+            try:
+                if grams is not None and piece.part == FIT:  # per time block, for σ with correlated residuals
+                    segments = grams.segments(sub.t)  # the update multiplies the rows once for both
+                    joint_grams = acc[FIT].add_columns(rows, [(s, e) for _, s, e in segments])
+                    grams.add_parts(segments, joint_grams, rows.shape[1])
+                else:
+                    acc[piece.part].add_columns(rows)
+            except NonFiniteRows:
+                _refuse_non_finite(rows, sub, path)
+            spare.give(rows)  # folded in: nothing keeps a reference to it
+        else:  # a piece's samples, before its rows
+            if piece.role == FIT:
+                motion.add(sub)
+            motion.count_still(piece.part, sub, data.still_speed)
+            if keep and piece.part in thin:
+                thin[piece.part].add(sub)
+        sub = rows = None  # not alive while the next rows are folded in
+    return acc, thin, motion, reports, state["design"]
+
+
+def _import_blas() -> None:
+    import scipy.linalg.blas  # noqa: F401
+    import scipy.special  # noqa: F401  (the diagnosis's F test, after the stream)
+
+
+class _Spare:
+    """Row buffers handed back by the folding thread, for the rows thread to fill again: the
+    1 M-sample Panda run allocated and dropped 250 buffers of 14 MB, and the heap grew with them.
+    Never waits: with no buffer free, the rows thread makes a new one (the queue between the
+    threads bounds how many are in flight)."""
+
+    def __init__(self):
+        import queue
+
+        self._free: queue.SimpleQueue = queue.SimpleQueue()
+
+    def take(self, shape: tuple[int, ...]) -> np.ndarray:
+        import queue
+
+        try:
+            buf = self._free.get_nowait()
+        except queue.Empty:
+            return np.empty(shape)
+        return buf if buf.shape == shape else np.empty(shape)
+
+    def give(self, buf: np.ndarray) -> None:
+        if buf.flags.owndata and buf.shape[2] == REGRESSOR_ROWS:  # full-size buffers only
+            self._free.put(buf)
+
+
+def _rows(state: dict, sources: list[Source], n: int, data: DataOptions, slots, reports: list, spare: _Spare):
+    """The producing half of ``stream``: per piece of each block, (piece, its samples, None), then
+    (piece, (samples, design, path), rows) for its sub-blocks of REGRESSOR_ROWS samples (the full
+    regressor is n·10n numbers a sample), slot columns included.  The blocks are read, cleaned
+    and filtered one block ahead on a thread of their own.  Sets state["design"]'s drift origin
+    at the first sample."""
+    from minparam_cli.identify.passes.ahead import ahead
+
+    for src in sources:
+        rep = DataReport(str(src.path))
+        cuts = src.cuts()
+        for b in ahead(iter_blocks(src.path, n, data, rep), depth=1):
+            if not len(b):
+                continue
+            if state["design"].t0 is None:  # drift is measured from the first sample, in every block and every part
+                state["design"] = replace(state["design"], t0=float(b.t[0]))
+            design = state["design"]
+            edges = [0] + [int(np.searchsorted(b.t, c)) for c in cuts] + [len(b)]  # times increase
+            for piece, k0, k1 in zip(src.pieces, edges[:-1], edges[1:]):
+                if k1 <= k0:
+                    continue
+                sub_block = b.take(slice(k0, k1))
+                yield piece, sub_block, None
+                for s0 in range(0, len(sub_block), REGRESSOR_ROWS):
+                    sub = sub_block.take(slice(s0, s0 + REGRESSOR_ROWS))
+                    shape = (n, source_columns(slots, design.p)[1] + 1, len(sub))
+                    with np.errstate(over="ignore", invalid="ignore"):
+                        rows = block_rows(design, slots, sub, out=spare.take(shape))
+                    # the samples copied: a view would keep the whole chunk alive while the rows wait
+                    own = Block(*(np.array(getattr(sub, k)) for k in ("t", "q", "dq", "ddq", "tau")))
+                    yield piece, (own, design, src.path), rows
+            b = sub_block = sub = None  # not alive while the next block is read
+        reports.append(rep)
+
+
+def _refuse_non_finite(rows: np.ndarray, b: Block, path: Path) -> None:
+    """The DataError for rows that made a factor non-finite, with the time of the first sample whose
+    row is not finite: a finite but huge value (a corrupt dq of 1e200, say) overflows in the row."""
+    with np.errstate(over="ignore", invalid="ignore"):
+        ok = np.isfinite(rows).all(axis=(0, 1))
+    i = int(np.argmin(ok)) if not ok.all() else None
+    if i is None:  # every entry finite, but their squares overflow
+        big = np.abs(rows).max(axis=(0, 1))
+        i = int(np.argmax(big))
+    raise DataError(
+        f"{path}: the sample at t = {b.t[i]:.6g} s gives a non-finite regressor row "
+        "(a value of q, dq, ddq or tau there is too large to use)"
+    )

@@ -1,0 +1,1 @@
+"""Physically consistent fits (a convex program), payload and drive gains, the motor side."""
