@@ -21,6 +21,7 @@ is byte-identical but for these normalizations, applied to both sides:
     `elapsed`, platform's `seed N, T s`, codegen's `generated in`, identify's `elapsed`) become <T>,
     and the `time s` column of derive's batch table is blanked;
   * the version string `minparam X.Y.Z` (codegen headers);
+  * the `"schema": "minparam.<command>/N"` key every JSON result gained in issue 30 (ADDED_KEYS);
   * identify cases (name starting with `identify`): JSON outputs (stdout, --save-model) are parsed,
     timing keys dropped, numbers compared to 1e-12 relative (abs floor 1e-300), the rest exactly;
   * binary files (.npz, .png): byte for byte (simulate's .npz members have a fixed 1980 date).
@@ -42,6 +43,8 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
 TIMING_KEYS = ("elapsed_s", "exact_s", "cpu_s")
+ADDED_KEYS = ("schema",)  # issue 30: every JSON result now names its schema version (first key); the rest must match
+SCHEMA = re.compile(r'"schema": "minparam\.[\w.-]+/\d+",\s*')
 TIMING_LINES = [  # (regex, replacement) on each text line
     (re.compile(r"(; elapsed )\d+(\.\d+)? s$"), r"\1<T> s"),            # derive table, identify
     (re.compile(r"^(seed -?\d+, )\d+(\.\d+)? s$"), r"\1<T> s"),       # platform fk / workspace
@@ -204,6 +207,7 @@ def capture(outdir: Path, py: str, src, root: Path) -> int:
 def mask_text(text: str) -> str:
     """Timing fragments and the version string masked; the `time s` column of a batch table blanked."""
     text = VERSION.sub("minparam <version>", text)
+    text = SCHEMA.sub("", text)
     text = re.sub(rf'("(?:{"|".join(TIMING_KEYS)})": )-?\d+(\.\d+)?([eE][-+]?\d+)?', r"\1<T>", text)
     lines, span = text.split("\n"), None
     for i, line in enumerate(lines):
@@ -224,7 +228,7 @@ def mask_text(text: str) -> str:
 def json_diffs(a, b, path="$", out=None):
     """Differences of two parsed JSON values, timing keys dropped: numbers to 1e-12 relative (floor 1e-300), rest exact."""
     out = [] if out is None else out
-    a, b = ({k: v for k, v in x.items() if k not in TIMING_KEYS} if isinstance(x, dict) else x for x in (a, b))
+    a, b = ({k: v for k, v in x.items() if k not in TIMING_KEYS + ADDED_KEYS} if isinstance(x, dict) else x for x in (a, b))
     if all(isinstance(x, (int, float)) and not isinstance(x, bool) for x in (a, b)):
         if not (a == b or abs(a - b) <= max(1e-12 * max(abs(a), abs(b)), 1e-300)):
             out.append(f"{path}: {a!r} != {b!r}")
