@@ -17,9 +17,8 @@ from minparam_cli.describe import load_description
 from minparam_cli.experiment.excite import constraints as cons
 from minparam_cli.experiment.excite.criterion import criterion_gradient, criterion_value, sensitivities
 from minparam_cli.experiment.excite.design import ExciteOptions, base_regressor, chain_limits, design
-from minparam_cli.experiment.excite.fourier import basis, from_trajectory, project_to_rest, to_trajectory
 from minparam_cli.experiment.simulate import rigid_torque
-from minparam_cli.experiment.trajectory import FourierTrajectory
+from minparam_cli.experiment.trajectory import FourierTrajectory, basis, project_to_rest
 from minparam_cli.robot import DeriveOptions, load_chain
 
 runner = CliRunner()
@@ -48,7 +47,7 @@ def test_basis_matches_the_series_and_its_derivatives():
     traj = FourierTrajectory(0.2, rng.standard_normal(3), rng.standard_normal((3, 4)), rng.standard_normal((3, 4)))
     t = np.linspace(0, 5, 101)
     Bq, Bv, Ba = basis(t, 0.2, 4)
-    X = from_trajectory(traj)
+    X = traj.matrix()
     q, dq, ddq = traj.evaluate(t)
     assert np.allclose(Bq @ X.T, q) and np.allclose(Bv @ X.T, dq) and np.allclose(Ba @ X.T, ddq)
     # the derivatives are derivatives: central differences of q and dq
@@ -61,7 +60,7 @@ def test_basis_matches_the_series_and_its_derivatives():
 def test_rest_projection_puts_every_period_boundary_at_rest():
     rng = np.random.default_rng(2)
     X = project_to_rest(rng.standard_normal((2, 1 + 2 * 5)))
-    traj = to_trajectory(X, 0.1)
+    traj = FourierTrajectory.from_matrix(X, 0.1)
     _, dq, ddq = traj.evaluate(np.array([0.0, 10.0, 20.0]))
     assert np.abs(dq).max() < 1e-12 and np.abs(ddq).max() < 1e-12
 

@@ -10,7 +10,7 @@ inertial parameters (the description's, or random physically consistent ones
 from ``minparam_cli.dynamics.inertia``), C_e the columns of the effect library
 (``identify.effects``, the same functions ``identify`` fits) and c_e their
 coefficients.  The motion is Swevers' finite Fourier series
-(``identify.trajectory``) with exact q̇ and q̈.
+(``experiment.trajectory``) with exact q̇ and q̈.
 
 Randomness: one ``numpy.random.Generator`` is passed in.  It draws five
 seeds, one per child generator: trajectory, random inertia, effect

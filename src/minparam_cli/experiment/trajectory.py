@@ -11,8 +11,35 @@ excitation and identification", IEEE Trans. Robotics and Automation 13(5),
 with ω_f = 2π f_base.  The motion is periodic with period 1/f_base, so its
 extremes over all time are its extremes over one period.
 
-Here the coefficients are random (seeded) and then scaled, joint by joint,
-so that the whole motion stays inside the joint range shrunk by a margin.
+This module is the series' one implementation: its values
+(``FourierTrajectory.evaluate``) and, for the excitation design (``excite``),
+the same series as a linear map of each joint's coefficient row
+x_j = (q0_j, a_j1..a_jH, b_j1..b_jH): for sample times t (N,)
+
+    q = B_q(t) Xᵀ,   q̇ = B_v(t) Xᵀ,   q̈ = B_a(t) Xᵀ,     X = (x_1; …; x_n)  (n, 1 + 2H),
+
+with the (N, 1 + 2H) basis matrices of :func:`basis`, the exact derivatives
+the optimiser's gradients and linear limit constraints use.  Both share the
+harmonics' frequencies and phases (:func:`harmonic_terms`); each keeps its own
+order of floating-point operations, so that a trajectory's samples and the
+design's grid values stay what they were.
+
+Start and end at rest.  The series is periodic, so q, q̇, q̈ at t = 0 equal
+their values at t = k/f_base.  Two linear conditions per joint,
+
+    q̇_j(0) = Σ_l a_jl = 0,          q̈_j(0) = ω_f Σ_l l b_jl = 0,
+
+put every period boundary at rest (q̇ = q̈ = 0) (:func:`rest_rows`,
+:func:`project_to_rest`).  This is the role the added fifth-order polynomial
+plays in Swevers' and Park's formulations; as equality constraints on the
+coefficients the motion stays one Fourier series (periodic, so periods can be
+repeated and averaged, and ``simulate`` and a controller regenerate it from the
+same coefficients), and it needs H ≥ 2.
+
+The random excitation (:func:`fourier_excitation`, ``simulate``'s and the
+design's starts): the coefficients are random (seeded) and then scaled,
+joint by joint, so that the whole motion stays inside the joint range shrunk
+by a margin.
 The scale uses a bound, not a sample: the extremes over a grid of one period
 plus (largest possible speed) × (half the grid step), so no instant between
 grid points can leave the range.
@@ -59,12 +86,20 @@ class FourierTrajectory:
     def omega(self) -> float:
         return 2.0 * np.pi * self.base_frequency
 
+    @classmethod
+    def from_matrix(cls, X: np.ndarray, base_frequency: float) -> FourierTrajectory:
+        """The trajectory of the coefficient matrix X (n, 1 + 2H) (module docstring)."""
+        X = np.asarray(X, dtype=float)
+        H = (X.shape[1] - 1) // 2
+        return cls(float(base_frequency), X[:, 0].copy(), X[:, 1:1 + H].copy(), X[:, 1 + H:].copy())
+
+    def matrix(self) -> np.ndarray:
+        """The coefficient matrix X (n, 1 + 2H): row j is (q0_j, a_j1..a_jH, b_j1..b_jH)."""
+        return np.hstack([self.q0[:, None], self.a, self.b])
+
     def evaluate(self, t) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Exact q, q̇, q̈ at times t (N,), each (N, n), from Swevers' series."""
-        t = np.asarray(t, dtype=float).reshape(-1)
-        w_l = self.omega * np.arange(1, self.harmonics + 1)  # (H,)
-        phase = t[:, None] * w_l[None, :]  # (N, H)
-        s, c = np.sin(phase), np.cos(phase)
+        w_l, s, c = harmonic_terms(t, self.base_frequency, self.harmonics)
         q = self.q0[None, :] + s @ (self.a / w_l).T - c @ (self.b / w_l).T
         dq = c @ self.a.T + s @ self.b.T
         ddq = -s @ (self.a * w_l).T + c @ (self.b * w_l).T
@@ -79,6 +114,41 @@ class FourierTrajectory:
         Σ_l (ω_f l)^(order−1) √(a_jl² + b_jl²)."""
         w_l = self.omega * np.arange(1, self.harmonics + 1)
         return (np.sqrt(self.a**2 + self.b**2) * w_l[None, :] ** (order - 1)).sum(axis=1)
+
+
+def harmonic_terms(t, base_frequency: float, harmonics: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The series' terms at times t (N,): ω_f l (H,), and sin(ω_f l t), cos(ω_f l t) (N, H)."""
+    t = np.asarray(t, dtype=float).reshape(-1)
+    w_l = 2.0 * np.pi * base_frequency * np.arange(1, harmonics + 1)
+    phase = t[:, None] * w_l[None, :]
+    return w_l, np.sin(phase), np.cos(phase)
+
+
+def basis(t, base_frequency: float, harmonics: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """B_q, B_v, B_a (N, 1 + 2H) at times t: q_j = B_q @ x_j and so on (module docstring)."""
+    w, s, c = harmonic_terms(t, base_frequency, harmonics)
+    N = s.shape[0]
+    one, zero = np.ones((N, 1)), np.zeros((N, 1))
+    Bq = np.hstack([one, s / w, -c / w])
+    Bv = np.hstack([zero, c, s])
+    Ba = np.hstack([zero, -s * w, c * w])
+    return Bq, Bv, Ba
+
+
+def rest_rows(harmonics: int) -> np.ndarray:
+    """(2, 1 + 2H): row 0 · x_j = q̇_j(0), row 1 · x_j = q̈_j(0)/ω_f (module docstring)."""
+    R = np.zeros((2, 1 + 2 * harmonics))
+    R[0, 1:1 + harmonics] = 1.0
+    R[1, 1 + harmonics:] = np.arange(1, harmonics + 1)
+    return R
+
+
+def project_to_rest(X: np.ndarray) -> np.ndarray:
+    """The nearest coefficients (least change, per joint) that satisfy both rest conditions."""
+    X = np.array(X, dtype=float)
+    R = rest_rows((X.shape[1] - 1) // 2)
+    # orthogonal projection onto the null space of R, row by row: x − Rᵀ (R Rᵀ)⁻¹ R x
+    return X - (X @ R.T) @ np.linalg.solve(R @ R.T, R)
 
 
 def joint_ranges(types, limits) -> tuple[tuple[float, float], ...]:

@@ -1,7 +1,7 @@
 """A given excitation for ``simulate --trajectory FILE``: ``excite``'s JSON (coefficients) or CSV (samples).
 
 Text in, trajectory out (the CLI reads the file, bounded in size).  The JSON
-gives Swevers' series (``identify.trajectory.FourierTrajectory``), which
+gives Swevers' series (``experiment.trajectory.FourierTrajectory``), which
 ``simulate`` evaluates at its own --duration and --rate; the CSV gives the
 samples t, q1..qn, dq1..dqn, ddq1..ddqn themselves (further columns, such as
 tau, are ignored), used as they are.

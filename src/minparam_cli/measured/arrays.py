@@ -1,6 +1,6 @@
 """Measured data held in memory — a mapping of numpy arrays or a pandas DataFrame — read like a data file.
 
-``identify`` streams its data by name (``identify.data.iter_blocks``); an in-memory record is
+``identify`` streams its data by name (``measured.blocks.iter_blocks``); an in-memory record is
 registered under a name in angle brackets (``<arrays>``, ``<DataFrame>``) for the duration of one
 call (:func:`registered`, a context variable: threads and async tasks do not see each other's), and
 the readers look a name up here before they open a file.  No file is written.

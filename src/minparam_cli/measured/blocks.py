@@ -67,30 +67,9 @@ def time_span(path: str | Path, opts: DataOptions) -> tuple[float, float]:
     The last is the largest finite time in the tail, so that a final row the cleaning drops (a NaN
     row, a time stamp that jumps back) does not move the hold-out split.
     """
-    path = Path(path)
-    name = opts.columns.get("t", "t")
-    from minparam_cli.measured.columns import TIME_UNITS
-    from minparam_cli.measured.rosbag import bag_time_span, is_bag
+    from minparam_cli.measured.readers import reader_for
 
-    from minparam_cli.measured.arrays import lookup
-
-    record = lookup(path)  # data held in memory (the Python API)
-    if record is None and is_bag(path):
-        return bag_time_span(path, len(opts.joint_names), opts)
-    from minparam_cli.measured.recording import is_description, recording_time_span
-
-    if record is None and is_description(path):  # CSV files joined by a description (measured/recording.py)
-        return recording_time_span(path, opts)
-    from minparam_cli.measured.spans import file_time_span
-
-    if record is not None:
-        from minparam_cli.measured.arrays import time_span as record_span
-
-        first, last = record_span(record, len(opts.joint_names), opts)
-    else:
-        first, last = file_time_span(path, name, opts)
-    divisor = TIME_UNITS[opts.time_unit]
-    return first / divisor, last / divisor
+    return reader_for(path).time_span(Path(path), opts)
 
 
 def iter_blocks(path: str | Path, n: int, opts: DataOptions, report: DataReport | None = None) -> Iterator[Block]:

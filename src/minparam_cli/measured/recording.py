@@ -206,9 +206,9 @@ def recording_time_span(path: Path, opts) -> tuple[float, float]:
         if "t" in part.columns:
             from dataclasses import replace
 
-            from minparam_cli.measured.spans import file_time_span
+            from minparam_cli.measured.spans import csv_time_span
 
-            first, last = file_time_span(part.path, part.columns["t"], replace(opts, columns={"t": part.columns["t"]}))
+            first, last = csv_time_span(part.path, replace(opts, columns={"t": part.columns["t"]}))
             return first / TIME_UNITS[rec.time_unit], last / TIME_UNITS[rec.time_unit]
     first_file = rec.parts[0].path
     require_data_file(first_file)

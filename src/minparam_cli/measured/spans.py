@@ -1,12 +1,10 @@
-"""The first and last time stamps of an .npz, Parquet or CSV file without reading it all (CSV: its
-head and tail), for the hold-out split (``identify.data.time_span``) and described recordings."""
+"""The first and last time stamps of a CSV file without reading it all: its head and tail, for the
+hold-out split (``measured.readers.Csv.time_span``) and described recordings."""
 
 from __future__ import annotations
 
 import math
 from pathlib import Path
-
-import numpy as np
 
 from minparam_cli.errors import DataError
 from minparam_cli.measured.records import DataOptions
@@ -14,29 +12,13 @@ from minparam_cli.measured.records import DataOptions
 TAIL_BYTES = 65536  # how much of the head and of the tail time_span reads
 
 
-
-def file_time_span(path: Path, name: str, opts: DataOptions) -> tuple[float, float]:
-    """time_span of an .npz or CSV file, in the file's time unit."""
-    from minparam_cli.measured.tables import short_error, open_npz, require_data_file
+def csv_time_span(path: Path, opts: DataOptions) -> tuple[float, float]:
+    """First and last finite time stamps of a CSV file (its head and tail; the time column as
+    ``opts.columns`` names it), in the file's time unit."""
+    from minparam_cli.measured.tables import require_data_file
     from minparam_cli.measured.columns import time_index
 
-    if path.suffix.lower() == ".parquet":
-        from minparam_cli.measured.parquet import parquet_time_span
-
-        return parquet_time_span(path, name)
     require_data_file(path)
-    if path.suffix.lower() == ".npz":
-        with open_npz(path) as z:
-            try:
-                t = np.asarray(z[name], dtype=float)
-            except MemoryError:
-                raise
-            except Exception as e:  # noqa: BLE001 - a missing or damaged member
-                raise DataError(f"{path}: cannot read time array '{name}' ({short_error(e)})") from None
-        t = t[np.isfinite(t)]
-        if len(t) < 2:
-            raise DataError(f"{path}: fewer than two time stamps")
-        return float(t.min()), float(t.max())
     try:
         with open(path, "rb") as fh:
             raw = fh.read(TAIL_BYTES)

@@ -5,7 +5,7 @@ Every limit is a set of inequalities at the samples of one period (the
 
 * joint position, lo_j + m·(hi_j − lo_j) ≤ q_j ≤ hi_j − m·(hi_j − lo_j),
   |q̇_j| ≤ (1 − m)·v_j and |q̈_j| ≤ (1 − m)·a_j: linear in the coefficients
-  (``fourier.basis``), so they go to the optimiser as linear constraints with
+  (``trajectory.basis``), so they go to the optimiser as linear constraints with
   their exact Jacobian;
 * torque, |τ_j| ≤ (1 − m)·e_j with τ = Y(q, q̇, q̈)·φ_nominal (only when the
   description gives every link's inertial values and an effort limit);
@@ -15,7 +15,7 @@ m is the margin (a fraction).  Between grid points a motion can exceed what
 the grid saw, so the result is checked again afterwards:
 
 * positions, speeds and accelerations by bounds that hold at every instant
-  (as in ``identify.trajectory``: extremes on a grid of
+  (as in ``experiment.trajectory``: extremes on a grid of
   BOUND_POINTS_PER_HARMONIC points per period of the highest harmonic,
   widened by the next derivative's bound Σ_l (ω l)^k √(a_jl² + b_jl²) times
   half a step), against the same margin-shrunk limits; a joint

@@ -4,13 +4,13 @@ Minimises the criterion of ``criterion`` (the base regressor's column-scaled
 condition number by default) over X = (q0, a, b) of every joint, subject to
 the limits of ``constraints`` on the grid of GRID_POINTS_PER_HARMONIC points
 per period of the highest harmonic, and (``rest``) the two linear rest
-conditions of ``fourier``.  The optimiser is scipy.optimize's SLSQP (Kraft
+conditions of ``trajectory``.  The optimiser is scipy.optimize's SLSQP (Kraft
 1988): it takes the many linear limit constraints with their exact
 Jacobians, the gradient of the criterion is semi-analytic (``criterion``),
 and it needs no further dependency.
 
 Starts: ``starts`` random series drawn exactly as ``simulate`` draws its
-excitation (``identify.trajectory.fourier_excitation``: standard normal
+excitation (``experiment.trajectory.fourier_excitation``: standard normal
 coefficients scaled into the margin-shrunk range and rate limits), one child
 generator per start from the one seeded generator; with ``rest`` each start
 is projected onto the rest conditions and scaled back into the limits.  The
@@ -32,8 +32,7 @@ from minparam_cli.errors import ComputationError, InputError
 from minparam_cli.experiment.excite import constraints as cons
 from minparam_cli.experiment.excite import starts
 from minparam_cli.experiment.excite.criterion import CRITERIA, condition_number, criterion_value, sensitivities
-from minparam_cli.experiment.excite.fourier import basis, from_trajectory, rest_rows, to_trajectory
-from minparam_cli.experiment.trajectory import FourierTrajectory
+from minparam_cli.experiment.trajectory import FourierTrajectory, basis, rest_rows
 
 GRID_POINTS_PER_HARMONIC = 16
 BOX_GRID_POINTS_PER_HARMONIC = 64  # the box constraint is cheap (forward kinematics): a finer grid
@@ -242,7 +241,7 @@ def design(chain: Chain, base: BaseSet, options: ExciteOptions, limits: cons.Lim
         start = starts.random_start(limits, options, child)
         if centre is not None:
             start = starts.feasible_start(chain, start, limits, phi if use_tau else None, centre, tg)
-        x0 = from_trajectory(start).ravel()
+        x0 = start.matrix().ravel()
         f0 = fun(x0)[0]
         count = [0]
 
@@ -270,7 +269,7 @@ def design(chain: Chain, base: BaseSet, options: ExciteOptions, limits: cons.Lim
     t = output_times(options)
     failures = []
     for _, best, best_x in sorted(ends, key=lambda e: e[0]):  # the best end point that passes the dense check
-        traj, scale, broken = _checked(chain, to_trajectory(best_x.reshape(n, m), options.base_frequency), limits,
+        traj, scale, broken = _checked(chain, FourierTrajectory.from_matrix(best_x.reshape(n, m), options.base_frequency), limits,
                                        phi if use_tau else None, t)
         if not broken:
             break

@@ -1,7 +1,7 @@
 """Starting points of the design: simulate's random series, moved and shrunk into torque and box limits.
 
 ``random_start`` draws a series exactly as ``simulate`` draws its excitation
-(``identify.trajectory.fourier_excitation``), projected onto the rest
+(``experiment.trajectory.fourier_excitation``), projected onto the rest
 conditions when asked and scaled into the all-instant limits.  With torque
 limits or a box, ``feasible_centre`` picks a standing position that meets
 them (the best of STATIC_SAMPLES fixed-seed positions; none: the limits are
@@ -16,8 +16,7 @@ import numpy as np
 from minparam_cli.chain import Chain
 from minparam_cli.errors import InputError
 from minparam_cli.experiment.excite import constraints as cons
-from minparam_cli.experiment.excite.fourier import from_trajectory, project_to_rest, to_trajectory
-from minparam_cli.experiment.trajectory import FourierTrajectory, fourier_excitation
+from minparam_cli.experiment.trajectory import FourierTrajectory, fourier_excitation, project_to_rest
 
 
 def random_start(limits: cons.Limits, options, rng: np.random.Generator) -> FourierTrajectory:
@@ -27,7 +26,7 @@ def random_start(limits: cons.Limits, options, rng: np.random.Generator) -> Four
     ranges = np.column_stack([limits.lower, limits.upper])
     traj = fourier_excitation(ranges, options.harmonics, options.base_frequency, rng, limits.margin, vel, acc)
     if options.rest:
-        traj = to_trajectory(project_to_rest(from_trajectory(traj)), options.base_frequency)
+        traj = FourierTrajectory.from_matrix(project_to_rest(traj.matrix()), options.base_frequency)
     return cons.scaled(traj, cons.rigorous_scale(traj, limits))
 
 
