@@ -5,7 +5,9 @@ rational lengths and angles at multiples of 90 deg (``exact_matrices``), else ``
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from fractions import Fraction
+from typing import Any, Protocol
 
 import numpy as np
 
@@ -87,10 +89,47 @@ class NotExact(Exception):
     """The geometry has a value that is not exact (an irrational length, an angle off 90° multiples, ...)."""
 
 
-def joint_matrices(desc: RobotDescription, num: Numbers):
+class NumberAccess(Protocol):
+    """What ``joint_matrices`` asks of its arithmetic: ``Numbers``, or the symbolic route's own."""
+
+    exact: bool
+    one: Any
+    zero: Any
+
+    def length(self, g: GeomValue) -> Any: ...
+
+    def cos_sin(self, g: GeomValue) -> tuple[Any, Any]: ...
+
+
+class JointRows(Protocol):
+    """What ``joint_matrices`` reads of a joint record (``JointRecord``, or a view of one)."""
+
+    @property
+    def type(self) -> str: ...
+    @property
+    def dh(self) -> dict[str, GeomValue] | None: ...
+    @property
+    def origin(self) -> dict[str, GeomValue] | None: ...
+    @property
+    def pre_fixed(self) -> tuple[tuple[float, ...], ...] | None: ...
+    @property
+    def axis(self) -> tuple[float, ...]: ...
+
+
+class JointsRecords(Protocol):
+    """What ``joint_matrices`` reads of a description (``RobotDescription``, or a view of one)."""
+
+    @property
+    def convention(self) -> str: ...
+    @property
+    def joints(self) -> Sequence[JointRows]: ...
+
+
+def joint_matrices(desc: JointsRecords, num: NumberAccess) -> list[tuple[list[list[Any]], tuple[Any, ...], list[list[Any]]]]:
     """(pre, axis, post) per joint in the arithmetic of ``num``."""
     one, zero = num.one, num.zero
     out = []
+    axis: tuple[Any, ...]
     for jr in desc.joints:
         if jr.dh is not None:
             al_c, al_s = num.cos_sin(jr.dh["alpha"])
@@ -110,6 +149,7 @@ def joint_matrices(desc: RobotDescription, num: Numbers):
                 pre, post = Rz, _chain_mul([Tz, Tx, Rx], one, zero)
         else:
             o = jr.origin
+            assert o is not None  # a joint without DH parameters is a URDF joint, with its origin
             xyz = [num.length(o[k]) for k in ("x", "y", "z")]
             rc, rs = num.cos_sin(o["roll"])
             pc, ps = num.cos_sin(o["pitch"])

@@ -67,7 +67,7 @@ def output_folder(path: Path, flag: str) -> Path:
     return path
 
 
-def atomic_write(path: Path, write: Callable[[str], None], suffix: str = ".tmp") -> None:
+def atomic_write(path: Path, write: Callable[[str], object], suffix: str = ".tmp") -> None:
     """Write one output file, never leaving a partial one.
 
     ``write`` fills the file named by its argument.  For a regular file (new or existing, or the
@@ -110,7 +110,7 @@ def atomic_write(path: Path, write: Callable[[str], None], suffix: str = ".tmp")
             os.unlink(tmp)
 
 
-def _write_stdout(write: Callable[[str], None], suffix: str) -> None:
+def _write_stdout(write: Callable[[str], object], suffix: str) -> None:
     """Run ``write`` on a temporary file, then copy its bytes to stdout."""
     import shutil
     import tempfile

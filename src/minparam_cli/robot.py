@@ -9,6 +9,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, replace
 from pathlib import Path
+from typing import cast
 
 from minparam_cli.params import EXTRA_ORDER
 
@@ -40,8 +41,8 @@ def load_chain(path: str | Path, opts: DeriveOptions):
 
     desc = load_description(path, opts.snap_angles, opts.mimic, opts.floating_base)
     if opts.gravity is not None:
-        desc = replace(desc, gravity=tuple(opts.gravity), gravity_source="cli")
-    extras = []
+        desc = replace(desc, gravity=cast("tuple[float, float, float]", tuple(opts.gravity)), gravity_source="cli")
+    extras: list[tuple[str, ...]] = []
     for j in desc.joints:
         if j.virtual:  # a floating base's coordinates: no friction, rotor or offset
             extras.append(())

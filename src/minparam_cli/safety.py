@@ -170,7 +170,7 @@ def _unique_key_loader():
     # libyaml's parser when present (several times faster); the constructor stays the safe one
     base = getattr(yaml, "CSafeLoader", yaml.SafeLoader)
 
-    class UniqueKeyLoader(base):
+    class UniqueKeyLoader(base):  # type: ignore[valid-type,misc]  # a base chosen at run time (libyaml's when present)
         def construct_mapping(self, node, deep=False):
             seen = set()
             for key_node, _ in node.value:
@@ -188,9 +188,9 @@ def _unique_key_loader():
     return UniqueKeyLoader
 
 
-def _event_path(frames) -> str:
+def _event_path(frames) -> str | None:
     """The YAML path ("joints[2].inertial.mass") of the node being read, from the event frames."""
-    parts = []
+    parts: list[str] = []
     for kind, key, index in frames:
         if kind == "map" and key is not None:
             parts.append(f".{key}" if parts else str(key))

@@ -132,7 +132,7 @@ class FloatRowSpace:
     def _flush(self) -> None:
         if self._buf:
             stacked = np.concatenate([self._R, *self._buf], axis=0)
-            self._R = np.linalg.qr(stacked, mode="r")
+            self._R = np.linalg.qr(stacked, mode="r")  # type: ignore[assignment]  # numpy stubs: qr() gives QRResult for every mode; mode="r" returns R
             self._buf, self._buffered = [], 0
 
     @property

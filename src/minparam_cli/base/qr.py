@@ -104,7 +104,7 @@ def base_from_regressor(W: np.ndarray, source: str = "", col_scale: np.ndarray |
     # one Householder QR: Wn = Q R, Q orthogonal, so R's columns have Wn's inner products and
     # carry every residual, singular value and least-squares solution of Wn in a square matrix;
     # scaling a column scales its column of R
-    R = np.linalg.qr(Wn, mode="r")
+    R: np.ndarray = np.linalg.qr(Wn, mode="r")  # type: ignore[assignment]  # numpy stubs: qr() gives QRResult for every mode; mode="r" returns R
     rel = size[cols] / largest if cols.size else size[cols]
     kept_c, r_c = scan_in_order(R, rel)  # the keep rule, on R's columns (result.scan_in_order)
     r = np.zeros(P)
@@ -123,7 +123,7 @@ def base_from_regressor(W: np.ndarray, source: str = "", col_scale: np.ndarray |
     kept_set = set(kept)
     dropped = [i for i in range(P) if i not in kept_set]
     # paper 003: a second QR of the kept columns, R[:, kept] = Q1 R1, beta = R1^-1 Q1^T R[:, dropped]
-    position = {c: k for k, c in enumerate(cols)}
+    position = {int(c): k for k, c in enumerate(cols)}
     Rk = R[:, [position[c] for c in kept]]
     Rd = np.zeros((R.shape[0], len(dropped)))
     for k, c in enumerate(dropped):

@@ -31,6 +31,7 @@ its kept set the regrouping matrix is K = A_kept⁻¹ A, solved by sparse exact 
 from __future__ import annotations
 
 from fractions import Fraction
+from typing import Any
 
 import numpy as np
 
@@ -106,6 +107,8 @@ def stage1(desc, chain, ar: Arith, transforms) -> list[Column]:
     from minparam_cli.params import LINK_PARAMS
 
     per_link: dict[int, list[Column]] = {}
+    psi_idx: tuple[int, ...]
+    keep: tuple[int, ...]
     for j in range(n - 1, -1, -1):
         P, A = transforms[j]
         phi = _apply(transfer_matrix(A, ar), acc[j])
@@ -156,7 +159,7 @@ def column_values(desc, cols, ar: Arith, transforms, state, only=None) -> list:
     cq, sq, q, qd = state
     upto = None if only is None else max((_link_of(cols[k]) for k in only), default=-1)
     e = energy_coefficients(desc, transforms, ar, cq, sq, q, qd, upto)
-    out = []
+    out: list[Any] = []  # numbers of the arithmetic, or None
     half = ar.const(Fraction(1, 2))
     for k, c in enumerate(cols):
         w = c.where
@@ -202,7 +205,7 @@ def numeric_relations(desc, chain, cols, far: Arith, ftrans, rng, plan: Coupled)
             indep.append((k, i))
         else:
             dep.append((k, i))
-    relations = {}
+    relations: dict[int, list[int]] = {}
     Di = D[:, [i for _, i in indep]]
     for k, i in dep:
         if norms[i] <= 1e-10 * top:

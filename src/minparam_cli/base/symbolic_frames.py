@@ -24,10 +24,14 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 from fractions import Fraction
+from typing import TYPE_CHECKING, Any
 
 from minparam_cli.base.symbolic_urdf import AXIS_THETA, MIMIC_OFFSET, axis_rotation_oblique, is_frame_axis
 from minparam_cli.chain import PRISMATIC, REVOLUTE
 from minparam_cli.errors import UnsupportedError
+
+if TYPE_CHECKING:
+    from minparam_cli.base.symbolic_poly import ExactContext
 
 XX, XY, XZ, YY, YZ, ZZ, MX, MY, MZ, M = range(10)
 
@@ -45,7 +49,8 @@ class FieldSymbols:
 
 def shift_symbols(desc) -> set[str]:
     """Symbols used only as the offset of a joint's own coordinate."""
-    shift, other = set(), set()
+    shift: set[str] = set()
+    other: set[str] = set()
     for jr in desc.joints:
         if jr.dh is not None:
             own = "theta" if jr.type == REVOLUTE else "d"
@@ -98,7 +103,12 @@ class Arith:
         self.fs, self.pins = fs, pins
         self.numbers = numbers or {}
         self.rational = rational
+        self.F: ExactContext | None
+        self.gen: dict[str, Any]
+        self.one: Any  # Fraction, field element or float, as the arithmetic
+        self.zero: Any
         if rational:
+            assert values is not None  # the rational arithmetic is given its numbers
             self.F, self.gen = None, values
             self.one, self.zero = Fraction(1), Fraction(0)
             self.exact = False
@@ -120,6 +130,7 @@ class Arith:
         if self.rational:
             return Fraction(x)
         if self.exact:
+            assert self.F is not None  # the exact arithmetic is the field's
             return self.F.const(x)
         return float(x)
 
@@ -287,7 +298,7 @@ def energy_coefficients(desc, transforms, ar: Arith, cq, sq, q, qd, upto: int | 
     zero, one = ar.zero, ar.one
     g0 = ar.gravity()
     n = len(desc.joints)
-    frames = [None] * n  # (R, o, omega, v) of F_j in the base frame
+    frames: list[Any] = [None] * n  # (R, o, omega, v) of F_j in the base frame
     out = []
     half = ar.const(Fraction(1, 2))
     for j, jr in enumerate(desc.joints):

@@ -59,8 +59,8 @@ class ExactContext:
                     m = list(mon)
                     m[si] = k % 2
                     m[ci] += 2 * j
-                    m = tuple(m)
-                    out[m] = out.get(m, 0) + coef * comb(h, j) * (-1) ** j
+                    key = tuple(m)
+                    out[key] = out.get(key, 0) + coef * comb(h, j) * (-1) ** j
             terms = {m: c for m, c in out.items() if c}
         return self.R.from_dict(terms) if terms else self.R.zero
 

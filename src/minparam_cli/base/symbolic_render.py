@@ -40,7 +40,7 @@ def _swapped(ctx):
 
     R2 = getattr(ctx, "_swapped", None)
     if R2 is None:
-        names = []
+        names: list[str] = []
         for g in ctx.R.gens:
             nm = str(g)
             if nm.startswith("cos_"):

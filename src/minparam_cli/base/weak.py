@@ -25,6 +25,7 @@ there is explained by that candidate.
 from __future__ import annotations
 
 from dataclasses import replace
+from typing import Any
 
 import numpy as np
 
@@ -41,7 +42,7 @@ def weak_parameters(chain: Chain, base: BaseSet, explain: bool = True, samples: 
     """One dict per weakly identifiable parameter: name, margin, and the geometry found responsible."""
     weak = [(int(c), float(r)) for c, r in base.rank_margin.get("weak", [])]
     names = base.standard_names
-    out = [{"parameter": names[c], "margin": r, "bound": WEAK_RTOL, "geometry": []} for c, r in weak]
+    out: list[dict[str, Any]] = [{"parameter": names[c], "margin": r, "bound": WEAK_RTOL, "geometry": []} for c, r in weak]
     if not explain or not weak:
         return out
     from minparam_cli.base.qr import derive_qr

@@ -21,6 +21,7 @@ the operations the rounding would otherwise cost.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 
@@ -47,7 +48,7 @@ class Recorded:
     links: list = field(default_factory=list)
     inertial_columns: tuple = ()
     joint_rows: list = field(default_factory=list)
-    G: object = None
+    G: list[list[float]] | None = None
 
 
 def _snap(x: float, scale: float = 1.0) -> float:
@@ -106,8 +107,12 @@ def record_regressor(chain: Chain) -> Recorded:
         qddj = [_dot([_snap(g) for g in G[j]], qdd) for j in range(n)]
     L = chain.length_scale
     g = [_snap(x, 10.0) for x in chain.gravity]
-    V, A, U, links = [], [], [], []
-    Yj = [[0.0] * (10 * n) for _ in range(n)]
+    # entries are float constants or Sym nodes of ``prog`` (Any: the two mix in one arithmetic)
+    V: list[list[Any]] = []
+    A: list[list[Any]] = []
+    U: list[dict[int, list[Any]]] = []
+    links: list[tuple[list[list[Any]], dict[int, list[Any]]]] = []
+    Yj: list[list[Any]] = [[0.0] * (10 * n) for _ in range(n)]
     for j, ((C0, C1, C2), _, _) in enumerate(chain.local_terms):
         c0, c1 = _snapped(C0, L), _snapped(C1, L)
         if chain.types[j] == REVOLUTE:
@@ -190,12 +195,12 @@ def record_regressor(chain: Chain) -> Recorded:
             for i, r in enumerate(Nk):
                 if r != 0.0:
                     rows[i][col] = f * r
-    joint_rows, G = rows, None
+    joint_rows, Gs = rows, None
     if chain.coupling is not None:  # virtual work: Y = Gᵀ Y_joints
-        G = [[_snap(x) for x in row] for row in chain.coupling.G]
-        rows = [[_dot([G[j][i] for j in range(n)], [joint_rows[j][c] for j in range(n)]) for c in range(layout.size)]
+        Gs = [[_snap(x) for x in row] for row in chain.coupling.G]
+        rows = [[_dot([Gs[j][i] for j in range(n)], [joint_rows[j][c] for j in range(n)]) for c in range(layout.size)]
                 for i in range(dof)]
-    return Recorded(prog, rows, q, qd, qdd, links, tuple(cols), joint_rows, G)
+    return Recorded(prog, rows, q, qd, qdd, links, tuple(cols), joint_rows, Gs)
 
 
 def torque(rec: Recorded, phi) -> list:

@@ -23,6 +23,7 @@ Newton–Euler model).
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Callable
 
 # unary functions a program may call; each emitter maps them to its language
 FUNCTIONS = ("sin", "cos", "tanh", "exp", "abs", "sign", "pos", "negind")
@@ -181,9 +182,11 @@ class Program:
             import math
 
             x = float(a)
-            return {"sin": math.sin, "cos": math.cos, "tanh": math.tanh, "exp": math.exp, "abs": abs,
-                    "sign": lambda v: float((v > 0) - (v < 0)), "pos": lambda v: float(v > 0),
-                    "negind": lambda v: float(v < 0)}[fn](x)
+            now: dict[str, Callable[[float], float]] = {
+                "sin": math.sin, "cos": math.cos, "tanh": math.tanh, "exp": math.exp, "abs": abs,
+                "sign": lambda v: float((v > 0) - (v < 0)), "pos": lambda v: float(v > 0),
+                "negind": lambda v: float(v < 0)}
+            return now[fn](x)
         return self._node(fn, (a.i,))
 
     # --- reading -------------------------------------------------------------------------------

@@ -107,7 +107,7 @@ def read_elements(root, src: str):
                 limits = (lo, hi)
         # <limit velocity= effort=>: positive values are limits; 0 or below (placeholders seen in real
         # files, which derive does not need), absent or huge: no limit
-        rates = {"velocity": None, "effort": None}
+        rates: dict[str, float | None] = {"velocity": None, "effort": None}
         if jtype in ("revolute", "prismatic", "continuous") and lim is not None:
             for key in rates:
                 if lim.get(key) is not None:

@@ -48,7 +48,7 @@ def _to_inertial(phi: np.ndarray) -> Inertial:
     c = phi[6:9] / m if m > 0 else np.zeros(3)
     Io = np.array([[phi[0], phi[1], phi[2]], [phi[1], phi[3], phi[4]], [phi[2], phi[4], phi[5]]])
     Ic = Io - m * (c @ c * np.eye(3) - np.outer(c, c))
-    return Inertial(float(m), tuple(float(x) for x in c), (Ic[0, 0], Ic[0, 1], Ic[0, 2], Ic[1, 1], Ic[1, 2], Ic[2, 2]))
+    return Inertial(float(m), (float(c[0]), float(c[1]), float(c[2])), (Ic[0, 0], Ic[0, 1], Ic[0, 2], Ic[1, 1], Ic[1, 2], Ic[2, 2]))
 
 
 def _symbol_base(name: str) -> str:
@@ -164,12 +164,12 @@ def build_description(name: str, src: str, links: dict, joints: list[dict], floa
             body_phi.append(None)
             X = np.eye(4)
         if body >= 0:
-            attached.append((link, body, tuple(float(v) + 0.0 for v in X[:3, 3])))
+            attached.append((link, body, (float(X[0, 3]) + 0.0, float(X[1, 3]) + 0.0, float(X[2, 3]) + 0.0)))
         inertial = links[link]["inertial"]
         if inertial is not None and body >= 0:
             phi = _standard_in_body(inertial, X)
             body_phi[body] = phi if body_phi[body] is None else body_phi[body] + phi
-        pushed = []
+        pushed: list[tuple] = []
         for j in children[link]:
             Xo = X @ _origin_matrix(j["xyz"], j["rpy"])
             if j["frozen"] is not None:  # a mimic joint frozen at its offset (mimic="fixed")
@@ -184,8 +184,8 @@ def build_description(name: str, src: str, links: dict, joints: list[dict], floa
         raise DescriptionError("some links are not connected to the root", src)
 
     out = []
-    for rec, phi in zip(records, body_phi):
-        out.append(JointRecord(**rec, inertial=None if phi is None else _to_inertial(phi)))
+    for rec, body_sum in zip(records, body_phi):
+        out.append(JointRecord(**rec, inertial=None if body_sum is None else _to_inertial(body_sum)))
     tool_link, tool = default_tool(attached, records)
     return RobotDescription(
         tool=tool,

@@ -74,12 +74,12 @@ def description_from_mapping(doc: Any, src: str) -> RobotDescription:
         raise DescriptionError(f"unknown angle unit {short_repr(au)}; expected 'deg' or 'rad'", src, "units.angle")
     scale = LENGTH_UNITS[lu]
 
-    gravity = _vector(doc.get("gravity", [0.0, 0.0, -9.81]), src, "gravity")
+    gravity = _vector3(doc.get("gravity", [0.0, 0.0, -9.81]), src, "gravity")
     robot_friction = _friction(doc.get("friction", []), src, "friction")
     robot_rotor = _bool(doc.get("rotor_inertia", False), src, "rotor_inertia")
     tool = None
     if doc.get("tool") is not None:
-        tool = tuple(float(scale) * v for v in _vector(doc["tool"], src, "tool"))
+        tool = _scaled(float(scale), _vector3(doc["tool"], src, "tool"))
 
     joints_in = doc["joints"]
     if not isinstance(joints_in, list) or not joints_in:
@@ -192,6 +192,15 @@ def _vector(v: Any, src: str, where: str, n: int = 3) -> tuple[float, ...]:
     return tuple(_number(x, src, where) for x in v)
 
 
+def _vector3(v: Any, src: str, where: str) -> tuple[float, float, float]:
+    x, y, z = _vector(v, src, where)
+    return x, y, z
+
+
+def _scaled(k: float, v: tuple[float, float, float]) -> tuple[float, float, float]:
+    return k * v[0], k * v[1], k * v[2]
+
+
 def _bool(v: Any, src: str, where: str) -> bool:
     if not isinstance(v, bool):
         raise DescriptionError(f"expected true or false, got {short_repr(v)}", src, where)
@@ -240,7 +249,8 @@ def _inertial(v: Any, scale: Fraction, src: str, where: str) -> Inertial | None:
     mass = _number(v["mass"], src, f"{where}.mass")
     if mass < 0:
         raise DescriptionError(f"mass must be non-negative, got {mass}", src, f"{where}.mass")
-    com = tuple(float(scale) * c for c in _vector(v["com"], src, f"{where}.com"))
-    inertia = _vector(v["inertia"], src, f"{where}.inertia", n=6)
+    com = _scaled(float(scale), _vector3(v["com"], src, f"{where}.com"))
+    ixx, ixy, ixz, iyy, iyz, izz = _vector(v["inertia"], src, f"{where}.inertia", n=6)
+    inertia = (ixx, ixy, ixz, iyy, iyz, izz)
     # inertia is given in kg*m^2 regardless of the length unit (documented)
     return Inertial(mass, com, inertia)

@@ -59,7 +59,7 @@ def body_verdicts(desc: RobotDescription) -> list[tuple[str, str | None]]:
     """(link name, problem or None) for every moving link with inertial values, in joint order."""
     from minparam_cli.dynamics.inertia import standard_from_com
 
-    out = []
+    out: list[tuple[str, str | None]] = []
     for k, jr in enumerate(desc.joints):
         if jr.inertial is None or jr.massless:
             continue

@@ -17,8 +17,8 @@ Columns for joint j live in row j only (the torque of joint j), except that
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
-from typing import Callable
+from dataclasses import dataclass, field
+from typing import Any, Callable
 
 import numpy as np
 
@@ -51,7 +51,7 @@ class Effect:
     grid: tuple[float, ...] = ()  # values of the nonlinear parameter, if any
     grid_name: str = ""
     needs_model: bool = False
-    build: Callable = None  # (signals, joint, hyper) -> (N, m)
+    build: Callable[..., Any] = field(kw_only=True)  # (signals, joint, hyper) -> (N, m)
     bounds: tuple[float, float] | None = None  # physical range of every coefficient (None: any value)
     misfit: str = ""  # what a coefficient outside ``bounds`` most likely is instead
 

@@ -111,8 +111,9 @@ class _Recursion:
         self.below = _rows_below(self.chain)
         self.skipped = 0
 
-    def _block(self, *args) -> Block:
-        b = Block(*args, skipped=self.skipped)
+    def _block(self, kind: str, node: int, pair: tuple[int, int] | None, path: tuple[int, ...], index: np.ndarray,
+               coords: np.ndarray) -> Block:
+        b = Block(kind, node, pair, path, index, coords, skipped=self.skipped)
         self.skipped = 0
         return b
 
@@ -174,7 +175,7 @@ class _Recursion:
 
     # --- kinetic energy ---------------------------------------------------
     def kinetic(self) -> Iterator[Block]:
-        E = np.eye(4, dtype=self.dtype).reshape(16, 1)
+        E: np.ndarray = np.eye(4, dtype=self.dtype).reshape(16, 1)
         yield from self._walk_N(-1, E, np.zeros(1, dtype=np.int64))
 
     def _walk_N(self, k, X, idx):
@@ -215,7 +216,7 @@ class _Recursion:
 
     # --- potential energy ---------------------------------------------------
     def potential(self) -> Iterator[Block]:
-        v = np.asarray(self.geom.gravity, dtype=self.dtype).reshape(4, 1)
+        v: np.ndarray = np.asarray(self.geom.gravity, dtype=self.dtype).reshape(4, 1)
         yield from self._walk_V(-1, v, np.zeros(1, dtype=np.int64))
 
     def _walk_V(self, k, X, idx):

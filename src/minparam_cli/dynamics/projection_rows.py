@@ -76,7 +76,8 @@ def produced_rows(chain: Chain) -> tuple[int, int]:
     """(kinetic, potential) rows the recursion produces: nonconstant basis functions that
     can carry a nonzero coordinate.  For a serial chain they sum to dim B - 1; a tree
     has fewer (functions mixing two branches never appear)."""
-    prodY, prodX = {}, {}
+    prodY: dict[int, int] = {}
+    prodX: dict[int, int] = {}
     for j in range(chain.n):  # parents come before children
         p = chain.parents[j]
         prodY[j] = (prodY[p] if p >= 0 else 1) * Y_SIZE[chain.types[j]]
@@ -122,12 +123,16 @@ def coordinate_matrix(chain: Chain, max_rows: int = 100_000) -> tuple[list[tuple
             continue
         psi = maps[b.node][0 if b.kind == KINETIC else 1]
         Z = (psi @ b.coords).T
+        head: tuple
         if b.kind == KINETIC:
             Z = Z / geom.kinetic_scale
+            assert b.pair is not None  # a kinetic block carries its pair
+            head = (KINETIC, *b.pair)
+        else:
+            head = (POTENTIAL,)
         rows.append(Z)
         for ix in b.index:
-            digits = decode_index(chain, b.path, ix, b.kind)
-            labels.append((KINETIC, *b.pair, digits) if b.kind == KINETIC else (POTENTIAL, digits))
+            labels.append((*head, decode_index(chain, b.path, ix, b.kind)))
     return labels, np.concatenate(rows, axis=0)
 
 

@@ -117,6 +117,8 @@ def joint_terms(kind: str, pre: np.ndarray, axis, post: np.ndarray) -> JointTerm
     K2 = [[sum((K[i][m] * K[m][j] for m in range(3)), zero) for j in range(3)] for i in range(3)]
     E3 = [[one if i == j else zero for j in range(3)] for i in range(3)]
     z3 = [zero, zero, zero]
+    motions: tuple[np.ndarray, ...]
+    D: tuple[np.ndarray | None, ...]
     if kind == REVOLUTE:
         motions = (
             _block([[E3[i][j] + K2[i][j] for j in range(3)] for i in range(3)], z3, one, dtype, zero),
@@ -219,7 +221,7 @@ class ProjectionGeometry:
 
     chain: Chain
     exact: bool
-    dtype: object  # np.float64 or object (Python integers)
+    dtype: type  # np.float64 or object (Python integers)
     terms: tuple[JointTerms, ...]
     maps: tuple[dict[str, np.ndarray], ...]  # per joint: AA, DA, AD, DD (|Y|·16 x 16), A0 (16x16), X (|X|·4 x 4)
     gravity: np.ndarray  # (4,) g̃ = (g, 0), scaled in exact mode

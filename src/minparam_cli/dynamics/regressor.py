@@ -40,6 +40,7 @@ kernel in arithmetic (benchmarks/bench_derive.py).
 from __future__ import annotations
 
 import random
+from types import ModuleType
 
 import numpy as np
 
@@ -48,6 +49,7 @@ from minparam_cli.params import FRICTION_KINDS
 
 JOINT_EXTRAS = ("rotor_inertia",) + FRICTION_KINDS  # extras of a joint's own signals (motor-side: transmission.py)
 
+_rnea: ModuleType | None
 try:  # compiled kernel (setup.py, optional): same numbers as the numpy reference below
     from minparam_cli.dynamics import _rnea
 except ImportError:  # pragma: no cover - depends on the install having a C compiler
@@ -264,6 +266,7 @@ def regressor_columns(chain: Chain, q, qd, qdd, columns, out: np.ndarray | None 
     inertial = columns < layout.n_inertial
     dest[full[columns[inertial]]] = np.flatnonzero(inertial)
     terms, axor, parents, revolute, gravity = _kernel_arrays(chain)
+    assert _rnea is not None  # ``direct``: the kernel is built
     _rnea.inertial_columns(out, q, qd, qdd, terms, axor, parents, revolute, gravity, dest, N, n,
                            out.shape[1] * out.shape[2], out.shape[2])
     extras = layout.extra_columns

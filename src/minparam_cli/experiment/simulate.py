@@ -46,7 +46,7 @@ from __future__ import annotations
 
 import os
 from dataclasses import dataclass, field
-from typing import Callable, Iterator
+from typing import TYPE_CHECKING, Callable, Iterator
 
 import numpy as np
 
@@ -59,6 +59,10 @@ from minparam_cli.experiment.simulate_effects import effect_coefficients
 from minparam_cli.experiment.simulate_spec import InjectedEffect, MotionLimits, SimulationOptions, validate_options
 from minparam_cli.experiment.trajectory import FourierTrajectory, fourier_excitation, joint_ranges
 from minparam_cli.params import standard_names
+
+if TYPE_CHECKING:
+    from minparam_cli.experiment.trajectory_file import SampledMotion
+
 # Samples per regressor evaluation (bounds memory: chunk × n × 10n doubles).
 REGRESSOR_CHUNK = 2048
 
@@ -80,7 +84,7 @@ class Simulation:
     phi: np.ndarray  # (10 n,) standard parameters used
     inertia_source: str  # "description" | "random"
     inertia: RandomInertia | None
-    trajectory: "FourierTrajectory | object"  # the series, or given sampled motion
+    trajectory: "FourierTrajectory | SampledMotion"  # the series, or given sampled motion
     ranges: tuple[tuple[float, float], ...]
     effects: tuple[InjectedEffect, ...]
     options: SimulationOptions
@@ -100,7 +104,7 @@ class Plan:
     chain: Chain
     options: SimulationOptions
     samples: int
-    trajectory: "FourierTrajectory | object"  # the series, or given sampled motion
+    trajectory: "FourierTrajectory | SampledMotion"  # the series, or given sampled motion
     ranges: tuple[tuple[float, float], ...]
     phi: np.ndarray
     inertia_source: str

@@ -26,7 +26,7 @@ def effect_coefficients(spec: EffectSpec, grams: list[np.ndarray], samples: int,
     effect = EFFECTS[spec.effect]
     coefficients, rms = [], []
     for j, gram in zip(spec.joints, grams):
-        m = gram.shape[0]
+        m: int = gram.shape[0]
         weights = rng.uniform(*WEIGHT_RANGE, size=m)
         signs = rng.choice((-1.0, 1.0), size=m)
         if spec.effect == "gain":

@@ -143,7 +143,7 @@ class Standstill:
         self.still_all += int(every.sum())
         self.report.still_share = [float(c / self.seen) for c in self.still]
         self.report.still_all_share = self.still_all / self.seen
-        return every
+        return every  # type: ignore[return-value]  # numpy stubs: all(axis=1) of a 2-D array may be a scalar
 
     def _drop(self, count: int) -> None:
         self.report.dropped["standstill"] += count

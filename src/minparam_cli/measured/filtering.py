@@ -50,14 +50,15 @@ class Processor:
         t = first["t"]
         if step is None and len(t) < 3:
             raise DataError(f"{report.path}: too few samples in the first chunk to find the sampling step")
-        self.dt = step if step else sampling_step(t)
-        if not (self.dt is not None and self.dt > 0):
+        dt = step if step else sampling_step(t)
+        if not (dt is not None and dt > 0):
             raise DataError(f"{report.path}: time stamps do not increase")
+        self.dt: float = dt
         report.median_step_s = self.dt
         self.filter = opts.force_filter or first["dq"] is None or first["ddq"] is None
         self.has_dq = first["dq"] is not None
         self.has_ddq = first["ddq"] is not None
-        self.last_t = None
+        self.last_t: float | None = None
         self.count = 0  # samples seen on the output grid (before decimation)
         fs = 1.0 / self.dt
         if self.filter:
@@ -91,7 +92,7 @@ class Processor:
             self.buffered = 0
             self.total = 0  # samples on the grid so far
             self.emitted = 0  # samples of the buffer already emitted
-            self.prev_raw = None
+            self.prev_raw: np.ndarray | None = None
             self.grid_next = float(t[0])
         else:
             self.k = opts.decimate or 1

@@ -14,7 +14,7 @@ import sys
 import threading
 import warnings
 from pathlib import Path
-from typing import Iterator
+from typing import Any, Generator, Iterator
 
 import numpy as np
 
@@ -27,7 +27,8 @@ BACKGROUND_BYTES = 64 * 2**20
 
 def column_layout(present: dict[str, bool], n: int) -> dict[str, slice | int | None]:
     """Where each key lives in a chunk's table (columns t, q, [dq], [ddq], tau): an index, a slice or None."""
-    out, c = {}, 0
+    out: dict[str, slice | int | None] = {}
+    c = 0
     for k in KEYS:
         if not present[k]:
             out[k] = None
@@ -42,7 +43,7 @@ def split(table: np.ndarray, layout: dict) -> dict:
     return {k: (None if where is None else table[:, where]) for k, where in layout.items()}
 
 
-def csv_tables(path: Path, rows: int) -> Iterator:
+def csv_tables(path: Path, rows: int) -> Generator[Any, None, None]:
     """A CSV file read in chunks of ``rows`` rows, every column: yields its header (a list of names)
     first, then the chunks (a file of exactly k chunks ends after them, without an empty one).  The
     one-line errors of a bad header or a bad row (with its line) are raised from here."""
@@ -160,7 +161,7 @@ def open_npz(path: Path):
     if not isinstance(z, np.lib.npyio.NpzFile):
         raise DataError(f"{src}: not an .npz archive; expected arrays t, q, tau, ... saved by numpy.savez")
     with z:
-        declared = sum(info.file_size for info in z.zip.infolist())
+        declared = sum(info.file_size for info in z.zip.infolist())  # type: ignore[union-attr,misc]  # numpy stubs: NpzFile.zip is None only once closed
         if declared > MAX_NPZ_BYTES:
             raise DataError(f"{src}: its arrays hold {declared} bytes once decompressed, more than the {MAX_NPZ_BYTES}-byte limit")
         yield z
@@ -251,7 +252,7 @@ def _loads(lines: list[str], width: int) -> bool:
     return table.size == 0 or table.shape[1] == width
 
 
-def _csv_chunks(path: Path, fh, header_line: str, width: int, rows: int) -> Iterator[np.ndarray]:
+def _csv_chunks(path: Path, fh, header_line: str, width: int, rows: int) -> Generator[np.ndarray, None, None]:
     """The file's chunks of ``rows`` rows (every column), past the header: pyarrow's reader
     (``measured.arrow_csv``) while it reads every line as numbers, numpy from the start of the
     first chunk where it does not (the same chunks, values and errors; ValueError on a bad row)."""

@@ -195,6 +195,7 @@ def nonlinear_violations(chain: Chain, traj: FourierTrajectory, limits: Limits, 
             if tau[j] > effort[j]:
                 out.append(f"joint {j + 1}: max |tau| {tau[j]:.4g} > effort limit {effort[j]:.4g}")
     if limits.box is not None:
+        assert limits.point is not None  # the box comes with its point (api.excitation.prepare_excite)
         p = box_point(chain, q, limits.point)
         for c, axis in enumerate("xyz"):
             lo, hi = limits.box[c]

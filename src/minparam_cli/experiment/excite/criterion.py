@@ -162,11 +162,11 @@ def sensitivities(chain: Chain, kept, q, qd, qdd, kind: str, phi=None, scaled: b
         dYa = regressor(chain, q, qd, qdd + e, include_extras=False) - Y0
         for which, dY in (("q", dYq), ("v", dYv), ("a", dYa)):
             out[which][:, k] = np.einsum("sic,sic->s", Gi, dY)
-            if with_tau:
+            if dtau is not None:
                 dtau[which][:, :, k] = dY @ phi
     for col, k, which, values in _extra_derivatives(chain, qd):
         out[which][:, k] += G[:, k, col] * values
-    if not with_tau:
+    if dtau is None:
         return Sensitivities(f, out["q"], out["v"], out["a"])
     tau = Y[:, :, :ni] @ phi
     return Sensitivities(f, out["q"], out["v"], out["a"], tau, dtau["q"], dtau["v"], dtau["a"])

@@ -194,7 +194,7 @@ def design(chain: Chain, base: BaseSet, options: ExciteOptions, limits: cons.Lim
         return sens.value, grad
 
     constraints = [{"type": "ineq", "fun": lambda x: b - A @ x, "jac": lambda x: -A}]
-    slack = [0.0]  # per constraint: how far below 0 its value may go with the limits themselves still met
+    slack: list[float | np.ndarray] = [0.0]  # per constraint: how far below 0 its value may go with the limits themselves still met
     if options.rest:
         R = np.kron(np.eye(n), rest_rows(H))
         constraints.append({"type": "eq", "fun": lambda x: R @ x, "jac": lambda x: R})
@@ -214,18 +214,20 @@ def design(chain: Chain, base: BaseSet, options: ExciteOptions, limits: cons.Lim
         constraints.append({"type": "ineq", "fun": tau_fun, "jac": tau_jac})
         slack.append(np.tile(np.repeat(limits.margin * limits.effort[tau_joints][None, :], N, axis=0).ravel(), 2))
     if limits.box is not None:
-        axes = [(c, side) for c in range(3) for side in (0, 1) if np.isfinite(limits.box[c, side])]
+        box, point = limits.box, limits.point
+        assert point is not None  # the box comes with its point (api.excitation.prepare_excite)
+        axes = [(c, side) for c in range(3) for side in (0, 1) if np.isfinite(box[c, side])]
 
         tb = np.arange(BOX_GRID_POINTS_PER_HARMONIC * max(H, 4)) * (period / (BOX_GRID_POINTS_PER_HARMONIC * max(H, 4)))
         Bq_box = basis(tb, options.base_frequency, H)[0]
 
         def box_fun(x):
-            p = cons.box_point(chain, Bq_box @ x.reshape(n, m).T, limits.point)
-            return np.concatenate([(p[:, c] - limits.box[c, 0] - BOX_MARGIN) if side == 0 else (limits.box[c, 1] - BOX_MARGIN - p[:, c])
+            p = cons.box_point(chain, Bq_box @ x.reshape(n, m).T, point)
+            return np.concatenate([(p[:, c] - box[c, 0] - BOX_MARGIN) if side == 0 else (box[c, 1] - BOX_MARGIN - p[:, c])
                                    for c, side in axes])
 
         def box_jac(x):
-            dp = cons.box_point_jacobian(chain, Bq_box @ x.reshape(n, m).T, limits.point)  # (N_box, 3, n)
+            dp = cons.box_point_jacobian(chain, Bq_box @ x.reshape(n, m).T, point)  # (N_box, 3, n)
             rows = []
             for c, side in axes:
                 d = dp[:, c:c + 1] * (1.0 if side == 0 else -1.0)
@@ -284,7 +286,10 @@ def design(chain: Chain, base: BaseSet, options: ExciteOptions, limits: cons.Lim
         from minparam_cli.experiment.simulate import rigid_torque
 
         tau = rigid_torque(chain, q, dq, ddq, phi)
-    box_path = cons.box_point(chain, q, limits.point) if limits.box is not None else None
+    box_path = None
+    if limits.box is not None:
+        assert limits.point is not None  # the box comes with its point (api.excitation.prepare_excite)
+        box_path = cons.box_point(chain, q, limits.point)
     qg, dqg, ddqg = traj.evaluate(tg)
     final = criterion_value(base_regressor(chain, kept, qg, dqg, ddqg), kind, options.scaled)
     return ExciteResult(

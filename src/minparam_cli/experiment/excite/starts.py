@@ -58,6 +58,7 @@ def feasible_centre(chain: Chain, limits: cons.Limits, phi) -> np.ndarray:
                              f"against gravity in every position tried, above its effort limit less the margin ({e[j]:.4g})")
         badness = np.maximum(worst - 1.0, 0.0)
     if limits.box is not None:
+        assert limits.point is not None  # the box comes with its point (api.excitation.prepare_excite)
         p = cons.box_point(chain, q, limits.point)
         with np.errstate(invalid="ignore"):
             out = np.nan_to_num(np.maximum(limits.box[:, 0] - p, 0.0)) + np.nan_to_num(np.maximum(p - limits.box[:, 1], 0.0))

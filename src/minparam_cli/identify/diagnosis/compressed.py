@@ -67,7 +67,7 @@ def _factor(design: Design, b: Block, cat: Catalogue, rows: int = 2048) -> list[
             X = design.base_columns(sub)
             sig = design.signals(sub, X)
             A = np.concatenate([X] + [all_joints(e, sig, n, h) for e, h in cat.sources] + [sub.tau[:, :, None]], axis=2)
-            T = list(pool.map(lambda j: np.linalg.qr(np.vstack([T[j], A[:, j]]), mode="r"), range(n)))
+            T = list(pool.map(lambda j: np.linalg.qr(np.vstack([T[j], A[:, j]]), mode="r"), range(n)))  # type: ignore[arg-type,return-value]  # numpy stubs: qr() gives QRResult for every mode; mode="r" returns R
     return [np.hstack([Tj, np.zeros((Tj.shape[0], 1))]) for Tj in T]
 
 

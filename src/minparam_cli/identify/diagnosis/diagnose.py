@@ -89,7 +89,7 @@ class Rejected:
 @dataclass
 class Diagnosis:
     steps: list[Step] = field(default_factory=list)
-    design: Design | None = None
+    design: Design = field(kw_only=True)  # the model so far
     candidates_per_step: int = 0
     stop_reason: str = ""
     rejected: list[Rejected] = field(default_factory=list)
@@ -120,7 +120,7 @@ def candidates(design: Design, allowed: tuple[str, ...]) -> list[Term]:
         e = EFFECTS[eid]
         if e.needs_model and design.theta_model is None:
             continue
-        groups = [(j,) for j in range(n)]
+        groups: list[tuple[int, ...]] = [(j,) for j in range(n)]
         if eid not in PER_JOINT_ONLY and n > 1:
             groups.insert(0, tuple(range(n)))
         for g in groups:

@@ -69,6 +69,7 @@ def explain(term: Term, c: np.ndarray, design: Design, motion=None) -> str:
         unit = ("kg" if T == "N" else "kg·m²") if e == "rotor_inertia" else T
         return ONE_COLUMN[e].format(v=_list(values, 4 if e == "gain" else 3), T=unit, V=V, on=on)
     if e == "stribeck":
+        assert term.hyper is not None  # an effect with a grid: its term carries the value
         return (f"breakaway friction {_list(c[:, 0])} {T} above the Coulomb level at standstill on {on}, "
                 f"gone by |q̇| ≈ {2 * term.hyper:g} {V}")
     if e == "asymmetric_coulomb":
@@ -80,6 +81,7 @@ def explain(term: Term, c: np.ndarray, design: Design, motion=None) -> str:
         return (f"a torque that depends on position, varying by {_list(swings)} {T} over the fitted motion on {on} "
                 "(Kq·q + Ks·sin q + Kc·cos q): a spring, cable, gravity compensator or a gravity model error")
     if e == "cogging":
+        assert term.hyper is not None  # an effect with a grid: its term carries the value
         amp = np.hypot(c[:, 0], c[:, 1])
         text = f"a ripple of amplitude {_list(amp)} {T}, {term.hyper:g} periods per turn (every {360 / term.hyper:.3g}°) on {on}"
         if motion is not None:
@@ -108,6 +110,7 @@ STILL_NOTE = 0.10  # share of still samples on a joint worth naming beside a wro
 def describe_rejected(r: Rejected, data_reports: list[dict]) -> dict:
     """A wrong-sign candidate: what it would have removed, its values, and what it most likely is."""
     e = EFFECTS[r.term.effect]
+    assert e.bounds is not None  # a candidate is rejected for a coefficient outside its bounds
     lo, hi = e.bounds
     bad = [(j, row) for j, row in zip(r.term.joints, r.coefficients) if not in_bounds(r.term.effect, row)]
     shown = ", ".join(f"{e.column_names[0]}{j + 1} = {row[0]:.3g}" for j, row in bad)
@@ -134,7 +137,7 @@ def _rotor_homes(chain, seed: int) -> dict[str, list[tuple[int, float]]]:
     extras = tuple(tuple(k for k in EXTRA_ORDER if k in ex or k == "rotor_inertia") for ex in chain.layout.extras)
     base = derive_qr(chain.with_extras(extras), seed=seed)
     names = base.standard_names
-    homes: dict[str, list[int]] = {}
+    homes: dict[str, list[tuple[int, float]]] = {}
     for j in chain.coordinates:
         col = names.index(f"Ia{j + 1}")
         for i, bname in enumerate(base.base_names):

@@ -38,7 +38,7 @@ LIMIT = 16.0  # largest squared column norm of A P⁻¹ the fast update takes
 
 
 def _householder(R: np.ndarray, A: np.ndarray) -> np.ndarray:
-    return np.linalg.qr(np.vstack([R, A]), mode="r")
+    return np.linalg.qr(np.vstack([R, A]), mode="r")  # type: ignore[return-value]  # numpy stubs: qr() gives QRResult for every mode; mode="r" returns R
 
 
 class NonFiniteRows(ArithmeticError):
@@ -134,11 +134,11 @@ class Accumulator:
         With ``segments`` ((start, end) ranges of the N rows), returns per joint (its active
         columns, [A_sᵀA_s over those columns for each segment]) (see the module's note).
         Raises NonFiniteRows when the rows make a factor non-finite."""
-        out = [] if segments is not None else None
+        out: list | None = [] if segments is not None else None
         for j in range(self.n):
             cj = cols[j]
             active = self._cols[j]
-            seen = ()
+            seen: np.ndarray | tuple[()] = ()
             if len(active) <= self.p:
                 rest = np.setdiff1d(np.arange(self.p + 1), active, assume_unique=True)
                 if _lines(cj, rest).any():  # one pass; which columns only when some are non-zero
@@ -187,7 +187,7 @@ class Accumulator:
 
     def transform(self, maps: list[np.ndarray]) -> "Accumulator":
         """The same rows with new columns [X_j | y_j] M_j (M_j: (p + 1) x (p' + 1), re-triangularised)."""
-        return Accumulator.from_factors([np.linalg.qr(R @ M, mode="r") for R, M in zip(self.R, maps)], self.rows)
+        return Accumulator.from_factors([np.linalg.qr(R @ M, mode="r") for R, M in zip(self.R, maps)], self.rows)  # type: ignore[misc]  # numpy stubs: qr() gives QRResult for every mode; mode="r" returns R
 
     def restrict(self, cols: list[int]) -> "Accumulator":
         """The same data with only the columns ``cols`` of X (re-triangularised)."""

@@ -12,7 +12,8 @@ class _Thinned:
     """Keeps every stride-th sample, doubling the stride whenever more than ``cap`` are held."""
 
     def __init__(self, cap: int):
-        self.cap, self.stride, self.seen, self.blocks = cap, 1, 0, []
+        self.cap, self.stride, self.seen = cap, 1, 0
+        self.blocks: list[Block] = []
 
     def add(self, b: Block) -> None:
         # the samples held are those of index i % stride == 0 (ceil(seen / stride) of them): the

@@ -107,6 +107,9 @@ def _rows(state: dict, sources: list[Source], n: int, data: DataOptions, slots, 
     at the first sample."""
     from minparam_cli.identify.passes.ahead import ahead
 
+    b: Block | None
+    sub_block: Block | None
+    sub: Block | None
     for src in sources:
         rep = DataReport(str(src.path))
         cuts = src.cuts()

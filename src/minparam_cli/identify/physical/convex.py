@@ -134,7 +134,8 @@ def fit_physical(chain, K: np.ndarray, design, R: np.ndarray, n_eq: int, opts: P
     p = design.p
     if R.shape[1] != p + 1 or K.shape != (nb, P):
         raise ComputationError(f"physical fit: a design of {p} columns with K of shape {K.shape}")
-    Rq = np.linalg.qr(R, mode="r")  # one triangle for all joints: the program's size is the design's
+    # one triangle for all joints: the program's size is the design's
+    Rq: np.ndarray = np.linalg.qr(R, mode="r")  # type: ignore[assignment]  # numpy stubs: qr() gives QRResult for every mode; mode="r" returns R
     # column scaling keeps the conic solver's numbers near one; it changes nothing in the solution
     scale = np.linalg.norm(Rq[:, :p], axis=0)
     scale = np.where(scale > 0, scale, 1.0)
@@ -162,6 +163,7 @@ def fit_physical(chain, K: np.ndarray, design, R: np.ndarray, n_eq: int, opts: P
         b = EFFECTS[t.effect].bounds
         w = t.width()
         if b is not None:
+            assert c is not None  # a design with terms has columns past the base parameters
             if np.isfinite(b[0]):
                 cons.append(c[col : col + w] >= b[0])
             if np.isfinite(b[1]):

@@ -71,7 +71,7 @@ def solve_octahedral(base: np.ndarray, legs: np.ndarray, sides: np.ndarray) -> O
     D = np.asarray(sides, dtype=float) / scale
     normal = np.cross(B[1] - B[0], B[2] - B[0])
     nn = np.linalg.norm(normal)
-    if nn <= _RTOL * max(np.linalg.norm(B[1] - B[0]), 1.0) ** 2:
+    if nn <= _RTOL * max(float(np.linalg.norm(B[1] - B[0])), 1.0) ** 2:
         raise ValueError("the three base nodes are collinear")
     normal /= nn
 

@@ -131,6 +131,7 @@ def truss_fk(model: TrussModel, target, frame: tuple[int, int, int] | None = Non
     adj = _adjacency(model)
     opp = opposite(model)
     face = list(frame)
+    face3 = (face[0], face[1], face[2])
     top = [int(opp[i]) for i in face]
     tol = rtol * float(np.max(target))
 
@@ -138,7 +139,7 @@ def truss_fk(model: TrussModel, target, frame: tuple[int, int, int] | None = Non
     cx = (lab * lab + lac * lac - lbc * lbc) / (2 * lab)
     cy2 = lac * lac - cx * cx
     if cy2 <= (1e-9 * lac) ** 2:  # relative: a flat face cannot fix the frame
-        return TrussFKResult(tuple(frame), target, (), rtol, tol, None,
+        return TrussFKResult(face3, target, (), rtol, tol, None,
                              note="no real assembly: the three frame-face lengths do not make a proper triangle")
     base = np.array([[0.0, 0.0, 0.0], [lab, 0.0, 0.0], [cx, np.sqrt(cy2), 0.0]])
     L = np.zeros((3, 3))
@@ -162,4 +163,4 @@ def truss_fk(model: TrussModel, target, frame: tuple[int, int, int] | None = Non
     if sol.empty_circle is not None:
         note = f"no real assembly: node {model.node_names[top[sol.empty_circle]]} cannot meet its two face nodes"
     cert = Certificate(sol.n_complex, BEZOUT_BOUND, sol.imag_margin, sol.min_singular, sol.interpolation_error)
-    return TrussFKResult(tuple(frame), target, tuple(found), rtol, tol, cert, note)
+    return TrussFKResult(face3, target, tuple(found), rtol, tol, cert, note)

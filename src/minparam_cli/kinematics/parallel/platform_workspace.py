@@ -71,7 +71,12 @@ def default_box(model: PlatformModel, given: dict[str, tuple[float, float]]) -> 
     R = float(np.linalg.norm(model.base, axis=1).max() + np.nanmax(model.limits[:, 1])
               + np.linalg.norm(model.platform, axis=1).max())
     defaults = {"x": (-R, R), "y": (-R, R), "z": (0.0, R), "roll": (0.0, 0.0), "pitch": (0.0, 0.0), "yaw": (0.0, 0.0)}
-    return tuple(tuple(map(float, given.get(k, defaults[k]))) for k in POSE_NAMES)
+
+    def pair(k: str) -> tuple[float, float]:
+        lo, hi = given.get(k, defaults[k])
+        return float(lo), float(hi)
+
+    return tuple(pair(k) for k in POSE_NAMES)
 
 
 def sample_workspace(

@@ -190,7 +190,7 @@ def _candidates(sig_g, det_g, hit_g, a, ax: ScanAxis, epsilon):
     hit_next = np.roll(hit_g, -1, axis=a)
     valid = np.ones(sig_g.shape, bool)
     if not ax.periodic:
-        sl = [slice(None)] * sig_g.ndim
+        sl: list[slice | int] = [slice(None)] * sig_g.ndim
         sl[a] = m - 1
         valid[tuple(sl)] = False
     valid &= ~hit_g & ~hit_next

@@ -27,6 +27,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from fractions import Fraction
 from itertools import combinations
+from typing import Any
 
 import numpy as np
 
@@ -170,7 +171,7 @@ class _HalfAngle:
                     cache[key] = [(e[0], cf) for e, cf in uni.terms()]
                 factors.append(cache[key])
             tail = tuple(mono[2 * k + p_i] for p_i in range(len(prism)))
-            partial = [((), coef)]
+            partial: list[tuple[tuple[int, ...], Any]] = [((), coef)]
             for fl in factors:
                 partial = [(ex + (e,), cf * c2) for ex, cf in partial for e, c2 in fl]
             for ex, cf in partial:
@@ -304,7 +305,7 @@ def _solve_single(sp, expr, joints, q, d) -> tuple[float, ...]:
             found.append(0.5 * (lo + hi))
         elif i > 0 and abs(a) < 1e-9 * scale and abs(a) <= abs(v[i - 1]) and abs(a) <= abs(b):
             found.append(grid[i])  # a double root touching zero
-    out = []
+    out: list[float] = []
     for r in found:
         r = float(np.angle(np.exp(1j * r)))
         if r <= -np.pi + 1e-12:
@@ -374,7 +375,7 @@ def symbolic_conditions(chain: Chain, max_group: int = MAX_GROUP) -> SymbolicRes
     else:
         what = f"{n}-minors"
         _, conds = common([minor(rows, tuple(range(n))) for rows in combinations(range(6), n)])
-    groups = []
+    groups: list[GroupCondition] = []
     for k in range(2, min(max_group, n - 1) + 1):
         for S in combinations(range(n), k):
             minors = [minor(rows, tuple(S)) for rows in combinations(range(6), k)]
