@@ -55,7 +55,7 @@ def parquet_chunks(path: Path, n: int, opts) -> Iterator[tuple[np.ndarray, dict]
     names = list(f.schema_arrow.names)
     idx = column_indices(names, n, opts.columns, src)
     layout = column_layout({k: ix is not None for k, ix in idx.items()}, n)
-    used = [c for k in KEYS if idx[k] is not None for c in idx[k]]
+    used = [c for k in KEYS for c in (idx[k] or ())]
     wanted = sorted(set(used))
     where = {c: j for j, c in enumerate(wanted)}
     for batch in f.iter_batches(batch_size=opts.chunk_rows, columns=[names[c] for c in wanted]):

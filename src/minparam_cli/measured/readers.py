@@ -45,7 +45,7 @@ def _in_seconds(chunks: Chunks, opts: DataOptions) -> Chunks:
         if divisor != 1.0:
             table[:, 0] /= divisor  # a division: a stamp in ms, us or ns becomes the nearest double in s
         yield table, layout
-        table = None  # not alive while the next chunk is read
+        del table  # not alive while the next chunk is read
 
 
 def _span_in_seconds(span: tuple[float, float], opts: DataOptions) -> tuple[float, float]:
@@ -149,7 +149,7 @@ class Csv:
         header = next(tables)
         idx = column_indices(header, n, opts.columns, str(path))
         layout = column_layout({k: ix is not None for k, ix in idx.items()}, n)
-        used = [c for k in KEYS if idx[k] is not None for c in idx[k]]
+        used = [c for k in KEYS for c in (idx[k] or ())]
         try:
             for chunk in tables:
                 yield (chunk if used == list(range(chunk.shape[1])) else chunk[:, used]), layout

@@ -23,7 +23,7 @@ def raw_chunks(path: Path, n: int, opts: DataOptions) -> Iterator[tuple[np.ndarr
         if opts.motor_side is not None:
             to_joint_side(table, layout, opts.motor_side)
         yield table, layout
-        table = None  # not alive while the next chunk is read
+        del table  # not alive while the next chunk is read
 
 
 def to_joint_side(table: np.ndarray, layout: dict, motor_side: tuple) -> None:

@@ -27,7 +27,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Iterator
+from typing import Iterator, cast
 
 import numpy as np
 
@@ -182,15 +182,16 @@ def recording_chunks(path: Path, n: int, opts) -> Iterator[tuple[np.ndarray, dic
             if sizes[0] == 0:
                 break
             m = sizes[0]
+            full = cast("list[np.ndarray]", chunks)  # equal sizes above zero: every file gave a chunk
             if rec.rate_hz is not None:
                 t = (rows + np.arange(m, dtype=float)) / rec.rate_hz
             else:
                 i, cols = where["t"]
-                t = chunks[i][:, cols[0]] / divisor
-            table = np.column_stack([t] + [chunks[where[k][0]][:, where[k][1]] for k in KEYS[1:] if k in where])
+                t = full[i][:, cols[0]] / divisor
+            table = np.column_stack([t] + [full[where[k][0]][:, where[k][1]] for k in KEYS[1:] if k in where])
             rows += m
             yield table, layout
-            del chunks, table
+            del chunks, full, table
     finally:
         for r in readers:
             r.close()
@@ -215,6 +216,7 @@ def recording_time_span(path: Path, opts) -> tuple[float, float]:
     rows = _data_rows(first_file)
     if rows < 2:
         raise DataError(f"{first_file}: fewer than two data rows")
+    assert rec.rate_hz is not None  # read_description: a recording without a time column has a rate
     return 0.0, (rows - 1) / rec.rate_hz
 
 

@@ -19,7 +19,7 @@ import os
 import stat
 import struct
 from pathlib import Path
-from typing import Iterator
+from typing import Any, Iterator
 
 import numpy as np
 
@@ -110,7 +110,7 @@ class _Bag:
             raise DataError(f"{self.src}: topic {topic} carries {wrong[0]}, expected {JOINT_STATE}")
         return topic, chosen
 
-    def messages(self) -> Iterator[tuple[int, object]]:
+    def messages(self) -> Iterator[tuple[int, Any]]:
         """(message number from 1, the JointState) in recorded order; a message that cannot be
         decoded is a one-line DataError."""
         k = 0
@@ -160,8 +160,10 @@ def bag_chunks(path: Path, n: int, opts: DataOptions) -> Iterator[tuple[np.ndarr
     bag = _Bag(Path(path), opts)
     src, topic = bag.src, bag.topic
     try:
-        columns = {}  # the names of a message -> where each robot joint is in its arrays
-        width = table = layout = has_dq = None
+        columns: dict[tuple, np.ndarray] = {}  # the names of a message -> where each robot joint is in its arrays
+        table: np.ndarray | None = None
+        layout: dict = {}
+        width, has_dq = 0, False
         rows = 0
         for k, msg in bag.messages():
             key = tuple(msg.name)
