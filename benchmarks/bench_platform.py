@@ -35,7 +35,7 @@ from tabulate import tabulate
 sys.path.insert(0, str(ROOT / "src"))
 
 from minparam_cli.describe.platform_yaml import load_platform  # noqa: E402
-from minparam_cli.kinematics.parallel.platform import leg_lengths, platform_model, within_limits  # noqa: E402
+from minparam_cli.kinematics.parallel.platform import leg_lengths, legs_within_limits, platform_model  # noqa: E402
 from minparam_cli.kinematics.parallel.platform_fk import forward_kinematics  # noqa: E402
 from minparam_cli.kinematics.parallel.platform_pso import PSOSettings, pso_search  # noqa: E402
 
@@ -114,7 +114,7 @@ def main() -> None:
     while len(poses) < 1000:
         q = np.column_stack([rng.uniform(-150, 150, (4000, 2)), rng.uniform(20, 300, 4000),
                              rng.uniform(-0.5, 0.5, (4000, 3))])
-        poses.extend(q[within_limits(model, leg_lengths(model, q))])
+        poses.extend(q[np.all(legs_within_limits(model, leg_lengths(model, q)), axis=-1)])
     poses = np.array(poses[:1000])
     t0 = time.perf_counter()
     worst = 0.0

@@ -242,3 +242,26 @@ def test_background_parsing_gives_the_same_chunks_and_errors(tmp_path, monkeypat
     assert messages[0] == messages[1]
     assert messages[0].endswith(f"non-numeric value {lines[2001].split(',')[1]!r} on line 2002, column 2 (q1)")
 
+
+
+def test_compressed_factors_do_not_depend_on_the_worker_count(panda_setup, monkeypatch):
+    from minparam_cli import runtime
+
+    design, _, thin, _, _, _ = panda_setup
+    train, hold = thin["fit"].block(), thin["selection"].block()
+    factors = {}
+    for count in (1, 3, 7):
+        monkeypatch.setattr(runtime, "workers", lambda cap, count=count: min(cap, count))
+        data = Compressed.of(design, train, hold, EFFECT_IDS)
+        factors[count] = data.T + data.Th
+    for count in (3, 7):
+        assert all(np.array_equal(a, b) for a, b in zip(factors[1], factors[count], strict=True))
+
+
+def test_workers_are_the_machines_and_bounded():
+    import os
+
+    from minparam_cli.runtime import workers
+
+    cpus = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count() or 1
+    assert workers(1) == 1 and workers(0) == 1 and workers(10_000) == cpus and workers(2) == min(2, cpus)

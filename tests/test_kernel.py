@@ -203,3 +203,27 @@ def test_every_lane_width_gives_the_same_numbers_bit_for_bit(robot_path):
         assert np.array_equal(ref[1][:, dest[kept]], ref[0][:, :, kept].transpose(1, 2, 0))
     with pytest.raises(ValueError, match="no kernel 3 samples wide"):
         reg._rnea.inertial_regressor(np.zeros((1, n, 10 * n)), q[:1], qd[:1], qdd[:1], terms, axor, parents, revolute, g, 1, n, 10 * n, 3)
+
+
+def test_version_names_the_regressor_backend(monkeypatch, capsys):
+    """`minparam --version` says whether the compiled kernel is there, and its widest lane width."""
+    import sys
+
+    from minparam_cli import __version__
+    from minparam_cli.cli.app import main
+    from minparam_cli.dynamics import backend
+
+    def version() -> str:
+        monkeypatch.setattr(sys, "argv", ["minparam", "--version"])
+        assert main() == 0
+        return capsys.readouterr().out.strip()
+
+    if reg._rnea is not None:
+        widest = max(reg._rnea.lane_widths())
+        assert version() == f"minparam {__version__} (regressor: compiled kernel, {backend.LANES[widest]})"
+    import minparam_cli.dynamics
+
+    monkeypatch.setitem(sys.modules, "minparam_cli.dynamics._rnea", None)  # as an install without a C compiler
+    monkeypatch.delattr(minparam_cli.dynamics, "_rnea", raising=False)
+    assert version() == f"minparam {__version__} (regressor: {backend.NO_KERNEL})"
+    assert "numpy" in backend.NO_KERNEL and "C compiler" in backend.NO_KERNEL

@@ -12,12 +12,25 @@ from minparam_cli.kinematics.parallel.platform import (
     PlatformModel,
     leg_lengths,
     platform_model,
+    legs_within_limits,
     platform_points,
-    within_limits,
 )
 from minparam_cli.kinematics.parallel.platform_fk import forward_kinematics, octahedral_pattern
-from minparam_cli.kinematics.parallel.platform_truss import frame_coordinates, truss_fk, truss_lengths, truss_model
+from minparam_cli.kinematics.parallel.platform_truss import truss_fk, truss_lengths, truss_model
 from conftest import ROBOTS
+
+def frame_coordinates(coords, frame) -> np.ndarray:
+    """Express (6, 3) coordinates in the frame of a face: a at 0, b on +x, c in the xy-plane with y > 0."""
+    c = np.asarray(coords, dtype=float)
+    a, b, cc = frame
+    ex = c[b] - c[a]
+    ex /= np.linalg.norm(ex)
+    ez = np.cross(ex, c[cc] - c[a])
+    ez /= np.linalg.norm(ez)
+    ey = np.cross(ez, ex)
+    R = np.stack([ex, ey, ez])
+    return (c - c[a]) @ R.T
+
 
 PAPER_L = np.array([238.6357, 269.3776, 256.0046, 247.4046, 185.4388, 190.2705])
 
@@ -108,7 +121,7 @@ def test_round_trip_1000_poses_within_limits(paper):
     while len(poses) < 1000:
         q = np.column_stack([rng.uniform(-150, 150, (4000, 2)), rng.uniform(20, 300, 4000),
                              rng.uniform(-0.5, 0.5, (4000, 3))])
-        poses.extend(q[within_limits(paper, leg_lengths(paper, q))])
+        poses.extend(q[np.all(legs_within_limits(paper, leg_lengths(paper, q)), axis=-1)])
     worst_pos, worst_ang, incomplete = 0.0, 0.0, 0
     for q in poses[:1000]:
         r = forward_kinematics(paper, leg_lengths(paper, q), "exact")

@@ -13,7 +13,7 @@ from minparam_cli.chain import build_chain
 from minparam_cli.describe import load_description
 from minparam_cli.dynamics.regressor import regressor
 from minparam_cli.errors import InputError
-from minparam_cli.dynamics.effects import COGGING_GRID, EFFECTS, STRIBECK_GRID, Signals, effect_torque
+from minparam_cli.dynamics.effects import COGGING_GRID, EFFECTS, STRIBECK_GRID, Signals
 from minparam_cli.dynamics.inertia import pseudo_inertia_from_standard, random_inertia, standard_from_com
 from minparam_cli.experiment.simulate import simulate
 from minparam_cli.experiment.simulate_spec import SimulationOptions, data_columns, parse_effects
@@ -87,6 +87,12 @@ def test_velocity_and_acceleration_are_the_exact_derivatives():
 
 
 # --- torques -----------------------------------------------------------------------------------------
+
+
+def effect_torque(effect_id: str, s: Signals, joint: int, coefficients, hyper: float | None = None) -> np.ndarray:
+    """Torque (N,) that ``effect_id`` with these coefficients adds on ``joint``: its columns times them."""
+    cols = EFFECTS[effect_id].columns(s, joint, hyper)
+    return cols @ np.asarray(coefficients, dtype=float).reshape(-1)
 
 
 def independent_torque(chain, data, truth):

@@ -25,8 +25,10 @@ q_joint = G·q + offset.
 
 from __future__ import annotations
 
+import threading
+import weakref
 from dataclasses import dataclass, field
-from functools import cached_property
+from typing import Callable, TypeVar
 
 import numpy as np
 
@@ -35,6 +37,25 @@ from minparam_cli.joint_matrices import Numbers, exact_matrices, joint_matrices
 from minparam_cli.params import EXTRA_ORDER, ParamLayout
 
 REVOLUTE, PRISMATIC = "revolute", "prismatic"
+T = TypeVar("T")
+
+
+_DERIVED: "weakref.WeakKeyDictionary[Chain, dict[str, object]]" = weakref.WeakKeyDictionary()
+_DERIVED_LOCK = threading.Lock()
+
+
+def derived(chain: "Chain", name: str, build: Callable[["Chain"], T]) -> T:
+    """``build(chain)``, computed once per chain and kept beside it, never written into it (the chain
+    stays frozen, as pinocchio keeps its Data beside the Model); dropped when the chain is.  Two
+    threads may both build a value the first time: the first one stored is the one every caller gets.
+    A value must not refer to the chain (the chain would never be dropped)."""
+    with _DERIVED_LOCK:
+        values = _DERIVED.setdefault(chain, {})
+        if name in values:
+            return values[name]  # type: ignore[return-value]
+    value = build(chain)  # outside the lock: the exact matrices take a while
+    with _DERIVED_LOCK:
+        return values.setdefault(name, value)  # type: ignore[return-value]
 
 
 @dataclass(frozen=True, eq=False)
@@ -111,13 +132,13 @@ class Chain:
     def coordinate_types(self) -> tuple[str, ...]:
         return tuple(self.types[j] for j in self.coordinates)
 
-    @cached_property
+    @property
     def exact(self) -> tuple | None:
         """Exact rational versions of pre, axes, post (per joint, nested tuples of Fraction), or None
         when the geometry is not exact (irrational lengths, angles off multiples of 90 deg, ...).
 
-        Computed on first use: only the exact (projection, symbolic) stages need it."""
-        return None if self.exact_source is None else exact_matrices(self.exact_source)
+        Computed on first use (only the exact stages, projection and symbolic, need it), kept by ``derived``."""
+        return derived(self, "exact", lambda c: None if c.exact_source is None else exact_matrices(c.exact_source))
 
     @property
     def revolute(self) -> np.ndarray:
@@ -143,11 +164,14 @@ class Chain:
             k = self.parents[k]
         return tuple(reversed(path))
 
-    @cached_property
+    @property
     def local_terms(self) -> tuple:
         """Per joint, constant 4x4 matrices with Pre·Motion(q)·Post = C0 + s·C1 + (1 − c)·C2 (revolute,
         Rodrigues' formula, s = sin q, c = cos q) or C0 + q·C1 (prismatic); plus the axis direction and
-        point in the parent frame (Pre's rotation times the axis, Pre's origin)."""
+        point in the parent frame (Pre's rotation times the axis, Pre's origin).  Built once (``derived``)."""
+        return derived(self, "local_terms", Chain._local_terms)
+
+    def _local_terms(self) -> tuple:
         out = []
         for j in range(self.n):
             a = self.axes[j]

@@ -1,7 +1,11 @@
-"""Process-wide settings for minparam's own processes (the CLI and the benchmarks).
+"""Process-wide settings for minparam's own processes (the CLI and the benchmarks), and the
+number of worker threads a pool may use (``workers``, the one place that asks the machine).
 
-Importing minparam as a library never calls these: a library must not change
-its host process.
+``single_thread_blas``, ``tune_allocator`` and ``freeze_before_exit`` change the
+whole process: only the CLI's entry point (``cli/app.py``: ``main`` and
+``entry``) and the benchmarks call them; importing minparam as a library or
+calling ``minparam.<command>()`` never does (a library must not change its
+host process).  ``workers`` only reads.
 
 ``tune_allocator``: glibc hands every freed block above 128 KiB straight back
 to the kernel (``M_MMAP_THRESHOLD``), so a loop that builds a regressor block
@@ -76,3 +80,14 @@ def tune_allocator() -> bool:
 def freeze_before_exit() -> None:
     """Spare the interpreter's shutdown a full collection over every object alive now."""
     gc.freeze()
+
+
+def workers(cap: int) -> int:
+    """Threads for a pool of ``cap`` tasks at most: the CPUs this process may run on (``os.cpu_count()``
+    where the platform cannot say), at least 1.  No result depends on it: every pool combines its
+    tasks' results in task order."""
+    try:
+        cpus = len(os.sched_getaffinity(0))
+    except (AttributeError, OSError):  # not Linux
+        cpus = os.cpu_count() or 1
+    return max(1, min(cap, cpus))

@@ -247,24 +247,6 @@ def identify(robot: Robot | str | Path, data: Any, *, validate: Any = None, test
     )
 
 
-# --- the model file -----------------------------------------------------------------------------------
-
-
-def load_model(path: str | Path, robot: str | Path | None = None) -> Model:
-    """``Model.load``: a model file written by ``identify --save-model`` or ``Model.save``."""
-    return Model.load(path, robot)
-
-
-def save_model(model: Model, path: str | Path) -> None:
-    """``Model.save``: the model file, written atomically."""
-    model.save(path)
-
-
-def predict(model: Model, q: Any, dq: Any, ddq: Any, t: Any = None, which: str = "fit") -> np.ndarray:
-    """``Model.predict``: τ = X(q, dq, ddq)·θ for (N, dof) joint states."""
-    return model.predict(q, dq, ddq, t, which)
-
-
 # --- evaluate -----------------------------------------------------------------------------------------
 
 

@@ -141,7 +141,7 @@ class FloatRowSpace:
         return self._R
 
 
-def integer_rref(rows: list[list[int]], ncols: int) -> tuple[list[int], list[list[int]]]:
+def integer_rref(rows: list[list[int]]) -> tuple[list[int], list[list[int]]]:
     """Reduced row echelon form of integer rows, exactly (fraction-free Gauss–Jordan).
 
     Returns (pivots, reduced): reduced[i] has its first nonzero entry at

@@ -211,7 +211,7 @@ def _exact_result(geom: ProjectionGeometry, stream: dict):
     for col in _extra_unit_rows(chain):
         rows.append([1 if c == col else 0 for c in range(P)])
     rows = [r for r in rows if any(r)]
-    pivots, reduced = integer_rref(rows, P)
+    pivots, reduced = integer_rref(rows)
     nonzero_col = [any(r[c] for r in reduced) for c in range(P)]
     unident = [c for c in range(P) if not nonzero_col[c]]
     # relations in the rescaled units, then back to SI: beta_k = beta'_k * s_d / s_k

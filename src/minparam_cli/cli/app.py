@@ -34,7 +34,9 @@ from minparam_cli import __version__  # noqa: E402
 
 def _version(value: bool):
     if value:
-        print(f"minparam {__version__}")
+        from minparam_cli.dynamics.backend import describe
+
+        print(f"minparam {__version__} (regressor: {describe()})")
         raise typer.Exit(0)
 
 

@@ -28,7 +28,6 @@ from typing import Callable
 # unary functions a program may call; each emitter maps them to its language
 FUNCTIONS = ("sin", "cos", "tanh", "exp", "abs", "sign", "pos", "negind")
 # pos(x) = 1 if x > 0 else 0;  negind(x) = 1 if x < 0 else 0  (the asymmetric Coulomb indicators)
-COMMUTATIVE = ("add", "mul")
 
 
 class Sym:

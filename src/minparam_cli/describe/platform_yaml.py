@@ -75,15 +75,6 @@ class PlatformDescription:
     workspace: tuple[tuple[str, tuple[float, float]], ...] = ()
 
 
-def is_platform_file(path: Path) -> bool:
-    """Cheap test used by batch runs: does the YAML file say ``kind: platform``?"""
-    try:
-        doc = read_yaml(Path(path))
-    except DescriptionError:  # any unreadable file is simply "not a platform"
-        return False
-    return isinstance(doc, dict) and doc.get("kind") == "platform"
-
-
 def load_platform(path: Path) -> PlatformDescription:
     """Read and validate a platform YAML file."""
     return platform_from_mapping(read_yaml(Path(path)), str(path))

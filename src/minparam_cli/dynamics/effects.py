@@ -166,12 +166,6 @@ def source_columns(sources, first: int = 0) -> tuple[dict, int]:
     return start, c
 
 
-def effect_torque(effect_id: str, s: Signals, joint: int, coefficients, hyper: float | None = None) -> np.ndarray:
-    """Torque (N,) that ``effect_id`` with these coefficients adds on ``joint``."""
-    cols = EFFECTS[effect_id].columns(s, joint, hyper)
-    return cols @ np.asarray(coefficients, dtype=float).reshape(-1)
-
-
 def in_bounds(effect_id: str, coefficients) -> bool:
     """Whether every coefficient lies in the effect's physical range (always, for an effect without one)."""
     b = EFFECTS[effect_id].bounds

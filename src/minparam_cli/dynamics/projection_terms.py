@@ -47,11 +47,10 @@ import numpy as np
 
 from minparam_cli.chain import PRISMATIC, REVOLUTE, Chain
 
-# number of functions in X_k (transform) and Y_k (products of two transforms)
+# number of functions in X_k (transform: 1, cos, sin or 1, q) and Y_k (products of two transforms:
+# 1, cos, sin, cos², sin·cos or 1, q, q²)
 X_SIZE = {REVOLUTE: 3, PRISMATIC: 2}
 Y_SIZE = {REVOLUTE: 5, PRISMATIC: 3}
-X_NAMES = {REVOLUTE: ("1", "cos", "sin"), PRISMATIC: ("1", "q")}
-Y_NAMES = {REVOLUTE: ("1", "cos", "sin", "cos^2", "sin*cos"), PRISMATIC: ("1", "q", "q^2")}
 
 # x^a x^b = Σ coef y^c  (eq. 12-13): (a, b) -> ((c, coef), ...)
 PRODUCT_RULES: dict[str, dict[tuple[int, int], tuple[tuple[int, int], ...]]] = {

@@ -44,7 +44,7 @@ from types import ModuleType
 
 import numpy as np
 
-from minparam_cli.chain import REVOLUTE, Chain, forward_kinematics
+from minparam_cli.chain import REVOLUTE, Chain, derived, forward_kinematics
 from minparam_cli.params import FRICTION_KINDS
 
 JOINT_EXTRAS = ("rotor_inertia",) + FRICTION_KINDS  # extras of a joint's own signals (motor-side: transmission.py)
@@ -108,21 +108,21 @@ def joint_screws(chain: Chain, z: np.ndarray, o: np.ndarray) -> np.ndarray:
 
 
 def _kernel_arrays(chain: Chain):
-    """The chain's constants laid out for the compiled kernel, built once per chain."""
-    cached = chain.__dict__.get("_kernel_arrays")
-    if cached is None:
-        n = chain.n
-        terms = np.zeros((n, 3, 4, 4))
-        axor = np.zeros((n, 6))
-        for j, ((C0, C1, C2), axis, origin) in enumerate(chain.local_terms):
-            terms[j, 0], terms[j, 1] = C0, C1
-            if C2 is not None:
-                terms[j, 2] = C2
-            axor[j, :3], axor[j, 3:] = axis, origin
-        parents = np.array(chain.parents, dtype=np.int64)
-        cached = (terms, axor, parents, chain.revolute.astype(np.uint8), np.ascontiguousarray(chain.gravity, dtype=float))
-        object.__setattr__(chain, "_kernel_arrays", cached)  # a cache, not state: Chain stays frozen
-    return cached
+    """The chain's constants laid out for the compiled kernel, built once per chain (kept beside it)."""
+    return derived(chain, "kernel_arrays", _build_kernel_arrays)
+
+
+def _build_kernel_arrays(chain: Chain):
+    n = chain.n
+    terms = np.zeros((n, 3, 4, 4))
+    axor = np.zeros((n, 6))
+    for j, ((C0, C1, C2), axis, origin) in enumerate(chain.local_terms):
+        terms[j, 0], terms[j, 1] = C0, C1
+        if C2 is not None:
+            terms[j, 2] = C2
+        axor[j, :3], axor[j, 3:] = axis, origin
+    parents = np.array(chain.parents, dtype=np.int64)
+    return terms, axor, parents, chain.revolute.astype(np.uint8), np.ascontiguousarray(chain.gravity, dtype=float)
 
 
 def _carry_matrix(chain: Chain) -> np.ndarray:

@@ -44,7 +44,6 @@ The options and effect specs are parsed in ``simulate_spec``, the coefficients d
 
 from __future__ import annotations
 
-import os
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Callable, Iterator
 
@@ -59,6 +58,7 @@ from minparam_cli.experiment.simulate_effects import effect_coefficients
 from minparam_cli.experiment.simulate_spec import InjectedEffect, MotionLimits, SimulationOptions, validate_options
 from minparam_cli.experiment.trajectory import FourierTrajectory, fourier_excitation, joint_ranges
 from minparam_cli.params import standard_names
+from minparam_cli.runtime import workers
 
 if TYPE_CHECKING:
     from minparam_cli.experiment.trajectory_file import SampledMotion
@@ -176,9 +176,9 @@ def plan(chain: Chain, options: SimulationOptions, rng: np.random.Generator, pro
     at the options' duration and rate), or sampled motion (an object with arrays t (N,), q, dq, ddq
     (N, n) and a ``source`` name), used as it is.  The generator's five children are drawn either
     way, so the other random parts do not depend on it.  ``threads``: for the first pass (default:
-    the machine's cores, at most 4)."""
+    the CPUs this process may use, at most 4: ``runtime.workers``)."""
     samples = validate_options(options)
-    threads = max(1, threads if threads is not None else min(4, os.cpu_count() or 1))
+    threads = max(1, threads if threads is not None else workers(4))
     if given is not None and not isinstance(given, FourierTrajectory):
         if given.q.shape[1] != chain.dof:
             raise InputError(f"{given.source}: {given.q.shape[1]} joints in the trajectory, {chain.dof} in the robot")

@@ -13,7 +13,6 @@ file.  The pass itself is ``identify.stream``.
 from __future__ import annotations
 
 import time
-import warnings
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
@@ -71,8 +70,7 @@ class Artifacts:
 
 def identify(chain: Chain, data_path: str | Path, opts: IdentifyOptions, progress=None) -> tuple[dict, Artifacts]:
     """Fit on the fit data, choose effects on the selection data, report on the test data (see ``roles``)."""
-    with np.errstate(all="ignore"), warnings.catch_warnings():
-        warnings.simplefilter("ignore")  # every problem is an error of ours, in one line, or a figure
+    with np.errstate(all="ignore"):  # numpy's floating-point warnings, this thread only: no process-wide filter
         return _identify(chain, Path(data_path), opts, progress)
 
 

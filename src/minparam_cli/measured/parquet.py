@@ -12,10 +12,6 @@ import numpy as np
 from minparam_cli.errors import DataError
 
 
-def is_parquet(path: Path) -> bool:
-    return Path(path).suffix.lower() == ".parquet"
-
-
 def _open(path: Path):
     from minparam_cli.measured.tables import short_error, require_data_file
     from minparam_cli.optional import import_optional

@@ -9,10 +9,10 @@ imports none of them.
 from __future__ import annotations
 
 import contextlib
+import itertools
 import signal
 import sys
 import threading
-import warnings
 from pathlib import Path
 from typing import Any, Generator, Iterator
 
@@ -243,13 +243,20 @@ def _judge(batch: list[tuple[int, str]], width: int):
 
 def _loads(lines: list[str], width: int) -> bool:
     """Whether loadtxt reads these lines, as rows of ``width`` values (or as no rows at all)."""
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")  # lines with no data
-        try:
-            table = np.loadtxt(lines, delimiter=",", ndmin=2)
-        except ValueError:
-            return False
+    lines = [text for text in lines if _has_data(text)]  # loadtxt warns when it is given no data
+    if not lines:
+        return True
+    try:
+        table = np.loadtxt(lines, delimiter=",", ndmin=2)
+    except ValueError:
+        return False
     return table.size == 0 or table.shape[1] == width
+
+
+def _has_data(line: str) -> bool:
+    """Whether loadtxt (delimiter ",", comments "#") finds a row in this line: not when it is empty,
+    a line end or a comment from its first character on (a line of blanks is a row, and an error)."""
+    return line[:1] not in "#\r\n"  # "" is in every string
 
 
 def _csv_chunks(path: Path, fh, header_line: str, width: int, rows: int) -> Generator[np.ndarray, None, None]:
@@ -281,10 +288,25 @@ def _csv_chunks(path: Path, fh, header_line: str, width: int, rows: int) -> Gene
 
 
 def _loadtxt(fh, rows: int) -> np.ndarray:
-    with warnings.catch_warnings():  # a file of exactly k chunks ends on an empty read
-        warnings.filterwarnings("ignore", "loadtxt: input contained no data")
-        warnings.filterwarnings("ignore", "Input line .* contained no data")  # a blank or comment line
-        return np.loadtxt(fh, delimiter=",", max_rows=rows, ndmin=2)
+    """The next ``rows`` rows of the open file (fewer at its end; none, as loadtxt's empty table, past it).
+    Lines with no data are skipped and not counted here, as loadtxt's ``max_rows`` would, because loadtxt
+    warns about each of them, and about an empty read (a file of exactly k chunks ends on one)."""
+    lines = _data_lines(fh, rows)
+    first = next(lines, None)
+    if first is None:
+        return np.empty((0, 1))
+    return np.loadtxt(itertools.chain((first,), lines), delimiter=",", ndmin=2)
+
+
+def _data_lines(fh, rows: int) -> Iterator[str]:
+    """The file's next ``rows`` lines that hold data (no line read past the last of them)."""
+    taken = 0
+    for line in fh:
+        if _has_data(line):
+            yield line
+            taken += 1
+            if taken == rows:
+                return
 
 
 def _sequential(fh, rows: int) -> Iterator[np.ndarray]:

@@ -35,7 +35,6 @@ from minparam_cli.identify.passes.design import Design, Term
 
 FORMAT = "minparam-model"
 VERSION = 1
-FITS = ("fit", "physical")
 # DataOptions fields a version-1 model stores (all of them)
 DATA_KEYS = ("columns", "cutoff_hz", "force_filter", "chunk_rows", "decimate", "step_s", "still_speed", "trim_still_s")
 

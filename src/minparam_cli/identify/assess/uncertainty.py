@@ -30,6 +30,7 @@ neighbouring blocks are merged in pairs and L doubles (reported).
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 
@@ -71,19 +72,22 @@ def check_options(opts: UncertaintyOptions) -> None:
         raise InputError(f"--replicates {opts.replicates}: a bootstrap needs at least 2 replicates")
 
 
-_POSITIONS: dict = {}
-
-
 def _packed_positions(w: int, cols: np.ndarray) -> tuple[np.ndarray, tuple[np.ndarray, np.ndarray]]:
     """Where the upper triangle of the Gram of columns ``cols`` (sorted) lies in the packed upper
     triangle of a w x w Gram, and that triangle's indices (cached: a joint's columns rarely change)."""
-    key = (w, np.asarray(cols).tobytes())
-    hit = _POSITIONS.get(key)
-    if hit is None:
-        a, b = np.triu_indices(len(cols))
-        r, c = np.asarray(cols)[a], np.asarray(cols)[b]  # r <= c: the columns are sorted
-        hit = _POSITIONS[key] = (r * w - r * (r - 1) // 2 + (c - r), (a, b))
-    return hit
+    cols = np.asarray(cols)
+    return _positions(w, cols.tobytes(), cols.dtype.str)
+
+
+@functools.lru_cache(maxsize=128)  # bounded and thread-safe (the streaming threads call it); ~45 kB an entry at most
+def _positions(w: int, cols_bytes: bytes, dtype: str) -> tuple[np.ndarray, tuple[np.ndarray, np.ndarray]]:
+    cols = np.frombuffer(cols_bytes, dtype=dtype)
+    a, b = np.triu_indices(len(cols))
+    r, c = cols[a], cols[b]  # r <= c: the columns are sorted
+    at = r * w - r * (r - 1) // 2 + (c - r)
+    for shared in (at, a, b):  # every caller gets these arrays: read-only
+        shared.setflags(write=False)
+    return at, (a, b)
 
 
 class BlockGrams:

@@ -53,15 +53,16 @@ class Catalogue:
 def _factor(design: Design, b: Block, cat: Catalogue, rows: int = 2048) -> list[np.ndarray]:
     """Per joint, T_j (with a zero column appended) of [X_j | catalogue columns of joint j | τ_j],
     accumulated ``rows`` samples at a time (the catalogue is ~180 columns a joint).  The joints'
-    QR factorisations run on two threads (LAPACK releases the GIL); each joint's sequence of
-    factorisations is the same as on one, so the factors are too."""
+    QR factorisations run on threads, one a joint up to the CPUs (LAPACK releases the GIL); each
+    joint's sequence of factorisations is the same as on one, so the factors are too."""
     from concurrent.futures import ThreadPoolExecutor
 
     from minparam_cli.identify.passes.slots import all_joints
+    from minparam_cli.runtime import workers
 
     n = design.chain.dof
     T = [np.zeros((0, cat.y + 1))] * n
-    with ThreadPoolExecutor(max_workers=2, thread_name_prefix="minparam-qr") as pool:
+    with ThreadPoolExecutor(max_workers=workers(n), thread_name_prefix="minparam-qr") as pool:
         for s0 in range(0, len(b), rows):
             sub = b.take(slice(s0, s0 + rows))
             X = design.base_columns(sub)

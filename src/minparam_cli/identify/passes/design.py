@@ -45,12 +45,6 @@ def term_columns(term: Term, s: Signals, n: int) -> np.ndarray:
     return out
 
 
-def term_blocks(term: Term, s: Signals) -> list[np.ndarray]:
-    """The term's columns joint by joint: one (N, m) block for each of ``term.joints``."""
-    e = EFFECTS[term.effect]
-    return [e.columns(s, j, term.hyper) for j in term.joints]
-
-
 @dataclass(frozen=True)
 class Design:
     chain: Chain  # with the declared extras in its layout

@@ -48,7 +48,7 @@ def stream(design: Design, sources: list[Source], n: int, data: DataOptions, dia
     threading.Thread(target=_import_blas, name="minparam-import", daemon=True).start()
     for piece, sub, rows in ahead(_rows(state, sources, n, data, slots, reports, spare)):
         if rows is not None:  # sub: (the samples of the rows, their design, the file)
-            sub, design_used, path = sub
+            sub, _, path = sub
             try:
                 if grams is not None and piece.part == FIT:  # per time block, for σ with correlated residuals
                     segments = grams.segments(sub.t)  # the update multiplies the rows once for both

@@ -155,11 +155,6 @@ def canonical_pose(pose) -> np.ndarray:
     return q
 
 
-def wrap_angle(a):
-    """Map angles to (-pi, pi]."""
-    return np.pi - np.mod(np.pi - np.asarray(a, dtype=float), 2 * np.pi)
-
-
 # ---------------------------------------------------------------- inverse kinematics
 
 
@@ -217,11 +212,6 @@ def legs_within_limits(model: PlatformModel, lengths) -> np.ndarray:
     lo = np.where(np.isfinite(model.limits[:, 0]), model.limits[:, 0], -np.inf)
     hi = np.where(np.isfinite(model.limits[:, 1]), model.limits[:, 1], np.inf)
     return (lengths >= lo) & (lengths <= hi)
-
-
-def within_limits(model: PlatformModel, lengths) -> np.ndarray:
-    """True where every leg is inside its limits: (...,) bool."""
-    return np.all(legs_within_limits(model, lengths), axis=-1)
 
 
 def pose_from_points(model: PlatformModel, points: np.ndarray) -> np.ndarray:

@@ -99,19 +99,6 @@ def opposite(model: TrussModel) -> np.ndarray:
     return np.array([[j for j in range(6) if j != i and adj[i, j] < 0][0] for i in range(6)])
 
 
-def frame_coordinates(coords, frame) -> np.ndarray:
-    """Express (6, 3) coordinates in the frame of a face: a at 0, b on +x, c in the xy-plane with y > 0."""
-    c = np.asarray(coords, dtype=float)
-    a, b, cc = frame
-    ex = c[b] - c[a]
-    ex /= np.linalg.norm(ex)
-    ez = np.cross(ex, c[cc] - c[a])
-    ez /= np.linalg.norm(ez)
-    ey = np.cross(ez, ex)
-    R = np.stack([ex, ey, ez])
-    return (c - c[a]) @ R.T
-
-
 def truss_fk(model: TrussModel, target, frame: tuple[int, int, int] | None = None,
              rtol: float = DEFAULT_RTOL) -> TrussFKResult:
     """Every real configuration of the truss for the twelve lengths, in the frame of ``frame``.

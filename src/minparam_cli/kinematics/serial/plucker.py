@@ -83,15 +83,6 @@ def normalised_matrices(chain: Chain, J0: np.ndarray, c: np.ndarray, L: float) -
     return J * column_scale(chain, L)
 
 
-def relative_sigma(Jn: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Batched singular values (N, min(6, n)) divided by σ_max, and σ_max (N,)."""
-    s = np.linalg.svd(Jn, compute_uv=False)
-    smax = s[..., 0]
-    with np.errstate(invalid="ignore", divide="ignore"):
-        rel = np.where(smax[..., None] > 0, s / smax[..., None], 0.0)
-    return rel, smax
-
-
 def to_nd(T: np.ndarray, L: float) -> np.ndarray:
     """A twist (w; v at O_c) in the normalised matrix's units: (w; v / L)."""
     return np.concatenate([T[:3], T[3:] / L])

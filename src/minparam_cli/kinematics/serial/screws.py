@@ -71,7 +71,6 @@ class RankTest:
     """The local test: relative singular values, rank and the margin of the decision."""
 
     singular_values: np.ndarray  # σ_i / σ_max, descending, min(6, n) of them
-    sigma_max: float  # of the normalised matrix (dimensionless per unit rate)
     epsilon: float
     rank: int
     full_rank: int  # min(6, n)
@@ -266,7 +265,7 @@ def analyse(
     cut = epsilon * smax
     rank = int(np.sum(s > cut))
     det = float(np.linalg.det(J0)) if n == 6 else None
-    test = RankTest(singular_values=rel, sigma_max=smax, epsilon=epsilon, rank=rank, full_rank=k_full, det=det)
+    test = RankTest(singular_values=rel, epsilon=epsilon, rank=rank, full_rank=k_full, det=det)
     notes: list[str] = []
 
     groups = dependent_groups(Jn, cut)
