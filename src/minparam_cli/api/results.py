@@ -12,6 +12,9 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+from minparam_cli.api.check_result import CheckResult as CheckResult  # re-exported
+from minparam_cli.base.result import BaseSet as BaseSet  # re-exported: the one base set
+
 if TYPE_CHECKING:
     import numpy as np
 
@@ -61,72 +64,6 @@ class Robot:
     options: LoadOptions
     chain: Chain = field(repr=False)
     description: RobotDescription = field(repr=False)
-
-
-@dataclass(frozen=True)
-class CheckResult(_Report):
-    """What ``minparam check --json`` reports for one valid robot file."""
-
-    robot: str
-    dof: int
-    convention: str
-    joint_types: str
-    exact: bool
-    inertial: bool
-    _report: dict[str, Any] = field(repr=False)
-
-
-@dataclass(frozen=True)
-class BaseSet(_Report):
-    """Base (minimal) inertial parameters: ``beta_base = K @ phi`` for standard parameters ``phi``.
-
-    ``names[i]`` is a base parameter, ``expressions[i]`` its regrouping as text (``"ZZ1 - M1 - M2"``,
-    in geometry symbols with ``symbolic=True``), ``terms[i]`` its coefficients by standard name;
-    ``beta`` the regrouping coefficients (rows: base parameters, columns: ``dependent`` standard
-    parameters), ``K`` the whole (n_base, n_standard) map.
-    """
-
-    robot: str
-    method: str
-    names: tuple[str, ...]
-    expressions: tuple[str, ...]
-    terms: tuple[dict[str, float], ...]
-    standard_names: tuple[str, ...]
-    kept: tuple[str, ...]
-    dependent: tuple[str, ...]
-    unidentifiable: tuple[str, ...]
-    K: np.ndarray = field(repr=False)
-    beta: np.ndarray = field(repr=False)
-    exact: bool = False
-    seed: int | None = None
-    warnings: tuple[str, ...] = ()
-    _report: dict[str, Any] = field(default_factory=dict, repr=False)
-
-    @property
-    def n_base(self) -> int:
-        return len(self.names)
-
-    @property
-    def n_standard(self) -> int:
-        return len(self.standard_names)
-
-    def latex(self) -> str:
-        """The base parameters as a LaTeX ``align*`` block (``minparam derive --format latex``)."""
-        from minparam_cli.render.text import render_latex
-
-        return render_latex(self._report)
-
-    def markdown(self) -> str:
-        """``minparam derive --format markdown``."""
-        from minparam_cli.render.text import render_markdown
-
-        return render_markdown(self._report)
-
-    def table(self) -> str:
-        """``minparam derive`` (the terminal table)."""
-        from minparam_cli.render.text import render_table
-
-        return render_table(self._report)
 
 
 @dataclass(frozen=True)
