@@ -37,6 +37,8 @@ def inverse(path: str | Path, opts: IKOptions) -> PlatformResult:
         if opts.pose is not None or opts.position is not None or opts.normal is not None:
             raise OptionError("--pose", "a free truss has no pose; give node coordinates with --coords")
         truss = truss_model(desc)
+        if opts.coords is not None and len(opts.coords) != 18:
+            raise OptionError("--coords", f"expected 18 comma-separated numbers, got {len(opts.coords)}")
         c = np.array(opts.coords).reshape(6, 3) if opts.coords is not None else truss.nodes
         return PlatformResult("ik", truss, truss=True, pose=c, leg_lengths=truss_lengths(truss, c))
     if opts.coords is not None:

@@ -89,8 +89,6 @@ def _simulate(robot, trajectory, effects, strength, noise, noise_q, seed, durati
     from minparam_cli.render.json_text import json_text
     from minparam_cli.render.simulate_text import summary_text
 
-    if seed < 0:
-        raise InputError(f"--seed must be >= 0, got {seed}")
     fmt = data_format(output)
     if is_stdout(truth) and (output is None or is_stdout(output)):
         raise InputError("--truth -: the data already go to stdout; give --truth or -o a file name")

@@ -34,7 +34,8 @@ class IKOptions:
 
     def __post_init__(self) -> None:
         put = object.__setattr__  # normalising a field of this record while it is being built
-        put(self, "coords", _maybe(self.coords, "--coords", 18))
+        if self.coords is not None:  # 18 of them for a truss: checked where the file says it is one
+            put(self, "coords", _floats(self.coords, "--coords"))
         put(self, "pose", _maybe(self.pose, "--pose", 6))
         put(self, "normal", _maybe(self.normal, "--normal", 3))
         if self.normal is not None and not any(self.normal):
