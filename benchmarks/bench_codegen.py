@@ -35,8 +35,7 @@ sys.path.insert(0, str(ROOT / "src"))
 from minparam_cli.base.qr import derive_qr  # noqa: E402
 from minparam_cli.codegen.functions import Meta, generate_code  # noqa: E402
 from minparam_cli.dynamics.regressor import regressor  # noqa: E402
-from minparam_cli.pipeline import load_chain  # noqa: E402
-from minparam_cli.robot import DeriveOptions
+from minparam_cli.robot import DeriveOptions, load_chain  # noqa: E402
 
 PANDA = ROOT / "robots" / "panda.yaml"
 STATES = 1000

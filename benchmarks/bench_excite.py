@@ -40,8 +40,7 @@ from minparam_cli.experiment.excite.criterion import condition_number  # noqa: E
 from minparam_cli.experiment.excite.design import ExciteOptions, base_regressor, chain_limits, design, output_times  # noqa: E402
 from minparam_cli.experiment.simulate import child_generators  # noqa: E402
 from minparam_cli.experiment.trajectory import fourier_excitation  # noqa: E402
-from minparam_cli.pipeline import load_chain  # noqa: E402
-from minparam_cli.robot import DeriveOptions
+from minparam_cli.robot import DeriveOptions, load_chain  # noqa: E402
 
 ROBOTS = ("robots/puma560.yaml", "robots/panda.yaml", "robots/tx40.yaml")
 # (robot, friction) rows: the declared effects' columns in the regressor (SI criterion only)

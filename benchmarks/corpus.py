@@ -49,8 +49,8 @@ from tabulate import tabulate
 sys.path.insert(0, str(ROOT / "src"))
 
 from minparam_cli.errors import ComputationError, DescriptionError, MinparamError, UnsupportedError  # noqa: E402
-from minparam_cli.pipeline import derive_file  # noqa: E402
-from minparam_cli.robot import DeriveOptions
+from minparam_cli.api.derivation import derive_file  # noqa: E402
+from minparam_cli.api.options.derive import DeriveOptions  # noqa: E402
 
 REFERENCE_RTOL = 1e-8
 
@@ -166,7 +166,7 @@ def run_minparam(path: Path, method: str, samples: int, floating_base: bool = Fa
     """(count or refusal text, seconds, weak summary)."""
     t0 = time.perf_counter()
     try:
-        rep = derive_file(path, DeriveOptions(method=method, samples=samples, floating_base=floating_base))
+        rep = derive_file(path, DeriveOptions(method=method, samples=samples, floating_base=floating_base)).to_dict()
     except UnsupportedError as e:
         msg = str(e)
         kind = "mimic" if "mimic" in msg else "floating" if ("floating" in msg or "planar" in msg) else "unsupported"

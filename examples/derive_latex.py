@@ -21,7 +21,7 @@ def main(argv: list[str]) -> None:
     robot_file = Path(args[0]) if args else ROOT / "robots" / "puma560_mdh.yaml"
     base = minparam.derive(robot_file, symbolic="--symbolic" in argv)
     print(f"{base.robot}: {base.n_base} base parameters of {base.n_standard} standard ones")
-    print(f"{len(base.unidentifiable)} have no effect at all: {' '.join(base.unidentifiable) or '-'}")
+    print(f"{len(base.unidentifiable)} have no effect at all: {' '.join(base.unidentifiable_names) or '-'}")
     print(f"{len(base.dependent)} regroup into others, e.g. {base.names[0]} = {base.expressions[0]}")
     print()
     print(base.latex())

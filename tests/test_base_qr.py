@@ -48,7 +48,7 @@ def test_puma_rotor_inertias_of_joints_1_and_2_regroup(name):
     assert not {"Ia3", "Ia4", "Ia5", "Ia6"} & dependent
     # Ia1 regroups into link 1's inertia about axis 1 with coefficient 1
     zz = b.base_names.index("ZZR1" if name == "puma560_mdh.yaml" else "YYR1")
-    assert b.terms(zz)["Ia1"] == pytest.approx(1.0, abs=1e-12)
+    assert b.terms[zz]["Ia1"] == pytest.approx(1.0, abs=1e-12)
 
 
 @pytest.mark.parametrize("extras", [(), ALL_EXTRAS + ("offset",)], ids=["rigid", "extras"])
@@ -84,12 +84,12 @@ def test_khalil_grouping_rules_on_puma_mdh():
     b = derive_qr(chain_of("robots/puma560_mdh.yaml"))
     names = b.base_names
     assert names[0] == "ZZR1"
-    t = b.terms(names.index("XXR2"))
+    t = b.terms[names.index("XXR2")]
     assert t["XX2"] == 1 and t["YY2"] == pytest.approx(-1)
-    mx = b.terms(names.index("MXR2"))
+    mx = b.terms[names.index("MXR2")]
     for k in (3, 4, 5, 6):
         assert mx[f"M{k}"] == pytest.approx(0.4318, rel=1e-10)
-    my3 = b.terms(names.index("MYR3"))
+    my3 = b.terms[names.index("MYR3")]
     assert my3["MZ4"] == pytest.approx(-1) and my3["M4"] == pytest.approx(-0.4331, rel=1e-10)
     eliminated = {b.standard_names[i] for i in b.dependent} | {b.standard_names[i] for i in b.unidentifiable}
     for j in (2, 3, 4, 5, 6):

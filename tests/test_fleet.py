@@ -90,8 +90,8 @@ def test_a_worker_killed_mid_batch_loses_and_duplicates_nothing(tmp_path, cluste
     nanny starts a new worker, the scheduler runs the lost tasks again, and every item's result
     comes back exactly once, in input order, equal to the local run's."""
     from minparam_cli.cli.batch import run_batch
-    from minparam_cli.pipeline import derive_file
-    from minparam_cli.robot import DeriveOptions
+    from minparam_cli.api.derivation import derive_file
+    from minparam_cli.api.options.derive import DeriveOptions
 
     files = write_robots(tmp_path / "robots", 40, seed=7)
     log = tmp_path / "runs.log"
@@ -118,7 +118,7 @@ def test_a_worker_killed_mid_batch_loses_and_duplicates_nothing(tmp_path, cluste
     assert [r["path"] for r in remote] == [str(f) for f in files]
     assert all(r["ok"] for r in remote)
     def strip(rs):
-        return [{**r["result"], "elapsed_s": 0} for r in rs]
+        return [{**r["result"].to_dict(), "elapsed_s": 0} for r in rs]
     assert strip(remote) == strip(local)
     assert done == list(range(1, len(files) + 1))  # the bar counted each item once
 

@@ -137,3 +137,41 @@ def test_the_map_check_sees_an_upward_import(monkeypatch):
 def test_no_source_file_passes_the_line_limit():
     long = {str(p.relative_to(SRC)): n for p in SRC.rglob("*.py") if (n := len(p.read_text(encoding="utf-8").splitlines())) > MAX_LINES}
     assert not long, f"split these files (over {MAX_LINES} lines): {long}"
+
+
+# The command line is a shell over the API (issue 30, "one driver"): parse, call ``minparam_cli.api``,
+# render, exit code.  These command modules import nothing else of the package (the identify,
+# evaluate and model-file commands join the list when they are moved over).
+THIN_CLI = ("app", "batch", "check", "codegen", "common", "derive", "excite", "executor", "platform", "simulate", "singular")
+CLI_MAY_IMPORT = ("minparam_cli.api", "minparam_cli.render", "minparam_cli.cli")
+CLI_MAY_IMPORT_MODULES = ("minparam_cli", "minparam_cli.output", "minparam_cli.errors", "minparam_cli.runtime",
+                          "minparam_cli.optional")
+
+
+def _cli_strays(names: tuple[str, ...] = THIN_CLI) -> dict[str, list[str]]:
+    modules = _modules()
+    out = {}
+    for short in names:
+        name = f"minparam_cli.cli.{short}"
+        stray = sorted(m for m in _imports(name, modules[name], modules)
+                       if m.startswith("minparam_cli") and m not in CLI_MAY_IMPORT_MODULES
+                       and not m.startswith(tuple(p + "." for p in CLI_MAY_IMPORT)))
+        if stray:
+            out[name] = stray
+    return out
+
+
+def test_the_commands_import_only_the_api_the_renderers_and_output():
+    assert not _cli_strays()
+
+
+def test_the_cli_check_sees_a_stage_import(monkeypatch):
+    """The check can fail: a command importing a stage module is found."""
+    real = _imports
+
+    def with_stage(name, path, modules):
+        found = real(name, path, modules)
+        return found | {"minparam_cli.robot"} if name == "minparam_cli.cli.derive" else found
+
+    monkeypatch.setattr(__import__(__name__), "_imports", with_stage)
+    assert _cli_strays() == {"minparam_cli.cli.derive": ["minparam_cli.robot"]}

@@ -19,8 +19,15 @@ from minparam_cli.base.qr import chain_scales, derive_qr, sample_rng, stacked_re
 from minparam_cli.cli.app import app
 from minparam_cli.dynamics.regressor import joint_regressor, random_states, regressor
 from minparam_cli.errors import DescriptionError, UnsupportedError
-from minparam_cli.pipeline import derive_file
-from minparam_cli.robot import DeriveOptions, load_chain
+from minparam_cli.robot import load_chain
+from minparam_cli.api.derivation import derive_file as _derive_file
+from minparam_cli.api.options.derive import DeriveOptions
+
+
+def derive_file(path, opts):
+    """The derive JSON of one robot file (the API's base set, as a dict)."""
+    return _derive_file(path, opts).to_dict()
+
 
 
 def link(name: str, k: int) -> str:

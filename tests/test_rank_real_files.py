@@ -19,8 +19,15 @@ from minparam_cli.base.qr import derive_qr
 from minparam_cli.base.result import RANK_RTOL, WEAK_RTOL
 from minparam_cli.cli.app import app
 from minparam_cli.errors import ComputationError, DescriptionError
-from minparam_cli.pipeline import derive_file
-from minparam_cli.robot import DeriveOptions, load_chain
+from minparam_cli.robot import load_chain
+from minparam_cli.api.derivation import derive_file as _derive_file
+from minparam_cli.api.options.derive import DeriveOptions
+
+
+def derive_file(path, opts):
+    """The derive JSON of one robot file (the API's base set, as a dict)."""
+    return _derive_file(path, opts).to_dict()
+
 
 LINK = (
     '<link name="{n}"><inertial><origin xyz="0.01 0.02 0.03" rpy="0 0 0"/><mass value="1.0"/>'
@@ -89,7 +96,7 @@ def test_a_link_mass_that_is_an_exact_multiple_of_zz1_regroups_into_it(tmp_path,
     _, kept_on_axis = base_of(kinova_like(tmp_path, "on_axis", offset="0"), method)
     assert "M2" not in kept
     assert kept == kept_on_axis
-    zz1 = b.terms(kept.index("ZZ1"))
+    zz1 = b.terms[kept.index("ZZ1")]
     assert zz1["M2"] == pytest.approx(0.0016**2, rel=1e-9)
 
 

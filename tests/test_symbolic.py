@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -10,11 +11,18 @@ import sympy as sp
 
 from conftest import ROBOT_FILES, ROBOT_IDS
 from minparam_cli.base.qr import derive_qr
+from minparam_cli.base.report import Derivation, RobotSummary
 from minparam_cli.base.symbolic import add_symbolic, geometry_symbols, symbolic_base
 from minparam_cli.chain import build_chain
 from minparam_cli.describe import load_description
-from minparam_cli.pipeline import derive_file
-from minparam_cli.robot import DeriveOptions
+from minparam_cli.api.derivation import derive_file as _derive_file
+from minparam_cli.api.options.derive import DeriveOptions
+
+
+def derive_file(path, opts):
+    """The derive JSON of one robot file (the API's base set, as a dict)."""
+    return _derive_file(path, opts).to_dict()
+
 
 
 def symbolic_set(path) -> dict[str, sp.Expr]:
@@ -168,9 +176,7 @@ def test_symbolic_coefficients_equal_numeric_beta(path):
     desc = load_description(path)
     chain = build_chain(desc)
     base = derive_qr(chain)
-    report = add_symbolic({"robot": desc.name, "n_base": base.n_base, "base_parameters": [
-        {"name": n, "terms": base.terms(i)} for i, n in enumerate(base.base_names)]}, desc, chain, base)
-    report["standard_parameters"] = list(base.standard_names)
+    report = replace(base, derivation=Derivation(RobotSummary.of(chain), symbolic=add_symbolic(desc, chain, base))).to_dict()
     assert report["generic_n_base"] == base.n_base and "symbolic_generic" not in report
     coef = _coefficients(report)
     symbols, pins = geometry_symbols(desc)
@@ -179,7 +185,7 @@ def test_symbolic_coefficients_equal_numeric_beta(path):
     def check(b, values):
         subs = {sp.Symbol(k): v for k, v in values.items()}
         for i, name in enumerate(b.base_names):
-            terms = b.terms(i)
+            terms = b.terms[i]
             for t in set(terms) | {t for (bn, t) in coef if bn == name}:
                 want = terms.get(t, 0.0)
                 got = float(coef.get((name, t), 0).subs(subs)) if (name, t) in coef else 0.0
@@ -227,9 +233,7 @@ def test_special_geometry_is_reported_not_printed_as_general_formula():
     special = derive_qr(build_chain(desc, values={"alpha2": 0.0}))
     generic = derive_qr(chain)
     assert special.n_base < generic.n_base
-    report = {"robot": desc.name, "n_base": special.n_base, "base_parameters": [
-        {"name": n, "terms": special.terms(i)} for i, n in enumerate(special.base_names)]}
-    out = add_symbolic(report, desc, chain, special)
+    out = replace(special, derivation=Derivation(RobotSummary.of(chain), symbolic=add_symbolic(desc, chain, special))).to_dict()
     assert out["generic_n_base"] == generic.n_base
     assert len(out["symbolic_generic"]) == generic.n_base
     assert any("special geometry" in n for n in out["symbolic_notes"])

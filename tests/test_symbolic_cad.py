@@ -14,7 +14,8 @@ from test_symbolic_exact import RTOL, compare_with_numeric
 
 from minparam_cli.base import symbolic as S
 from minparam_cli.base.qr import derive_qr
-from minparam_cli.robot import DeriveOptions, load_chain
+from minparam_cli.api.options.derive import DeriveOptions
+from minparam_cli.robot import load_chain
 
 
 def cad_arm(tmp_path):

@@ -18,8 +18,14 @@ import test_mimic as tm
 from test_symbolic_exact import RTOL, compare_with_numeric
 
 from minparam_cli.base.symbolic_coupled import Coupled, _collisions, _complement, _multiple_angle
-from minparam_cli.pipeline import derive_file
-from minparam_cli.robot import DeriveOptions
+from minparam_cli.api.derivation import derive_file as _derive_file
+from minparam_cli.api.options.derive import DeriveOptions
+
+
+def derive_file(path, opts):
+    """The derive JSON of one robot file (the API's base set, as a dict)."""
+    return _derive_file(path, opts).to_dict()
+
 
 ALL = dict(friction=("coulomb", "viscous", "offset"), rotor_inertia=True)
 

@@ -14,8 +14,15 @@ from minparam_cli.base.qr import derive_qr, sample_rng, stacked_regressor
 from minparam_cli.base.symbolic import RIGHT_ANGLE_TOL, geometry_symbols
 from minparam_cli.base.symbolic_urdf import axes_at, symbolic_description
 from minparam_cli.chain import build_chain
-from minparam_cli.pipeline import derive_file
-from minparam_cli.robot import DeriveOptions, load_chain
+from minparam_cli.robot import load_chain
+from minparam_cli.api.derivation import derive_file as _derive_file
+from minparam_cli.api.options.derive import DeriveOptions
+
+
+def derive_file(path, opts):
+    """The derive JSON of one robot file (the API's base set, as a dict)."""
+    return _derive_file(path, opts).to_dict()
+
 
 RTOL = 1e-12  # the identity W_dep = W_kept·β at the numeric regressor (rounding: ~1e-15)
 BETA_RTOL = 1e-9  # against the QR route's β (its own accuracy at skewed geometries: ~1e-11)
@@ -130,7 +137,7 @@ def compare_with_numeric(path, opts, n_geometries=2, seed=18, file_kept=False):
         W = stacked_regressor(other, 60, sample_rng(int(rng.integers(1 << 30))))
         norms = np.linalg.norm(W, axis=0)
         for i, name in enumerate(report_names):
-            terms = num.terms(i)
+            terms = num.terms[i]
             for t in set(terms) | {t for (bn, t) in coef if bn == name}:
                 want, have = terms.get(t, 0.0), got.get((name, t), 0.0)
                 worst_beta = max(worst_beta, abs(have - want) / max(abs(have), abs(want)))

@@ -12,7 +12,7 @@ from conftest import ROBOTS
 from test_symbolic_exact import BETA_RTOL, RTOL, compare_with_numeric
 
 from minparam_cli.base.symbolic_friction import _combination
-from minparam_cli.robot import DeriveOptions
+from minparam_cli.api.options.derive import DeriveOptions
 
 RATIOS = [62.6, 107.8, 53.7, 76.0, 71.9, 76.7]
 FULL = DeriveOptions(symbolic=True, friction=("coulomb", "viscous"), rotor_inertia=True)

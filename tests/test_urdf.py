@@ -99,7 +99,7 @@ def test_branched_tree_regressor_and_base_set(tmp_path):
     b = derive_qr(chain)
     # below the waist, the two arms never share a regrouped parameter
     for i in range(b.n_base):
-        links_in_row = {int(n[-1]) for n in b.terms(i)}
+        links_in_row = {int(n[-1]) for n in b.terms[i]}
         if 1 not in links_in_row:
             assert not ({2, 3} & links_in_row and {4, 5} & links_in_row)
     kept_links = {int(b.standard_names[c][-1]) for c in b.kept}

@@ -18,7 +18,8 @@ from minparam_cli import __version__
 from minparam_cli.api.excitation import excite
 from minparam_cli.api.generation import codegen
 from minparam_cli.api.identification import evaluate, identify
-from minparam_cli.api.kinematics import platform_fk, platform_ik, platform_workspace, singular
+from minparam_cli.api.kinematics import singular
+from minparam_cli.api.platform import platform_fk, platform_ik, platform_workspace
 from minparam_cli.api.results import (
     BaseSet,
     CheckResult,

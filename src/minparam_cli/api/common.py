@@ -125,3 +125,33 @@ def float_option(value: Any, n: int, option: str) -> tuple[float, ...]:
     if not all(math.isfinite(v) for v in vals):
         raise OptionError(option, f"expected finite numbers, got {value!r}")
     return vals
+
+
+def choice_option(value: Any, allowed: Iterable[str], option: str) -> str:
+    """``value`` (a str or a str Enum) when it is one of ``allowed``; else an ``OptionError`` naming the flag."""
+    value = getattr(value, "value", value)
+    allowed = tuple(allowed)
+    if value not in allowed:
+        raise OptionError(option, f"{value!r} is not one of {', '.join(map(repr, allowed))}")
+    return str(value)
+
+
+def expand_paths(paths: Iterable[Path], recursive: bool) -> tuple[list[Path], bool]:
+    """Files named directly, plus robot files found in folders.  Returns (files, any_folder)."""
+    from minparam_cli.describe import ROBOT_SUFFIXES
+
+    files: list[Path] = []
+    any_folder = False
+    for p in map(Path, paths):
+        if p.is_dir():
+            any_folder = True
+            pattern = "**/*" if recursive else "*"
+            found = sorted(f for f in p.glob(pattern) if f.is_file() and f.suffix.lower() in ROBOT_SUFFIXES)
+            if not found:
+                raise InputError(f"{p}: no robot files (*.yaml, *.yml, *.urdf) in this folder")
+            files.extend(found)
+        elif p.exists():
+            files.append(p)
+        else:
+            raise InputError(f"{p}: no such file or folder")
+    return files, any_folder

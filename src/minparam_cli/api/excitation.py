@@ -1,9 +1,8 @@
 """Excitation design (``minparam excite``): the option checks, the preparation of the chain and its
 limits, the design and the JSON record, shared by the command and by ``minparam.excite``.
 
-The command is a shell over these functions: it parses its options, calls ``excite_options``,
-``parse_box``, ``prepare_excite``, ``run_design`` and ``excite_record``, prints the notes and the
-summary, and writes the files.  ``excite`` below is the library call: the same functions, the notes
+The command is a shell over these functions: it builds ``ExciteOptions``, calls ``prepare_excite``
+and ``run_excite``, prints the notes and the summary, and writes the files.  ``excite`` below is the library call: the same functions, the notes
 as ``MinparamWarning`` warnings, no output unless ``progress=True``.
 """
 
@@ -13,9 +12,10 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Iterable
 
-from minparam_cli.api.common import OptionError, ProgressArg, choice, close, float_option, friction_option, progress_callback, robot_path, warn
-from minparam_cli.api.results import Excitation, Robot
-from minparam_cli.errors import InputError
+from minparam_cli.api.common import ProgressArg, close, progress_callback, robot_path, warn
+from minparam_cli.api.excitation_result import Excitation
+from minparam_cli.api.options.excite import ExciteOptions
+from minparam_cli.api.results import Robot
 
 if TYPE_CHECKING:
     import numpy as np
@@ -23,10 +23,8 @@ if TYPE_CHECKING:
     from minparam_cli.base.result import BaseSet as StageBaseSet
     from minparam_cli.chain import Chain
     from minparam_cli.experiment.excite.constraints import Limits
-    from minparam_cli.experiment.excite.design import ExciteOptions, ExciteResult
+    from minparam_cli.experiment.excite.design import ExciteOptions as DesignOptions
 
-CRITERIA = ("cond", "logdet")
-SCALINGS = ("si", "columns")
 
 
 @dataclass(frozen=True)
@@ -42,68 +40,11 @@ class Prepared:
     friction: tuple[str, ...]
     rotor_inertia: bool
     notes: tuple[str, ...]
+    design: DesignOptions
+    seed: int
 
 
-def parse_box(text: str) -> np.ndarray:
-    """'XMIN:XMAX,YMIN:YMAX,ZMIN:ZMAX' (empty side: free) -> (3, 2) with NaN for free sides."""
-    import numpy as np
-
-    parts = text.split(",")
-    if len(parts) != 3:
-        raise OptionError("--box", f"expected XMIN:XMAX,YMIN:YMAX,ZMIN:ZMAX, got {text!r}")
-    out = np.full((3, 2), np.nan)
-    for c, part in enumerate(parts):
-        sides = part.split(":")
-        if len(sides) != 2:
-            raise OptionError("--box", f"expected MIN:MAX for axis {'xyz'[c]}, got {part!r}")
-        for k, v in enumerate(sides):
-            if v.strip():
-                try:
-                    out[c, k] = float(v)
-                except ValueError:
-                    raise OptionError("--box", f"expected a number, got {v!r}") from None
-                if not np.isfinite(out[c, k]):
-                    raise OptionError("--box", f"expected a finite number, got {v!r}")
-        if np.isfinite(out[c]).all() and not out[c, 0] < out[c, 1]:
-            raise InputError(f"infeasible limits: --box axis {'xyz'[c]} is empty ({out[c, 0]:g} >= {out[c, 1]:g})")
-    if not np.isfinite(out).any():
-        raise OptionError("--box", "every side is free")
-    return out
-
-
-def box_option(box: Any) -> np.ndarray | None:
-    """The box from the CLI's text or from a (3, 2) array-like (None or NaN: a free side)."""
-    import numpy as np
-
-    if box is None:
-        return None
-    if isinstance(box, str):
-        return parse_box(box)
-    try:
-        arr = np.array([[np.nan if v is None else float(v) for v in row] for row in box], dtype=float)
-    except (TypeError, ValueError):
-        raise OptionError("--box", f"expected (3, 2) bounds [[XMIN, XMAX], [YMIN, YMAX], [ZMIN, ZMAX]], got {box!r}") from None
-    if arr.shape != (3, 2) or np.isinf(arr).any():
-        raise OptionError("--box", f"expected (3, 2) finite bounds [[XMIN, XMAX], [YMIN, YMAX], [ZMIN, ZMAX]], got {box!r}")
-    return parse_box(",".join(":".join("" if np.isnan(v) else repr(float(v)) for v in row) for row in arr))
-
-
-def excite_options(harmonics: int = 5, base_frequency: float = 0.1, rate: float = 200.0, periods: int = 1,
-                   criterion: str = "cond", scaling: str = "si", rest: bool = False, margin: float = 0.1,
-                   starts: int = 4, max_iterations: int = 150) -> ExciteOptions:
-    """The design's options, checked with the CLI's messages."""
-    from minparam_cli.experiment.excite.design import ExciteOptions, validate
-
-    opts = ExciteOptions(harmonics=int(harmonics), base_frequency=float(base_frequency), rate=float(rate),
-                         periods=int(periods), criterion=choice(criterion, CRITERIA, "--criterion"),
-                         scaled=choice(scaling, SCALINGS, "--scaling") == "columns", starts=int(starts),
-                         max_iterations=int(max_iterations), margin=float(margin), rest=bool(rest))
-    validate(opts)
-    return opts
-
-
-def prepare_excite(robot: Path, opts: ExciteOptions, friction: tuple[str, ...], rotor_inertia: bool, mimic: str,
-                   box: np.ndarray | None, point: np.ndarray | None) -> Prepared:
+def prepare_excite(robot: Path, opts: ExciteOptions) -> Prepared:
     """Load the chain with the declared extras, its limits (position defaults as simulate's), the
     nominal parameters when effort limits can be enforced, and derive's QR base set."""
     import numpy as np
@@ -112,11 +53,14 @@ def prepare_excite(robot: Path, opts: ExciteOptions, friction: tuple[str, ...], 
     from minparam_cli.experiment.excite.design import chain_limits
     from minparam_cli.robot import DeriveOptions, load_chain, require_fixed_base
 
-    _, chain = load_chain(robot, DeriveOptions(friction=friction, rotor_inertia=rotor_inertia, mimic=mimic))
+    design = opts.design()
+    _, chain = load_chain(robot, DeriveOptions(friction=opts.friction, rotor_inertia=opts.rotor_inertia, mimic=opts.mimic))
     require_fixed_base(chain, "excite")
+    box = np.array(opts.box, dtype=float) if opts.box is not None else None
+    point = np.array(opts.point, dtype=float) if opts.point is not None else None
     if box is not None and point is None:
         point = np.zeros(3) if chain.tool is None else np.asarray(chain.tool, dtype=float)
-    limits = chain_limits(chain, opts.margin, box, point)
+    limits = chain_limits(chain, design.margin, box, point)
     notes = []
     if limits.defaulted:
         js = ", ".join(str(j + 1) for j in limits.defaulted)
@@ -127,24 +71,25 @@ def prepare_excite(robot: Path, opts: ExciteOptions, friction: tuple[str, ...], 
         phi = np.array(chain.phi_nominal, dtype=float)
     elif np.isfinite(limits.effort).any():
         notes.append(f"{robot} gives effort limits but not every link's inertial values; torque limits are not enforced")
-    return Prepared(str(robot), chain, limits, phi, derive_qr(chain), friction, bool(rotor_inertia), tuple(notes))
+    return Prepared(str(robot), chain, limits, phi, derive_qr(chain), opts.friction, opts.rotor_inertia, tuple(notes),
+                    design, opts.seed)
 
 
-def run_design(prep: Prepared, opts: ExciteOptions, seed: int, progress: Any = None) -> ExciteResult:
-    """The design stage, from one generator seeded with ``seed``."""
+def run_excite(prep: Prepared, progress: Any = None) -> Excitation:
+    """The design stage, from one generator seeded with the options' seed: the excitation."""
     import numpy as np
 
     from minparam_cli.experiment.excite.design import design
 
-    return design(prep.chain, prep.base, opts, prep.limits, np.random.default_rng(seed), phi=prep.phi, progress=progress)
-
-
-def excite_record(result: ExciteResult, prep: Prepared, seed: int) -> dict[str, Any]:
-    """The JSON record of ``--json``: coefficients, criterion, starts, limits used, effects."""
-    from minparam_cli.render.excite_text import json_record
-
+    result = design(prep.chain, prep.base, prep.design, prep.limits, np.random.default_rng(prep.seed), phi=prep.phi,
+                    progress=progress)
+    traj = result.trajectory
     effects = {"friction": list(prep.friction), "rotor_inertia": prep.rotor_inertia, "columns": list(prep.chain.layout.names)}
-    return json_record(result, prep.robot, prep.chain.name, seed, effects)
+    return Excitation(robot=prep.robot, robot_name=prep.chain.name, t=result.t, q=result.q, dq=result.dq, ddq=result.ddq,
+                      tau=result.tau, q0=traj.q0, a=traj.a, b=traj.b, base_frequency=float(traj.base_frequency),
+                      criterion=float(result.criterion), condition_number=float(result.cond_output),
+                      condition_number_si=float(result.cond_output_si), base_names=tuple(result.base_names),
+                      seed=prep.seed, effects=effects, design=result)
 
 
 def after_notes(prep: Prepared) -> list[str]:
@@ -172,28 +117,19 @@ def excite(robot: Robot | str | Path, *, harmonics: int = 5, base_frequency: flo
     generator seeded with ``seed``.  A Robot's own friction, rotor inertia and mimic mode apply unless
     given here.  ``to_dict()`` is the ``--json`` record, ``to_csv()`` the CSV of ``-o``.
     """
-    if seed < 0:
-        raise InputError(f"--seed must be >= 0, got {seed}")
-    base = robot.options if isinstance(robot, Robot) else None
-    kinds = friction_option(friction) if friction is not None else (base.friction if base else ())
-    rotor = bool(rotor_inertia) if rotor_inertia is not None else (base.rotor_inertia if base else False)
-    mode = choice(mimic, ("coupled", "fixed"), "--mimic") if mimic is not None else (base.mimic if base else "coupled")
-    box_arr = box_option(box)
-    import numpy as np
-
-    point_arr = np.array(float_option(point, 3, "--point")) if point is not None else None
-    opts = excite_options(harmonics, base_frequency, rate, periods, criterion, scaling, rest, margin, starts, max_iterations)
-    prep = prepare_excite(robot_path(robot), opts, kinds, rotor, mode, box_arr, point_arr)
+    own = robot.options if isinstance(robot, Robot) else None
+    opts = ExciteOptions(harmonics=harmonics, base_frequency=base_frequency, rate=rate, periods=periods, criterion=criterion,
+                         scaling=scaling, rest=rest, margin=margin,
+                         friction=friction if friction is not None else (own.friction if own else ()),
+                         rotor_inertia=bool(rotor_inertia) if rotor_inertia is not None else (own.rotor_inertia if own else False),
+                         box=box, point=point, starts=starts, max_iterations=max_iterations, seed=seed,
+                         mimic=mimic if mimic is not None else (own.mimic if own else "coupled"))
+    prep = prepare_excite(robot_path(robot), opts)
     warn(prep.notes)
     bar = progress_callback(progress, opts.starts * opts.max_iterations, "excite")
     try:
-        result = run_design(prep, opts, seed, bar)
+        result = run_excite(prep, bar)
     finally:
         close(bar)
     warn(after_notes(prep))
-    traj = result.trajectory
-    return Excitation(robot=prep.robot, t=result.t, q=result.q, dq=result.dq, ddq=result.ddq, tau=result.tau,
-                      q0=traj.q0, a=traj.a, b=traj.b, base_frequency=float(traj.base_frequency),
-                      criterion=float(result.criterion), condition_number=float(result.cond_output),
-                      condition_number_si=float(result.cond_output_si), base_names=tuple(result.base_names),
-                      seed=seed, _design=result, _report=excite_record(result, prep, seed))
+    return result

@@ -6,7 +6,8 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any, Iterable
 
 from minparam_cli.api.common import ProgressArg, choice, close, friction_kinds, gravity3, progress_callback, robot_path, warn
-from minparam_cli.api.results import BaseSet, CheckResult, LoadOptions, Robot
+from minparam_cli.api.check_result import CheckResult
+from minparam_cli.api.results import BaseSet, LoadOptions, Robot
 from minparam_cli.errors import InputError
 
 if TYPE_CHECKING:
@@ -66,11 +67,9 @@ def load_robot(path: str | Path, *, friction: str | Iterable[str] | None = None,
 
 def check(path: str | Path) -> CheckResult:
     """Validate a robot file (``minparam check --json``); raises ``DescriptionError`` when it is invalid."""
-    from minparam_cli.pipeline import check_file
+    from minparam_cli.api.derivation import check_file
 
-    report = {**check_file(robot_path(path)), "status": "ok"}
-    return CheckResult(robot=report["robot"], dof=report["dof"], convention=report["convention"],
-                       joint_types=report["types"], exact=report["exact"], inertial=report["inertial"], _report=report)
+    return check_file(robot_path(path))
 
 
 def derive(robot: Robot | str | Path, *, method: str = "qr", friction: str | Iterable[str] | None = None,
@@ -84,42 +83,24 @@ def derive(robot: Robot | str | Path, *, method: str = "qr", friction: str | Ite
     symbols; ``symbolic_numbers=True`` does so with the file's lengths (and axes with rational
     components) as exact numbers (``--symbolic-numbers``).  A Robot's own friction, rotor inertia and gravity apply unless given here.
     """
-    from minparam_cli.pipeline import derive_all
+    from minparam_cli.api.derivation import derive_file
+    from minparam_cli.api.options.derive import DeriveOptions
 
-    method = choice(method, METHODS, "method")
-    if samples < 1:
-        raise InputError(f"samples: must be positive, got {samples}")
-    if seed < 0:
-        raise InputError(f"seed: must be >= 0, got {seed}")
-    if snap_angles is not None:
-        from minparam_cli.describe.snap import MAX_TOLERANCE
-
-        if not 0.0 < snap_angles < MAX_TOLERANCE:
-            raise InputError(f"snap_angles: must be a tolerance in radians in (0, {MAX_TOLERANCE:.4g}) (half of 15°), got {snap_angles:g}")
-    opts = derive_options(load_options(robot, friction, rotor_inertia, gravity, mimic, floating_base), method=method,
-                          samples=samples, seed=seed, symbolic=symbolic or None, snap_angles=snap_angles,
-                          symbolic_numbers=symbolic_numbers)
+    own = robot.options if isinstance(robot, Robot) else LoadOptions()
+    opts = DeriveOptions(
+        method=method, friction=friction if friction is not None else own.friction,
+        rotor_inertia=rotor_inertia if rotor_inertia is not None else own.rotor_inertia,
+        gravity=gravity if gravity is not None else own.gravity, samples=samples, seed=seed, symbolic=symbolic,
+        symbolic_numbers=symbolic_numbers, snap_angles=snap_angles, mimic=mimic if mimic is not None else own.mimic,
+        floating_base=floating_base if floating_base is not None else own.floating_base)
     path = robot_path(robot)
-    bar = progress_callback(progress, 1, f"{method} {path.name}")
+    bar = progress_callback(progress, 1, f"{opts.method} {path.name}")
     try:
-        report, _, chain, base = derive_all(path, opts, progress=bar)
+        base = derive_file(path, opts, progress=bar)
     finally:
         close(bar)
-    warn(report.get("warnings", []))
-    names = tuple(chain.layout.names)
-    entries = report["base_parameters"]
-    return BaseSet(
-        robot=report["robot"], method=report["method"],
-        names=tuple(b["name"] for b in entries),
-        expressions=tuple(b.get("symbolic") or b["expression"] for b in entries),
-        terms=tuple(dict(b["terms"]) for b in entries),
-        standard_names=names,
-        kept=tuple(names[i] for i in base.kept),
-        dependent=tuple(names[i] for i in base.dependent),
-        unidentifiable=tuple(report["unidentifiable"]),
-        K=base.K.copy(), beta=base.beta.copy(), exact=bool(base.exact), seed=report.get("seed"),
-        warnings=tuple(report.get("warnings", [])), _report=report,
-    )
+    warn(base.warnings)
+    return base
 
 
 def regressor(robot: Robot | str | Path, q: Any, dq: Any, ddq: Any, base: bool | BaseSet = True, *,
@@ -149,11 +130,9 @@ def regressor(robot: Robot | str | Path, q: Any, dq: Any, ddq: Any, base: bool |
     Y = full_regressor(chain, arrays[0], arrays[1], arrays[2])
     if base is not False:
         if isinstance(base, BaseSet):
-            names = list(chain.layout.names)
-            unknown = [k for k in base.kept if k not in names]
-            if unknown or tuple(base.standard_names) != tuple(names):
+            if tuple(base.standard_names) != tuple(chain.layout.names):
                 raise InputError(f"base: the BaseSet of {base.robot} has other standard parameters than {rob.name}")
-            cols = [names.index(k) for k in base.kept]
+            cols = list(base.kept)
         else:
             from minparam_cli.base.qr import derive_qr
 

@@ -12,8 +12,10 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Callable, Iterable, Mapping
 
-from minparam_cli.api.common import choice, float_option, robot_path, warn
-from minparam_cli.api.results import Robot, Simulation
+from minparam_cli.api.common import robot_path, warn
+from minparam_cli.api.options.simulate import SimulateOptions
+from minparam_cli.api.results import Robot
+from minparam_cli.api.simulation_result import SCHEMA, Simulation
 from minparam_cli.errors import InputError
 
 
@@ -48,7 +50,7 @@ class SimulationSetup:
 
         record = truth_record(plan, str(self.robot), self.seed, self.chain.name, include_ddq, limits=limits)
         record.update(self.extra_record)
-        return record
+        return {"schema": SCHEMA, **record}
 
 
 def read_given_trajectory(trajectory: str | Path, n: int):
@@ -75,31 +77,8 @@ def read_given_trajectory(trajectory: str | Path, n: int):
     return parse_trajectory_csv(content, n, text)
 
 
-def _payload(mass, com, inertia):
-    """The simulated payload (None without a mass)."""
-    if mass is None:
-        if com is not None or inertia is not None:
-            raise InputError("--payload-com and --payload-inertia need --payload-mass")
-        return None
-    from minparam_cli.identify.physical.payload import PayloadSpec, check_spec
-
-    try:
-        m = float(mass)
-    except (TypeError, ValueError):
-        raise InputError(f"--payload-mass: expected a number, got {mass!r}") from None
-    c = float_option(com, 3, "--payload-com") if com is not None else (0.0, 0.0, 0.0)
-    spec = PayloadSpec(m, (c[0], c[1], c[2]),
-                       float_option(inertia, 6, "--payload-inertia") if inertia is not None else (0.0,) * 6)
-    check_spec(spec)
-    return spec
-
-
-def _side_gains(chain, side: str, current: bool):
-    """The drive gains --current divides by (None for torques); one-line refusals."""
-    if side not in ("joint", "motor"):
-        raise InputError(f"--side: expected joint or motor, got {side!r}")
-    if current and side != "motor":
-        raise InputError("--current needs --side motor: currents are motor-side signals")
+def _drive_gains(chain, current: bool):
+    """The drive gains --current divides by (None for torques)."""
     if not current:
         return None
     tr = chain.transmission
@@ -108,41 +87,32 @@ def _side_gains(chain, side: str, current: bool):
     return tr.drive_gains
 
 
-def _motor_values(motor_params: str | Mapping[str, float], chain) -> dict[str, float]:
+def _motor_values(motor_params: str, chain) -> dict[str, float]:
     from minparam_cli.identify.physical.motor_side import parse_motor_params
 
-    if isinstance(motor_params, Mapping):
-        motor_params = ",".join(f"{k}={v}" for k, v in motor_params.items())
-    return parse_motor_params(str(motor_params), chain)
+    return parse_motor_params(motor_params, chain)
 
 
-def prepare_simulation(robot: Robot | str | Path, *, trajectory: str | Path = "fourier", effects: str | Iterable[str] = "",
-                       strength: float = 0.1, noise: float = 0.0, noise_q: float = 0.0, seed: int = 0,
-                       duration: float = 20.0, rate: float = 200.0, harmonics: int = 5, base_frequency: float = 0.1,
-                       random_inertia: bool = False, coulomb_smoothing: float = 0.0, mimic: str = "coupled",
-                       side: str = "joint", current: bool = False, motor_params: str | Mapping[str, float] = "",
-                       payload_mass: float | None = None, payload_com: Any = None, payload_inertia: Any = None) -> SimulationSetup:
-    """Check ``minparam simulate``'s options and build its setup (the chain, the options, the given
-    trajectory, the payload and motor-side transforms); every refusal is one ``InputError`` line."""
+def prepare_simulation(robot: Robot | str | Path, opts: SimulateOptions) -> SimulationSetup:
+    """Build ``minparam simulate``'s setup from its options (the chain, the simulation options, the
+    given trajectory, the payload and motor-side transforms); every refusal is one ``InputError`` line."""
     from minparam_cli.chain import build_chain
     from minparam_cli.describe import load_description
     from minparam_cli.experiment.simulate_spec import SimulationOptions, parse_effects, validate_options
     from minparam_cli.robot import require_fixed_base
 
-    if seed < 0:
-        raise InputError(f"--seed must be >= 0, got {seed}")
     path = robot_path(robot)
-    chain = build_chain(load_description(path, mimic=choice(mimic, ("coupled", "fixed"), "mimic")))
+    chain = build_chain(load_description(path, mimic=opts.mimic))
     require_fixed_base(chain, "simulate")
-    side = str(getattr(side, "value", side))
-    motor_values, gains = _motor_values(motor_params, chain), _side_gains(chain, side, bool(current))
-    payload = _payload(payload_mass, payload_com, payload_inertia)
-    text = effects if isinstance(effects, str) else ",".join(effects)
+    side = opts.side
+    motor_values, gains = _motor_values(opts.motor_params, chain), _drive_gains(chain, opts.current)
+    payload = opts.payload()
     try:
-        specs = parse_effects(text, chain.dof)
+        specs = parse_effects(opts.effects, chain.dof)
     except InputError as e:
         raise InputError(f"--effects: {e}") from None
-    given = read_given_trajectory(trajectory, chain.dof)
+    given = read_given_trajectory(opts.trajectory, chain.dof)
+    harmonics, base_frequency, rate, duration = opts.harmonics, opts.base_frequency, opts.rate, opts.duration
     if given is not None and hasattr(given, "harmonics"):  # excite's series: its own harmonics and period
         harmonics, base_frequency = given.harmonics, given.base_frequency
     elif given is not None:  # samples: their own length and rate
@@ -150,16 +120,13 @@ def prepare_simulation(robot: Robot | str | Path, *, trajectory: str | Path = "f
 
         step = float(np.median(np.diff(given.t)))
         rate, duration = 1.0 / step, given.t.size * step
-    try:  # the CLI's types: a 20 given for a float option is 20.0 in the truth record
-        opts = SimulationOptions(duration=float(duration), rate=float(rate), harmonics=int(harmonics),
-                                 base_frequency=float(base_frequency), effects=specs, strength=float(strength),
-                                 noise=float(noise), noise_q=float(noise_q), random_inertia=bool(random_inertia),
-                                 coulomb_smoothing=float(coulomb_smoothing))
-    except (TypeError, ValueError) as e:
-        raise InputError(f"simulate: expected numbers for duration, rate, harmonics, base_frequency, strength and noise ({e})") from None
-    samples = validate_options(opts)
+    sim = SimulationOptions(duration=float(duration), rate=float(rate), harmonics=int(harmonics),
+                            base_frequency=float(base_frequency), effects=specs, strength=opts.strength,
+                            noise=opts.noise, noise_q=opts.noise_q, random_inertia=opts.random_inertia,
+                            coulomb_smoothing=opts.coulomb_smoothing)
+    samples = validate_options(sim)
     notes = []
-    if chain.phi_nominal is None and not random_inertia:
+    if chain.phi_nominal is None and not opts.random_inertia:
         notes.append(f"{path} does not give inertial data for every link; using random physically consistent "
                      "parameters (as with --random-inertia)")
 
@@ -174,14 +141,14 @@ def prepare_simulation(robot: Robot | str | Path, *, trajectory: str | Path = "f
     if motor_values or side == "motor":  # motor parameters and motor-side signals: identify/physical/motor_side.py
         from minparam_cli.identify.physical.motor_side import to_motor_side, with_motor_params
 
-        smooth = chain.with_coulomb_smoothing(opts.coulomb_smoothing)
+        smooth = chain.with_coulomb_smoothing(sim.coulomb_smoothing)
         transforms.append(lambda c: with_motor_params(c, smooth, motor_values))
         if side == "motor":
             transforms.append(lambda c: to_motor_side(c, chain, gains))
-        extra["motor_side"] = {"side": side, "current": bool(current), "drive_gains": list(gains) if gains else None,
+        extra["motor_side"] = {"side": side, "current": opts.current, "drive_gains": list(gains) if gains else None,
                                "motor_parameters": motor_values}
-    return SimulationSetup(robot=path, chain=chain, options=opts, seed=int(seed), samples=samples, given=given,
-                           trajectory_label=None if given is None else str(trajectory), transforms=tuple(transforms),
+    return SimulationSetup(robot=path, chain=chain, options=sim, seed=opts.seed, samples=samples, given=given,
+                           trajectory_label=None if given is None else opts.trajectory, transforms=tuple(transforms),
                            notes=tuple(notes), extra_record=extra)
 
 
@@ -209,12 +176,12 @@ def simulate(robot: Robot | str | Path, *, effects: str | Iterable[str] = "", st
     """
     import numpy as np
 
-    setup = prepare_simulation(robot, trajectory=trajectory, effects=effects, strength=strength, noise=noise,
-                               noise_q=noise_q, seed=seed, duration=duration, rate=rate, harmonics=harmonics,
-                               base_frequency=base_frequency, random_inertia=random_inertia,
-                               coulomb_smoothing=coulomb_smoothing, mimic=mimic, side=side, current=current,
-                               motor_params=motor_params, payload_mass=payload_mass, payload_com=payload_com,
-                               payload_inertia=payload_inertia)
+    opts = SimulateOptions(trajectory=trajectory, effects=effects, strength=strength, noise=noise, noise_q=noise_q,
+                           seed=seed, duration=duration, rate=rate, harmonics=harmonics, base_frequency=base_frequency,
+                           random_inertia=random_inertia, ddq=ddq, coulomb_smoothing=coulomb_smoothing, mimic=mimic,
+                           side=side, current=current, motor_params=motor_params, payload_mass=payload_mass,
+                           payload_com=payload_com, payload_inertia=payload_inertia)
+    setup = prepare_simulation(robot, opts)
     warn(setup.notes)
     plan, stream = setup.stream()
     parts = list(stream)
@@ -223,6 +190,5 @@ def simulate(robot: Robot | str | Path, *, effects: str | Iterable[str] = "", st
     def stack(name):
         return np.concatenate([getattr(c, name) for c in parts])
 
-    record = setup.record(plan, bool(ddq), stream.limits)
-    return Simulation(t=stack("t"), q=stack("q"), dq=stack("dq"), ddq=stack("ddq"), tau=stack("tau"), seed=int(seed),
-                      _report=record)
+    return Simulation(t=stack("t"), q=stack("q"), dq=stack("dq"), ddq=stack("ddq"), tau=stack("tau"), seed=opts.seed,
+                      truth=setup.record(plan, opts.ddq, stream.limits))

@@ -3,10 +3,14 @@
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-
-import numpy as np
+from typing import TYPE_CHECKING
 
 from minparam_cli.params import split_name
+
+if TYPE_CHECKING:
+    import numpy as np
+
+    from minparam_cli.base.report import Derivation
 
 # entries of the normalised regrouping matrix below this are rounding noise
 COEFFICIENT_CUTOFF = 1e-10
@@ -26,24 +30,34 @@ BETA_DIGITS = 12
 
 @dataclass(frozen=True, eq=False)
 class BaseSet:
-    """Base (minimal) parameters of a chain: phi_base = K · phi.
+    """Base (minimal) parameters of a chain: ``beta_base = K @ phi`` for standard parameters ``phi``.
 
-    ``K`` has one row per base parameter; row i holds 1 at column kept[i] and
-    the regrouping coefficients beta on dependent columns (base = kept + β·dependent).
+    ``K`` has one row per base parameter; row i holds 1 at column ``kept[i]`` and the regrouping
+    coefficients on the ``dependent`` columns (base = kept + β·dependent).  ``kept``, ``dependent``
+    and ``unidentifiable`` (no effect at all) are column numbers in ``standard_names`` (their names:
+    ``kept_names``, ``dependent_names``, ``unidentifiable_names``).  ``names[i]`` is base parameter
+    i (Khalil's: XXR2 when it regroups others), ``terms[i]`` its coefficients by standard name,
+    ``expressions[i]`` its regrouping as text (``"ZZ1 - M1 - M2"``, in the geometry symbols when
+    derived with ``symbolic=True``); ``beta`` the coefficients on the dependent columns.
+
+    A base set from ``derive`` also carries its ``derivation`` (the robot, notes, weakly
+    identifiable parameters, symbolic set): ``to_dict()`` is then ``minparam derive``'s JSON and
+    ``table()``, ``markdown()``, ``latex()`` its other formats.
     """
 
     standard_names: tuple[str, ...]
     kept: tuple[int, ...]
-    K: np.ndarray  # (n_base, n_standard)
+    K: np.ndarray = field(repr=False)  # (n_base, n_standard)
     unidentifiable: tuple[int, ...]  # columns with no effect at all
     method: str
-    rank_margin: dict
+    rank_margin: dict = field(repr=False)
     exact: bool = False
     seed: int | None = None
     samples: int | None = None
     elapsed_s: float = 0.0
-    extra: dict = field(default_factory=dict)
+    extra: dict = field(default_factory=dict, repr=False)
     K_exact: tuple | None = field(default=None, repr=False)  # rows of Fractions in exact mode
+    derivation: Derivation | None = field(default=None, repr=False)
 
     @property
     def n_base(self) -> int:
@@ -65,8 +79,22 @@ class BaseSet:
         return self.K[:, list(self.dependent)]
 
     @property
+    def kept_names(self) -> tuple[str, ...]:
+        return tuple(self.standard_names[i] for i in self.kept)
+
+    @property
+    def dependent_names(self) -> tuple[str, ...]:
+        return tuple(self.standard_names[i] for i in self.dependent)
+
+    @property
+    def unidentifiable_names(self) -> tuple[str, ...]:
+        return tuple(self.standard_names[i] for i in self.unidentifiable)
+
+    @property
     def base_names(self) -> tuple[str, ...]:
         """Khalil-style names: XXR2 when a parameter regroups others, plain XX2 otherwise."""
+        import numpy as np
+
         out = []
         for i, col in enumerate(self.kept):
             name = self.standard_names[col]
@@ -78,14 +106,73 @@ class BaseSet:
             out.append(name)
         return tuple(out)
 
-    def terms(self, i: int) -> dict[str, float]:
-        """{standard name: coefficient} of base parameter i, kept parameter first."""
-        col = self.kept[i]
-        out = {self.standard_names[col]: float(self.K[i, col])}
-        for c in np.flatnonzero(self.K[i]):
-            if c != col:
-                out[self.standard_names[c]] = float(self.K[i, c])
-        return out
+    @property
+    def names(self) -> tuple[str, ...]:
+        """The base parameters' names (``base_names``)."""
+        return self.base_names
+
+    @property
+    def terms(self) -> tuple[dict[str, float], ...]:
+        """{standard name: coefficient} of each base parameter, kept parameter first."""
+        import numpy as np
+
+        out = []
+        for i, col in enumerate(self.kept):
+            row = {self.standard_names[col]: float(self.K[i, col])}
+            for c in np.flatnonzero(self.K[i]):
+                if c != col:
+                    row[self.standard_names[c]] = float(self.K[i, c])
+            out.append(row)
+        return tuple(out)
+
+    @property
+    def numeric_expressions(self) -> tuple[str, ...]:
+        """Each base parameter's regrouping as text with the numeric coefficients."""
+        from minparam_cli.base.report import expression
+
+        return tuple(expression(t) for t in self.terms)
+
+    @property
+    def expressions(self) -> tuple[str, ...]:
+        """Each base parameter's regrouping as text: in the geometry symbols where the derivation has a
+        symbolic set for the file's geometry, else with the numeric coefficients."""
+        d = self.derivation
+        numeric = self.numeric_expressions
+        if d is None or d.symbolic is None or d.symbolic.parameters is None:
+            return numeric
+        return tuple(s.get("symbolic") or e for s, e in zip(d.symbolic.parameters, numeric))
+
+    @property
+    def robot(self) -> str:
+        return self.derivation.about.robot if self.derivation is not None else ""
+
+    @property
+    def warnings(self) -> tuple[str, ...]:
+        return self.derivation.warnings if self.derivation is not None else ()
+
+    def to_dict(self) -> dict:
+        """``minparam derive --format json`` (a new dict each call)."""
+        from minparam_cli.base.report import report_dict
+
+        return report_dict(self)
+
+    def table(self) -> str:
+        """``minparam derive`` (the terminal table)."""
+        from minparam_cli.base.text import table
+
+        return table(self)
+
+    def markdown(self) -> str:
+        """``minparam derive --format markdown``."""
+        from minparam_cli.base.text import markdown
+
+        return markdown(self)
+
+    def latex(self) -> str:
+        """The base parameters as a LaTeX ``align*`` block (``minparam derive --format latex``)."""
+        from minparam_cli.base.text import latex
+
+        return latex(self)
 
 
 def physical_scales(layout, types, length: float, row_types=None) -> tuple[np.ndarray, np.ndarray]:
@@ -101,6 +188,8 @@ def physical_scales(layout, types, length: float, row_types=None) -> tuple[np.nd
     ``types``: of every joint (the extras' columns); ``row_types``: of the regressor's rows, the
     independent coordinates when some joints mimic others (default: ``types``).
     """
+    import numpy as np
+
     L = float(length) if length > 0 else 1.0
     col = []
     for _ in layout.links_with_columns:
@@ -135,6 +224,8 @@ def scan_in_order(A: np.ndarray, rel: np.ndarray, block: int = 64) -> tuple[list
     Returns the kept columns (ascending) and r: for a kept column its residual when it was kept,
     for the others their residual against the final kept set.
     """
+    import numpy as np
+
     rows, P = A.shape
     Q = np.zeros((rows, min(rows, P)))
     r = np.zeros(P)
@@ -165,6 +256,8 @@ def scan_in_order(A: np.ndarray, rel: np.ndarray, block: int = 64) -> tuple[list
 
 def regrouping_matrix(kept: list[int], beta: np.ndarray, dropped: list[int], n: int) -> np.ndarray:
     """Assemble K from the kept columns and β over the dropped columns."""
+    import numpy as np
+
     K = np.zeros((len(kept), n))
     for i, c in enumerate(kept):
         K[i, c] = 1.0
@@ -175,6 +268,8 @@ def regrouping_matrix(kept: list[int], beta: np.ndarray, dropped: list[int], n: 
 
 def round_significant(x: np.ndarray, digits: int = BETA_DIGITS) -> np.ndarray:
     """x rounded to ``digits`` significant digits."""
+    import numpy as np
+
     out = np.zeros_like(x)
     nz = x != 0
     mag = np.floor(np.log10(np.abs(x[nz])))
@@ -185,6 +280,8 @@ def round_significant(x: np.ndarray, digits: int = BETA_DIGITS) -> np.ndarray:
 
 def beta_from_unit_columns(beta_n: np.ndarray, norms: np.ndarray, effect: np.ndarray, kept: list[int], dropped: list[int]) -> np.ndarray:
     """β in the standard parameters' units from β over unit-norm columns: noise cut, then rounding."""
+    import numpy as np
+
     beta_n = np.where(np.abs(beta_n) < COEFFICIENT_CUTOFF, 0.0, beta_n)
     scale_d = np.where(effect[dropped], norms[dropped], 0.0)
     return round_significant(beta_n / norms[kept][:, None] * scale_d[None, :])

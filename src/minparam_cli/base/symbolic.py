@@ -30,6 +30,7 @@ from minparam_cli.base.qr import (
     sample_rng,
     stacked_regressor,
 )
+from minparam_cli.base.report import Symbolic
 from minparam_cli.base.result import BaseSet
 from minparam_cli.base.symbolic_urdf import axes_at, symbolic_description
 from minparam_cli.chain import build_chain
@@ -364,8 +365,9 @@ def special_conditions(sampler, symbols, generic_n, rng) -> list[str]:
     return out
 
 
-def add_symbolic(report: dict, desc, chain, base: BaseSet, numbers: bool = False) -> dict:
-    """A copy of the derive report with the symbolic fields added (see docs/methods/symbolic.md)."""
+def add_symbolic(desc, chain, base: BaseSet, numbers: bool = False) -> Symbolic:
+    """The symbolic set of a derived base set (see docs/methods/symbolic.md): the report's symbolic
+    fields, or why there is none."""
     from minparam_cli.base.symbolic_render import refused_fields, symbolic_fields
     from minparam_cli.errors import UnsupportedError
 
@@ -373,5 +375,5 @@ def add_symbolic(report: dict, desc, chain, base: BaseSet, numbers: bool = False
     try:
         result = symbolic_base(desc, chain, base, numbers=numbers)
     except (UnsupportedError, ComputationError) as exc:
-        return refused_fields(report, str(exc), time.perf_counter() - t0)
-    return symbolic_fields(report, result)
+        return refused_fields(str(exc), time.perf_counter() - t0)
+    return symbolic_fields(chain.name, base.n_base, result)

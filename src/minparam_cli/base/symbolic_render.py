@@ -16,6 +16,8 @@ from __future__ import annotations
 
 import re
 
+from minparam_cli.base.report import Symbolic
+
 GREEK = {
     "alpha", "beta", "gamma", "delta", "epsilon", "theta", "phi", "psi", "rho", "sigma", "tau", "omega", "eta", "mu", "nu", "xi", "zeta", "kappa", "lambda", "chi",
 }
@@ -277,23 +279,23 @@ def latex_block(items: list[dict], comment: str) -> str:
     return "\n".join(lines) + "\n"
 
 
-def refused_fields(report: dict, reason: str, elapsed_s: float) -> dict:
-    """A copy of ``report`` saying why there is no symbolic set (the numeric set stays)."""
-    report = dict(report)
-    report["symbolic_verification"] = {"passed": False, "refused": reason, "elapsed_s": round(elapsed_s, 6)}
-    report["symbolic_notes"] = [f"no symbolic set: {reason}"]
-    return report
+def refused_fields(reason: str, elapsed_s: float) -> Symbolic:
+    """Why there is no symbolic set (the numeric set stays)."""
+    return Symbolic({"symbolic_verification": {"passed": False, "refused": reason, "elapsed_s": round(elapsed_s, 6)},
+                     "symbolic_notes": [f"no symbolic set: {reason}"]})
 
 
-def symbolic_fields(report: dict, result: dict) -> dict:
-    """A copy of ``report`` with the symbolic fields of ``result`` added."""
-    report = dict(report)
+def symbolic_fields(robot: str, n_base: int, result: dict) -> Symbolic:
+    """The report's symbolic fields of ``result`` (``symbolic_base``), for the file's set of ``n_base``
+    base parameters of ``robot``."""
+    fields: dict = {}
+    parameters = None
     generic = result["generic"]
     ver = dict(result["verification"])
     notes = []
     for name, v in result["adjusted"].items():
         notes.append(f"{name} is given as {v[0]!r} rad, taken as exactly {v[1]:d} deg (a right angle, not a symbol)")
-    report["symbols"] = {s.name: s.value for s in result["symbols"]} | dict(result.get("gravity", {}))
+    fields["symbols"] = {s.name: s.value for s in result["symbols"]} | dict(result.get("gravity", {}))
     shifts = list(result.get("shifts", ()))
     if shifts:
         if len(shifts) == 1:
@@ -301,11 +303,11 @@ def symbolic_fields(report: dict, result: dict) -> dict:
         else:
             notes.append(f"{', '.join(shifts)} only shift their joints' coordinates: the regrouping does not depend on them")
     if result.get("numbers"):
-        report["symbolic_numbers"] = list(result["numbers"])
+        fields["symbolic_numbers"] = list(result["numbers"])
         notes.append(f"exact numbers from the file, not symbols: {', '.join(result['numbers'])}")
-    report["generic_n_base"] = generic.n_base
+    fields["generic_n_base"] = generic.n_base
     ver["elapsed_s"] = round(result["elapsed_s"], 6)
-    report["symbolic_verification"] = ver
+    fields["symbolic_verification"] = ver
     if not ver["passed"]:
         notes.append(
             f"symbolic coefficients failed verification (at fresh geometries: beta error "
@@ -313,23 +315,23 @@ def symbolic_fields(report: dict, result: dict) -> dict:
             f"at the file's values: identity error {ver['max_rel_error_file'] if ver['max_rel_error_file'] is not None else float('nan'):.3g}); "
             "not printed"
         )
-        report["symbolic_notes"] = notes
-        return report
+        fields["symbolic_notes"] = notes
+        return Symbolic(fields)
     items = base_parameter_expressions(result)
     if result["special"]:
         notes.append(
-            f"special geometry: the file's values give {report['n_base']} base parameters, generic values of the same "
+            f"special geometry: the file's values give {n_base} base parameters, generic values of the same "
             f"symbols give {generic.n_base}; 'symbolic_generic' is the generic set, 'base_parameters' the file's (numeric)"
         )
         for cond in result["conditions"]:
             notes.append(f"the rank drops when {cond}")
         if not result["conditions"]:
             notes.append("no single value or x = ±y relation of the file's symbols explains the drop alone")
-        report["symbolic_generic"] = items
+        fields["symbolic_generic"] = items
         which = "generic set (not the file's: see notes)"
     else:
-        report["base_parameters"] = [dict(b, **{k: v for k, v in s.items() if k != "name"}) for b, s in zip(report["base_parameters"], items)]
+        parameters = tuple({k: v for k, v in s.items() if k != "name"} for s in items)
         which = "symbolic regrouping"
-    report["symbolic_notes"] = notes
-    report["symbolic_latex"] = latex_block(items, f"{report['robot']}: {which}, {generic.n_base} base parameters")
-    return report
+    fields["symbolic_notes"] = notes
+    fields["symbolic_latex"] = latex_block(items, f"{robot}: {which}, {generic.n_base} base parameters")
+    return Symbolic(fields, parameters)

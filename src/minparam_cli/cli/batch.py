@@ -1,4 +1,4 @@
-"""Run one stage over many robot files: folder expansion, parallel jobs, summary."""
+"""Run one API function over many robot files: parallel jobs (or a Dask cluster), one result per file."""
 
 from __future__ import annotations
 
@@ -6,27 +6,7 @@ import time
 from pathlib import Path
 from typing import Callable
 
-from minparam_cli.describe import ROBOT_SUFFIXES
-from minparam_cli.errors import InputError, MinparamError
-
-
-def expand_paths(paths: list[Path], recursive: bool) -> tuple[list[Path], bool]:
-    """Files named directly, plus robot files found in folders.  Returns (files, any_folder)."""
-    files: list[Path] = []
-    any_folder = False
-    for p in paths:
-        if p.is_dir():
-            any_folder = True
-            pattern = "**/*" if recursive else "*"
-            found = sorted(f for f in p.glob(pattern) if f.is_file() and f.suffix.lower() in ROBOT_SUFFIXES)
-            if not found:
-                raise InputError(f"{p}: no robot files (*.yaml, *.yml, *.urdf) in this folder")
-            files.extend(found)
-        elif p.exists():
-            files.append(p)
-        else:
-            raise InputError(f"{p}: no such file or folder")
-    return files, any_folder
+from minparam_cli.errors import MinparamError
 
 
 def _run_one(fn: Callable, path: Path, args: tuple) -> dict:

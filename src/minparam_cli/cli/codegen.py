@@ -5,6 +5,7 @@ stdout, generate, write, print the notes and the operation counts."""
 
 from __future__ import annotations
 
+import sys
 import time
 from enum import Enum
 from pathlib import Path
@@ -74,34 +75,25 @@ def codegen(
 def _codegen(robot, lang, output, model, which, full, name, method, friction, rotor_inertia, gravity, samples, seed, mimic,
              floating_base, quiet):
     from minparam_cli.api.generation import generate
-    from minparam_cli.output import write_code_files
+    from minparam_cli.api.options.codegen import CodegenOptions
     from minparam_cli.errors import InputError
+    from minparam_cli.output import write_code_files
+    from minparam_cli.render.codegen_text import summary_text
 
     t0 = time.perf_counter()
     lang = Lang(lang).value
     if lang == "c" and (output is None or is_stdout(output)):
         raise InputError("C output is two files (.c and .h): give -o FILE.c")
     with option_errors():
-        gen, _ = generate(robot, lang, output, model, which and Which(which).value, full, name, Method(method).value,
-                          friction, rotor_inertia, gravity, samples, seed, MimicMode(mimic).value, floating_base)
+        opts = CodegenOptions(lang=lang, output=output, model=model, parameters=which, full=full, name=name, method=method,
+                              friction=friction, rotor_inertia=rotor_inertia, gravity=gravity, samples=samples, seed=seed,
+                              mimic=mimic, floating_base=floating_base)
+        gen, _ = generate(robot, opts)
     write_code_files(gen.files, lang, output)
     if not quiet:
         for note in gen.notes:
             warning_line(note)
-        _summary(gen, lang, output, time.perf_counter() - t0)
-
-
-def _summary(gen, lang: str, output, elapsed: float) -> None:
-    """Operation counts and time on stderr (what the papers compare: multiplications, additions)."""
-    import sys
-
-    where = "stdout" if output is None or is_stdout(output) else (
-        f"{output.with_suffix('.c')} + {output.with_suffix('.h')}" if lang == "c" else str(output))
-    lines = [f"codegen: {where}, {len(gen.base_names)} base parameters, generated in {elapsed:.2f} s"]
-    for fn, c in gen.counts.items():
-        calls = ", ".join(f"{v} {k}" for k, v in c.items() if k not in ("mul", "add", "neg") and v)
-        lines.append(f"  {fn}: {c['mul']} multiplications, {c['add']} additions" + (f", {calls}" if calls else ""))
-    sys.stderr.write("\n".join(lines) + "\n")
+        sys.stderr.write(summary_text(gen, lang, output, time.perf_counter() - t0))
 
 
 def register(app: typer.Typer) -> None:

@@ -8,7 +8,7 @@ from typing import List, Optional
 
 import typer
 
-from minparam_cli.cli.batch import expand_paths, run_batch
+from minparam_cli.cli.batch import run_batch
 from minparam_cli.cli.common import (
     Format,
     MimicMode,
@@ -16,12 +16,11 @@ from minparam_cli.cli.common import (
     floating_base_option,
     guarded,
     mimic_option,
-    parse_floats,
+    option_errors,
     warning_line,
 )
-from minparam_cli.output import Progress, write_output
 from minparam_cli.cli.executor import scheduler_option
-from minparam_cli.params import FRICTION_KINDS
+from minparam_cli.output import Progress, write_output
 
 HELP = "Base (minimal) inertial parameters of a robot: which are identifiable and how the others regroup."
 EPILOG = """\b
@@ -68,42 +67,34 @@ def derive(
     scheduler: Optional[str] = scheduler_option(),
     quiet: bool = typer.Option(False, "--quiet", "-q", help="No progress bar or notes on stderr."),
 ):
-    _derive(paths, method, fmt, friction, rotor_inertia, gravity, samples, seed, symbolic, snap_angles, output, recursive, jobs, quiet, mimic, floating_base, scheduler,
-            symbolic_numbers=symbolic_numbers)
+    _derive(paths, method, fmt, friction, rotor_inertia, gravity, samples, seed, symbolic, symbolic_numbers, snap_angles, mimic,
+            floating_base, output, recursive, jobs, scheduler, quiet)
 
 
 @guarded
-def _derive(paths, method, fmt, friction, rotor_inertia, gravity, samples, seed, symbolic, snap_angles, output, recursive, jobs, quiet,
-            mimic=MimicMode.coupled, floating_base=False, scheduler=None, symbolic_numbers=False):
-    from minparam_cli.pipeline import derive_file
-    from minparam_cli.robot import DeriveOptions
+def _derive(paths, method, fmt, friction, rotor_inertia, gravity, samples, seed, symbolic, symbolic_numbers, snap_angles, mimic,
+            floating_base, output, recursive, jobs, scheduler, quiet):
+    from minparam_cli.api.common import expand_paths
+    from minparam_cli.api.derivation import derive_file
+    from minparam_cli.api.options.derive import DeriveOptions
+    from minparam_cli.render.derive_text import render, render_batch
 
-    method = Method(method).value
-    kinds = tuple(k.strip() for k in friction.split(",") if k.strip())
-    for k in kinds:
-        if k not in FRICTION_KINDS:
-            raise typer.BadParameter(f"unknown friction kind {k!r}; expected any of {','.join(FRICTION_KINDS)}", param_hint="--friction")
-    if samples < 1:
-        raise typer.BadParameter("must be positive", param_hint="--samples")
-    g = parse_floats(gravity, 3, "--gravity") if gravity is not None else None
-    if snap_angles is not None:
-        from minparam_cli.describe.snap import MAX_TOLERANCE
-
-        if not 0.0 < snap_angles < MAX_TOLERANCE:
-            raise typer.BadParameter(f"must be a tolerance in radians in (0, {MAX_TOLERANCE:.4g}) (half of 15°), got {snap_angles:g}", param_hint="--snap-angles")
-    opts = DeriveOptions(method, kinds, rotor_inertia, g, samples, seed, symbolic, snap_angles, mimic=MimicMode(mimic).value,
-                         floating_base=floating_base, symbolic_numbers=symbolic_numbers)
+    with option_errors():
+        opts = DeriveOptions(method=method, friction=friction, rotor_inertia=rotor_inertia, gravity=gravity, samples=samples,
+                             seed=seed, symbolic=bool(symbolic), symbolic_numbers=symbolic_numbers, snap_angles=snap_angles,
+                             mimic=mimic, floating_base=floating_base)
     files, any_folder = expand_paths(list(paths), recursive)
+    fmt = Format(fmt).value
 
     if len(files) == 1 and not any_folder:
-        bar = Progress(1, f"{method} {files[0].name}", quiet)
+        bar = Progress(1, f"{opts.method} {files[0].name}", quiet)
         try:
-            report = derive_file(files[0], opts, progress=bar)
+            base = derive_file(files[0], opts, progress=bar)
         finally:
             bar.close()
-        write_output(render(report, fmt), output)
+        write_output(render(base, fmt), output)
         if not quiet:
-            for w in report.get("warnings", []):
+            for w in base.warnings:
                 warning_line(w)
         return
 
@@ -116,65 +107,9 @@ def _derive(paths, method, fmt, friction, rotor_inertia, gravity, samples, seed,
     failed = [r for r in results if not r["ok"] and r["status"] == "error"]
     if not quiet:
         for r in results:
-            for w in (r["result"].get("warnings", []) if r["ok"] else []):
+            for w in (r["result"].warnings if r["ok"] else ()):
                 warning_line(w)
         for r in failed:
             error_line(r["error"])
     if failed:
         raise typer.Exit(max(r["exit_code"] for r in failed))
-
-
-def render(report: dict, fmt: Format) -> str:
-    if fmt in (Format.json, Format.jsonl):
-        import json  # imported here: the default table output does not need it
-
-        return json.dumps(report, indent=2 if fmt == Format.json else None, ensure_ascii=False)
-    from minparam_cli.render import text
-
-    if fmt == Format.markdown:
-        return text.render_markdown(report)
-    if fmt == Format.latex:
-        return text.render_latex(report)
-    return text.render_table(report)
-
-
-def _summary_rows(results: list[dict]) -> list[tuple]:
-    rows = []
-    for r in results:
-        if r["ok"]:
-            rep = r["result"]
-            rows.append((rep["robot"], r["path"], rep["dof"], rep["n_standard"], rep["n_base"], f"{r['elapsed_s']:.3f}", "ok"))
-        else:
-            rows.append(("", r["path"], "", "", "", f"{r['elapsed_s']:.3f}", f"{r['status']}: {r['error']}"))
-    return rows
-
-
-def render_batch(results: list[dict], fmt: Format, reports: bool = True) -> str:
-    """Several robots: JSON items, or each robot's report followed by the summary table.
-
-    In table format the reports are left out when ``reports`` is False (a folder was given: the
-    summary is what one reads of a folder of robots); robots named one by one get theirs."""
-    import json
-
-    from tabulate import tabulate
-
-    if fmt in (Format.json, Format.jsonl):
-        items = []
-        for r in results:
-            if r["ok"]:
-                items.append(r["result"])
-            else:
-                items.append({"source": r["path"], "status": r["status"], "error": r["error"]})
-        if fmt == Format.jsonl:
-            return "\n".join(json.dumps(i, ensure_ascii=False) for i in items)
-        return json.dumps(items, indent=2, ensure_ascii=False)
-    headers = ["robot", "file", "dof", "standard", "base", "time s", "status"]
-    if fmt == Format.table:
-        summary = tabulate(_summary_rows(results), headers=headers, tablefmt="simple")
-        if not reports:
-            return summary
-        return "\n\n".join([render(r["result"], fmt) for r in results if r["ok"]] + [summary])
-    parts = [render(r["result"], fmt) for r in results if r["ok"]]
-    if fmt == Format.markdown:
-        parts.append(tabulate(_summary_rows(results), headers=headers, tablefmt="github"))
-    return "\n".join(parts)

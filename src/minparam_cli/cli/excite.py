@@ -13,11 +13,9 @@ from enum import Enum
 from pathlib import Path
 from typing import Optional
 
-import numpy as np
 import typer
 
-from minparam_cli.api.common import friction_option
-from minparam_cli.cli.common import MimicMode, guarded, mimic_option, option_errors, parse_floats, save_png
+from minparam_cli.cli.common import MimicMode, guarded, mimic_option, option_errors, save_png
 from minparam_cli.output import Progress, check_output_path, write_output
 from minparam_cli.errors import InputError
 
@@ -81,55 +79,43 @@ def excite(
             friction, rotor_inertia, box, point, starts, max_iterations, seed, quiet, mimic)
 
 
-def parse_box(text: str) -> np.ndarray:
-    """'XMIN:XMAX,YMIN:YMAX,ZMIN:ZMAX' (empty side: free) -> (3, 2) with NaN for free sides."""
-    from minparam_cli.api.excitation import parse_box as parse
-
-    with option_errors():
-        return parse(text)
-
-
 @guarded
 def _excite(robot, output, json_path, plot, harmonics, base_frequency, rate, periods, criterion, scaling, rest, margin,
             friction, rotor_inertia, box, point, starts, max_iterations, seed, quiet, mimic=MimicMode.coupled):
-    from minparam_cli.api.excitation import after_notes, excite_options, excite_record, prepare_excite, run_design
+    from minparam_cli.api.excitation import after_notes, prepare_excite, run_excite
+    from minparam_cli.api.options.excite import ExciteOptions
 
-    if seed < 0:
-        raise InputError(f"--seed must be >= 0, got {seed}")
     with option_errors():
-        kinds = friction_option(friction)
+        opts = ExciteOptions(harmonics=harmonics, base_frequency=base_frequency, rate=rate, periods=periods,
+                             criterion=criterion, scaling=scaling, rest=rest, margin=margin, friction=friction,
+                             rotor_inertia=rotor_inertia, box=box, point=point, starts=starts,
+                             max_iterations=max_iterations, seed=seed, mimic=mimic)
     if plot is not None and Path(plot).suffix.lower() != ".png":
         raise InputError(f"--plot {plot}: expected a .png file name")
     for path in (output, json_path, plot):
         if path is not None:
             check_output_path(Path(path))
-    box_arr = parse_box(box) if box is not None else None
-    point_arr = np.array(parse_floats(point, 3, "--point")) if point is not None else None
-    opts = excite_options(harmonics, base_frequency, rate, periods, Criterion(criterion).value, Scaling(scaling).value,
-                          rest, margin, starts, max_iterations)
-    prep = prepare_excite(robot, opts, kinds, rotor_inertia, MimicMode(mimic).value, box_arr, point_arr)
+    prep = prepare_excite(robot, opts)
     if not quiet:
         for note in prep.notes:
             print(f"minparam: note: {note}", file=sys.stderr)
     bar = Progress(opts.starts * opts.max_iterations, "excite", quiet)
     try:
-        result = run_design(prep, opts, seed, bar)
+        result = run_excite(prep, bar)
     finally:
         bar.close()
 
-    from minparam_cli.render.excite_text import csv_text, summary_text
-
-    write_output(csv_text(result), output)
+    write_output(result.to_csv(), output)
     if json_path is not None:
-        from minparam_cli.cli.simulate import json_text
+        from minparam_cli.render.json_text import json_text
 
-        write_output(json_text(excite_record(result, prep, seed)), Path(json_path))
+        write_output(json_text(result.to_dict()), Path(json_path))
     if plot is not None:
         from minparam_cli.render.excite_plot import render_trajectory
 
-        save_png(render_trajectory(result, prep.chain.coordinate_types), Path(plot))
+        save_png(render_trajectory(result.design, prep.chain.coordinate_types), Path(plot))
     if not quiet:
-        sys.stderr.write(summary_text(result, prep.chain.name, seed))
+        sys.stderr.write(result.summary())
         for note in after_notes(prep):
             print(f"minparam: note: {note}", file=sys.stderr)
 

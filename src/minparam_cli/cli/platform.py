@@ -2,18 +2,15 @@
 
 from __future__ import annotations
 
-import json
 import sys
-import time
 from enum import Enum
 from pathlib import Path
 from typing import Optional
 
 import typer
 
-from minparam_cli.cli.common import guarded, option_errors, parse_floats, save_png
+from minparam_cli.cli.common import guarded, option_errors, save_png
 from minparam_cli.output import Progress, check_output_path, write_output
-from minparam_cli.errors import DescriptionError
 
 HELP = "Kinematics of parallel platforms: hexapods and the dodekapod (Dang 2013). Inverse, forward (every assembly mode), workspace."
 IK_HELP = "Inverse kinematics: leg lengths from a pose (x,y,z + roll,pitch,yaw, or position + platform normal)."
@@ -83,14 +80,10 @@ _OUTPUT = typer.Option(None, "--output", "-o", help="Write to this file (atomica
 _QUIET = typer.Option(False, "--quiet", "-q", help="No progress bar on stderr.")
 
 
-def _load(path: Path):
-    from minparam_cli.describe.platform_yaml import load_platform
+def _write(result, fmt: OutFormat, output) -> None:
+    from minparam_cli.render.platform_text import platform_text
 
-    return load_platform(Path(path))
-
-
-def _render(d: dict, fmt: OutFormat, table) -> str:
-    return json.dumps(d, indent=2) if fmt == OutFormat.json else table(d)
+    write_output(platform_text(result, fmt.value), output)
 
 
 # ---------------------------------------------------------------- ik
@@ -111,42 +104,12 @@ def ik(
 
 @guarded
 def _ik(file, pose, position, normal, yaw, coords, fmt, output):
-    import numpy as np
+    from minparam_cli.api.options.platform import IKOptions
+    from minparam_cli.api.platform import inverse
 
-    from minparam_cli.kinematics.parallel import platform_report as rep
-    from minparam_cli.kinematics.parallel.platform import leg_lengths, legs_within_limits, platform_model, pose_from_normal
-
-    desc = _load(file)
-    if desc.structure == "truss":
-        from minparam_cli.kinematics.parallel.platform_truss import truss_lengths, truss_model
-
-        if pose is not None or position is not None or normal is not None:
-            raise typer.BadParameter("a free truss has no pose; give node coordinates with --coords", param_hint="--pose")
-        model = truss_model(desc)
-        c = np.array(parse_floats(coords, 18, "--coords")).reshape(6, 3) if coords is not None else model.nodes
-        write_output(_render(rep.truss_ik_dict(model, c, truss_lengths(model, c)), fmt, rep.truss_ik_table), output)
-        return
-    if coords is not None:
-        raise typer.BadParameter("--coords is for a 12-leg truss; give --pose or --position/--normal", param_hint="--coords")
-    model = platform_model(desc)
-    deg = desc.angle_unit == "deg"
-    if pose is not None:
-        if position is not None or normal is not None:
-            raise typer.BadParameter("give either --pose or --position and --normal, not both", param_hint="--pose")
-        q = np.array(parse_floats(pose, 6, "--pose"))
-        if deg:
-            q[3:] = np.radians(q[3:])
-    elif position is not None and normal is not None:
-        n = np.array(parse_floats(normal, 3, "--normal"))
-        if not np.any(n):
-            raise typer.BadParameter("the normal vector must not be zero", param_hint="--normal")
-        q = pose_from_normal(parse_floats(position, 3, "--position"), n, np.radians(yaw) if deg else yaw)
-    else:
-        raise typer.BadParameter("give --pose x,y,z,roll,pitch,yaw or --position x,y,z with --normal nx,ny,nz",
-                                 param_hint="--pose")
-    lengths = leg_lengths(model, q)
-    ok = legs_within_limits(model, lengths)
-    write_output(_render(rep.ik_dict(model, q, lengths, ok), fmt, rep.ik_table), output)
+    with option_errors():
+        result = inverse(file, IKOptions(pose=pose, position=position, normal=normal, yaw=yaw, coords=coords))
+    _write(result, fmt, output)
 
 
 # ---------------------------------------------------------------- fk
@@ -174,44 +137,20 @@ def fk(
 
 @guarded
 def _fk(file, lengths, method, starts, particles, iterations, seed, side, rtol, frame, fmt, output, quiet):
-    import numpy as np
+    from minparam_cli.api.options.platform import FKOptions
+    from minparam_cli.api.platform import INCOMPLETE, forward, incomplete
 
-    from minparam_cli.kinematics.parallel import platform_report as rep
-
-    desc = _load(file)
-    target = np.array(parse_floats(lengths, len(desc.legs), "--lengths"))
-    if np.any(target <= 0):
-        raise typer.BadParameter("leg lengths must be positive", param_hint="--lengths")
-    if desc.structure == "truss":  # the API's truss branch: the same checks and report
-        from minparam_cli.api.kinematics import truss_fk_result
-
-        with option_errors():
-            result = truss_fk_result(file, desc, target, None if frame is None else frame.split(","), seed, rtol)
-        write_output(_render(result.to_dict(), fmt, rep.truss_fk_table), output)
-        return
-    if frame is not None:
-        raise typer.BadParameter("--frame is for a 12-leg truss", param_hint="--frame")
-    from minparam_cli.kinematics.parallel.platform import platform_model
-    from minparam_cli.kinematics.parallel.platform_fk import forward_kinematics, octahedral_pattern
-    from minparam_cli.kinematics.parallel.platform_pso import PSOSettings
-
-    model = platform_model(desc)
-    if method == Method.exact and octahedral_pattern(model) is None:
-        raise DescriptionError("--method exact needs the octahedral 3-3 pattern (3 base and 3 platform nodes, "
-                               "each joined to two of the other side); use pso or multistart", str(file), "legs")
-    settings = PSOSettings(particles=particles, iterations=iterations)
     bar = Progress(1, f"fk {Path(file).name}", quiet)
-    t0 = time.perf_counter()
     try:
-        result = forward_kinematics(model, target, method.value, rng=np.random.default_rng(seed), seed=seed,
-                                    settings=settings, starts=starts, rtol=rtol, side=side.value, progress=bar)
+        with option_errors():
+            opts = FKOptions(lengths=lengths, method=method, starts=starts, particles=particles, iterations=iterations,
+                             seed=seed, side=side, rtol=rtol, frame=frame)
+            result = forward(file, opts, progress=bar)
     finally:
         bar.close()
-    elapsed = time.perf_counter() - t0
-    if result.certificate is not None and not result.certificate.complete and not result.note and not quiet:
-        print("minparam: warning: the elimination could not verify every root; some modes may be missing "
-              "(compare with --method multistart)", file=sys.stderr)
-    write_output(_render(rep.fk_dict(model, result, seed, elapsed), fmt, rep.fk_table), output)
+    if not result.truss and incomplete(result) and not quiet:
+        print(f"minparam: warning: {INCOMPLETE} (compare with --method multistart)", file=sys.stderr)
+    _write(result, fmt, output)
 
 
 # ---------------------------------------------------------------- workspace
@@ -233,40 +172,23 @@ def workspace(
 
 @guarded
 def _workspace(file, samples, orientation, seed, plot, fmt, output, quiet):
-    import numpy as np
+    from minparam_cli.api.options.platform import WorkspaceOptions
+    from minparam_cli.api.platform import workspace
+    from minparam_cli.render.platform_text import workspace_plot
 
-    from minparam_cli.kinematics.parallel import platform_report as rep
-    from minparam_cli.kinematics.parallel.platform import platform_model
-    from minparam_cli.kinematics.parallel.platform_workspace import default_box, require_workspace, sample_workspace, workspace_figure
-
-    desc = _load(file)
-    require_workspace(desc, str(file))
-    if plot is not None and Path(plot).suffix.lower() != ".png":
-        raise typer.BadParameter("the plot is written as PNG; use a .png file name", param_hint="--plot")
+    with option_errors():
+        opts = WorkspaceOptions(samples=samples, orientation=orientation, seed=seed, plot=plot)
     for path in (plot, output):  # both checked before the sampling: a failure leaves neither
         if path is not None:
             check_output_path(Path(path))
-    model = platform_model(desc)
-    box = list(default_box(model, dict(desc.workspace)))
-    if orientation is not None:
-        ang = np.array(parse_floats(orientation, 3, "--orientation"))
-        if desc.angle_unit == "deg":
-            ang = np.radians(ang)
-        box[3:] = [(float(a), float(a)) for a in ang]
     bar = Progress(samples, f"workspace {Path(file).name}", quiet)
-    t0 = time.perf_counter()
     try:
-        result = sample_workspace(model, tuple(box), samples, np.random.default_rng(seed), seed=seed, progress=bar)
+        result = workspace(file, opts, progress=bar)
     finally:
         bar.close()
-    d = rep.workspace_dict(model, result, time.perf_counter() - t0)
     if plot is not None:
-        save_png(workspace_figure(model, result, desc.length_unit), Path(plot))
-        d["plot"] = {"file": str(plot)}
-    text = _render(d, fmt, rep.workspace_table)
-    if plot is not None and fmt != OutFormat.json:
-        text = text.rstrip("\n") + f"\n\nplot of the reachable positions written to {plot}"
-    write_output(text, output)
+        save_png(workspace_plot(result), Path(plot))
+    _write(result, fmt, output)
 
 
 def register(app: typer.Typer) -> None:

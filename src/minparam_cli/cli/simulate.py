@@ -6,16 +6,14 @@ renders CSV or npz and the truth record, writes them atomically, maps errors.
 
 from __future__ import annotations
 
-import json
 import sys
 from pathlib import Path
 from typing import Optional
 
-import numpy as np
 import typer
 
 from minparam_cli.cli.common import MimicMode, guarded, mimic_option, option_errors, warning_line
-from minparam_cli.output import Progress, atomic_write, check_output_path, is_stdout, write_output
+from minparam_cli.output import Progress, check_output_path, is_stdout, write_output
 from minparam_cli.errors import InputError
 
 HELP = (
@@ -85,39 +83,41 @@ def simulate(
 def _simulate(robot, trajectory, effects, strength, noise, noise_q, seed, duration, rate, harmonics, base_frequency,
               random_inertia, no_ddq, output, truth, quiet, coulomb_smoothing=0.0, mimic=MimicMode.coupled, side="joint",
               current=False, motor_params="", payload_mass=None, payload_com=None, payload_inertia=None):
+    from minparam_cli.api.options.simulate import SimulateOptions
     from minparam_cli.api.simulation import effort_notes, prepare_simulation
+    from minparam_cli.api.simulation_files import data_format, write_csv, write_npz
+    from minparam_cli.render.json_text import json_text
+    from minparam_cli.render.simulate_text import summary_text
 
-    if seed < 0:
-        raise InputError(f"--seed must be >= 0, got {seed}")
-    data_format = _output_format(output)
+    fmt = data_format(output)
     if is_stdout(truth) and (output is None or is_stdout(output)):
         raise InputError("--truth -: the data already go to stdout; give --truth or -o a file name")
     for path in (output, truth):
         if path is not None:
             check_output_path(Path(path))
     with option_errors():
-        setup = prepare_simulation(
-            robot, trajectory=trajectory, effects=effects, strength=strength, noise=noise, noise_q=noise_q, seed=seed,
+        opts = SimulateOptions(
+            trajectory=trajectory, effects=effects, strength=strength, noise=noise, noise_q=noise_q, seed=seed,
             duration=duration, rate=rate, harmonics=harmonics, base_frequency=base_frequency,
-            random_inertia=random_inertia, coulomb_smoothing=coulomb_smoothing, mimic=MimicMode(mimic).value, side=side,
+            random_inertia=random_inertia, ddq=not no_ddq, coulomb_smoothing=coulomb_smoothing, mimic=mimic, side=side,
             current=current, motor_params=motor_params, payload_mass=payload_mass, payload_com=payload_com,
             payload_inertia=payload_inertia)
+        setup = prepare_simulation(robot, opts)
     if not quiet:
         for note in setup.notes:
             print(f"minparam: note: {note}", file=sys.stderr)
     bar = Progress(2 * setup.samples, "simulate", quiet)
-    include_ddq = not no_ddq
     try:
         plan, stream = setup.stream(progress=bar)
-        if data_format == "npz":
-            write_npz(stream, include_ddq, Path(output))
+        if fmt == "npz":
+            write_npz(stream, opts.ddq, Path(output))
         else:
-            write_csv(stream, include_ddq, Path("-") if output is None else Path(output))
+            write_csv(stream, opts.ddq, Path("-") if output is None else Path(output))
     finally:
         bar.close()
     limits = stream.limits
     if truth is not None:
-        write_output(json_text(setup.record(plan, include_ddq, limits)), Path(truth))
+        write_output(json_text(setup.record(plan, opts.ddq, limits)), Path(truth))
     if not quiet:
         sys.stderr.write(summary_text(plan, limits, setup.chain.name, seed, output, truth, setup.trajectory_label))
     for note in effort_notes(limits):
@@ -128,114 +128,3 @@ def register(app: typer.Typer) -> None:
     app.command(name="simulate", help=HELP, epilog=EPILOG)(simulate)
 
 
-# --- output checks and writers ----------------------------------------------------------------------
-
-
-def _output_format(output: Path | None) -> str:
-    if output is None or is_stdout(output):
-        return "csv"
-    suffix = Path(output).suffix.lower()
-    if suffix not in (".csv", ".npz"):
-        raise InputError(f"{output}: unknown output type {suffix or '(none)'!r}; expected .csv or .npz")
-    return suffix[1:]
-
-
-def write_npz(stream, include_ddq: bool, output: Path) -> None:
-    """The stream as an .npz archive (t, q, dq, [ddq,] tau), through ``atomic_write``: a failed run
-    leaves no file; memory stays at one chunk (``measured.writing.NpzWriter``)."""
-    from minparam_cli.measured.writing import NpzWriter
-
-    n, samples = stream.plan.chain.dof, stream.plan.samples
-    names = ("q", "dq", "ddq", "tau") if include_ddq else ("q", "dq", "tau")
-
-    def write(tmp: str) -> None:
-        writer = NpzWriter({"t": (samples,), **{name: (samples, n) for name in names}})
-        try:
-            for chunk in stream:
-                writer.write("t", chunk.t)
-                for name in names:
-                    writer.write(name, getattr(chunk, name))
-        except BaseException:
-            writer.discard()
-            raise
-        writer.save(tmp)
-
-    atomic_write(Path(output), write)
-
-
-def write_csv(stream, include_ddq: bool, output: Path) -> None:
-    """The stream as CSV (header t, q1..qn, dq1..dqn, [ddq1..ddqn,] tau1..taun), chunk by chunk,
-    through ``atomic_write`` (``-``: stdout)."""
-    from minparam_cli.experiment.simulate_spec import data_columns
-    from minparam_cli.measured.writing import CsvWriter
-
-    n = stream.plan.chain.dof
-
-    def write(tmp: str) -> None:
-        with open(tmp, "wb") as fh, CsvWriter(fh, data_columns(n, include_ddq)) as writer:
-            for c in stream:
-                writer.write(np.hstack([c.t[:, None], c.q, c.dq] + ([c.ddq] if include_ddq else []) + [c.tau]))
-
-    atomic_write(Path(output), write)
-
-
-def json_text(obj, indent: int = 2, level: int = 0) -> str:
-    """JSON with nested objects indented but every list of numbers (or strings) on one line."""
-    pad, inner = " " * (indent * level), " " * (indent * (level + 1))
-    if isinstance(obj, dict):
-        if not obj:
-            return "{}"
-        items = [f"{inner}{json.dumps(str(k), ensure_ascii=False)}: {json_text(v, indent, level + 1)}" for k, v in obj.items()]
-        return "{\n" + ",\n".join(items) + "\n" + pad + "}"
-    if isinstance(obj, (list, tuple)):
-        if all(not isinstance(x, (dict, list, tuple)) for x in obj):
-            return json.dumps(list(obj), ensure_ascii=False)
-        return "[\n" + ",\n".join(inner + json_text(x, indent, level + 1) for x in obj) + "\n" + pad + "]"
-    return json.dumps(obj, ensure_ascii=False)
-
-
-def _joints_text(joints: tuple[int, ...], n: int) -> str:
-    js = [j + 1 for j in joints]
-    if len(js) == n and n > 1:
-        return "all"
-    if len(js) > 2 and js == list(range(js[0], js[-1] + 1)):
-        return f"{js[0]}-{js[-1]}"
-    return "+".join(str(j) for j in js)
-
-
-def summary_text(sim, limits, robot_name: str, seed: int, output: Path | None, truth: Path | None,
-                 given_from: str | None = None) -> str:
-    """A few lines for stderr: what was simulated (a ``Plan`` or a ``Simulation``) and where it went
-    (``given_from``: the --trajectory file)."""
-    o = sim.options
-    n = sim.tau_rigid.shape[1]
-    rms_rigid = np.sqrt(np.mean(sim.tau_rigid**2, axis=0))
-    lines = [
-        f"simulated  {robot_name}: {sim.samples} samples, {o.duration:g} s at {o.rate:g} Hz, seed {seed}",
-        (f"motion     Fourier series, {sim.trajectory.harmonics} harmonics of {sim.trajectory.base_frequency:g} Hz, "
-         + (f"from {given_from}" if given_from else f"inside {100 * (1 - 2 * o.margin):g}% of each joint range"))
-        if hasattr(sim.trajectory, "harmonics") else f"motion     samples of {sim.trajectory.source}",
-        f"inertia    {'from the description' if sim.inertia_source == 'description' else 'random, physically consistent'}",
-        "rigid RMS  " + " ".join(f"{x:.3g}" for x in rms_rigid) + " (N·m or N per joint)",
-    ]
-    if sim.effects:
-        items = []
-        for e in sim.effects:
-            tag = f"[{e.hyper_name}={e.hyper:g}]" if e.hyper is not None else ""
-            items.append(f"{e.effect}{tag}@{_joints_text(e.joints, n)}")
-        lines.append("effects    " + ", ".join(items))
-    else:
-        lines.append("effects    none")
-    noise = f"torque σ {o.noise:g}" + (f", q σ {o.noise_q:g}" if o.noise_q > 0 else "")
-    lines.append(f"noise      {noise}")
-    lim = limits
-    if lim is not None and lim.any_given():
-        for label, given, seen in (("|dq|", lim.velocity, lim.max_abs_dq), ("|ddq|", lim.acceleration, lim.max_abs_ddq),
-                                   ("|tau|", lim.effort, lim.max_abs_tau)):
-            if any(v is not None for v in given):
-                ratios = " ".join("-" if v is None else f"{x / v:.2f}" for v, x in zip(given, seen))
-                lines.append(f"{'limits' if label == '|dq|' else '':<10} max {label}/limit {ratios}")
-    wrote = ["stdout" if is_stdout(p) else str(p) for p in (output, truth) if p is not None]
-    if wrote:
-        lines.append("wrote      " + ", ".join(wrote))
-    return "\n".join(lines) + "\n"

@@ -70,8 +70,7 @@ def identifier(name: str) -> str:
 def base_definitions(base) -> list[str]:
     """One line per base parameter: its name and the standard parameters it regroups."""
     out = []
-    for i, name in enumerate(base.base_names):
-        terms = base.terms(i)
+    for name, terms in zip(base.base_names, base.terms):
         parts = []
         for k, (std, coef) in enumerate(terms.items()):
             if k == 0 and coef == 1.0:

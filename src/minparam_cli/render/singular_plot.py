@@ -44,3 +44,8 @@ def render_map(smap, chain, angle: str, marker=None):
     fig.text(0.01, 0.01, "white: det = 0   red dashed: sigma_min/sigma_max = epsilon", fontsize=7)
     fig.tight_layout()
     return fig
+
+
+def singular_map(result):
+    """The --plot figure of a ``Singularity`` with a map."""
+    return render_map(result.map.data, result.chain, "deg" if result.degrees else "rad", marker=result.q)

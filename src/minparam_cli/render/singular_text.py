@@ -315,3 +315,21 @@ def symbolic_table(sym, chain, angle: str) -> str:
         lines.append(f"  {len(system)} other group(s) of 2-3 joints have minors without a common factor "
                      "(dependent only where several conditions hold together, if ever; see --scan)")
     return "\n".join(lines)
+
+
+def singular_text(result) -> str:
+    """``minparam singular``'s table output of a ``Singularity``: the robot and tool point, then the
+    local test, the scan, the map's line and the symbolic conditions that were asked for."""
+    angle = "deg" if result.degrees else "rad"
+    sections = [f"robot      {result.robot}  ({result.source})\n{result.tool.line}"]
+    if result.local is not None:
+        sections.append(local_table(result.local, result.check, result.seed, angle))
+    if result.scan is not None:
+        sections.append(scan_table(result.scan, result.chain.types, angle))
+    if result.map is not None:
+        a, b = result.map.pair
+        sections.append(f"map of sigma_min/sigma_max over joints {a + 1} and {b + 1} written to {result.map.file}")
+    if result.symbolic is not None:
+        sections.append(symbolic_table(result.symbolic, result.chain, angle))
+    return "\n\n".join(sections)
+

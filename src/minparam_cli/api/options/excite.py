@@ -1,0 +1,70 @@
+"""``minparam excite``'s options."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+from minparam_cli.api.common import choice_option, float_option, friction_option
+from minparam_cli.errors import InputError
+
+CRITERIA = ("cond", "logdet")
+SCALINGS = ("si", "columns")
+MIMIC_MODES = ("coupled", "fixed")
+
+
+@dataclass(frozen=True)
+class ExciteOptions:
+    """The options of ``minparam excite`` / ``minparam.excite``, checked on construction.
+
+    ``box``: the Cartesian box of the tool point, base frame, m: the command line's
+    "XMIN:XMAX,YMIN:YMAX,ZMIN:ZMAX" (a side may be empty) or [[XMIN, XMAX], ...] with None for a free
+    side; held as ((min, max),) * 3 with NaN for free sides.  ``point``: X,Y,Z in the last link's frame."""
+
+    harmonics: int = 5
+    base_frequency: float = 0.1
+    rate: float = 200.0
+    periods: int = 1
+    criterion: str = "cond"
+    scaling: str = "si"
+    rest: bool = False
+    margin: float = 0.1
+    friction: tuple[str, ...] = ()
+    rotor_inertia: bool = False
+    box: Any = None
+    point: tuple[float, float, float] | None = None
+    starts: int = 4
+    max_iterations: int = 150
+    seed: int = 0
+    mimic: str = "coupled"
+
+    def __post_init__(self) -> None:
+        from minparam_cli.api.excite_box import box_option
+
+        put = object.__setattr__  # normalising a field of this record while it is being built
+        if self.seed < 0:
+            raise InputError(f"--seed must be >= 0, got {self.seed}")
+        put(self, "friction", friction_option(self.friction if isinstance(self.friction, str) or self.friction is None
+                                              else [str(k) for k in self.friction]))
+        if self.box is not None:
+            put(self, "box", tuple(tuple(float(v) for v in row) for row in box_option(self.box)))
+        if self.point is not None:
+            p = float_option(self.point, 3, "--point")
+            put(self, "point", (p[0], p[1], p[2]))
+        put(self, "criterion", choice_option(self.criterion, CRITERIA, "--criterion"))
+        put(self, "scaling", choice_option(self.scaling, SCALINGS, "--scaling"))
+        put(self, "mimic", choice_option(self.mimic, MIMIC_MODES, "--mimic"))
+        put(self, "rotor_inertia", bool(self.rotor_inertia))
+        self.design()  # the design's own checks (harmonics, rate, margin, ...)
+
+    def design(self):
+        """The design stage's options (``experiment.excite.design.ExciteOptions``), checked."""
+        from minparam_cli.experiment.excite.design import ExciteOptions as DesignOptions
+        from minparam_cli.experiment.excite.design import validate
+
+        opts = DesignOptions(harmonics=int(self.harmonics), base_frequency=float(self.base_frequency), rate=float(self.rate),
+                             periods=int(self.periods), criterion=self.criterion, scaled=self.scaling == "columns",
+                             starts=int(self.starts), max_iterations=int(self.max_iterations), margin=float(self.margin),
+                             rest=bool(self.rest))
+        validate(opts)
+        return opts
