@@ -18,6 +18,7 @@ __getattr__  # cli/app.py
 _.python  # codegen --lang python
 _.projection  # derive/codegen --method projection
 _.logdet  # excite --criterion logdet
+_.jsonl  # derive --format jsonl
 _.bootstrap  # identify --sigma bootstrap
 _.textbook  # identify --sigma textbook
 _.ms  # identify --time-unit ms

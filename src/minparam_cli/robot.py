@@ -28,7 +28,6 @@ class DeriveOptions:
     seed: int = 0
     symbolic: bool | None = None  # None (the default): numeric
     snap_angles: float | None = None  # rad: round angles this close to a multiple of 15° (None: never)
-    explain_weak: bool = True  # look for the geometry behind weakly identifiable parameters
     mimic: str = "coupled"  # URDF mimic joints: "coupled" (move with their master) or "fixed" (frozen at their offset)
     floating_base: bool = False  # the URDF's root link is free: six virtual base joints in front of it
     symbolic_numbers: bool = False  # with symbolic: lengths and rational axes as the file's exact numbers

@@ -29,14 +29,13 @@ runtime.single_thread_blas()
 
 import typer  # noqa: E402
 
-from minparam_cli import __version__  # noqa: E402
 
 
 def _version(value: bool):
     if value:
-        from minparam_cli.dynamics.backend import describe
+        from minparam_cli.api.about import version_line
 
-        print(f"minparam {__version__} (regressor: {describe()})")
+        print(version_line())
         raise typer.Exit(0)
 
 

@@ -5,8 +5,6 @@ format is chosen, and a batch's items (``cli.batch`` results holding base sets o
 
 from __future__ import annotations
 
-FORMATS = ("table", "markdown", "latex", "json", "jsonl")
-
 
 def render(base, fmt: str) -> str:
     """One base set in ``fmt``."""
