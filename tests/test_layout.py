@@ -137,3 +137,41 @@ def test_the_map_check_sees_an_upward_import(monkeypatch):
 def test_no_source_file_passes_the_line_limit():
     long = {str(p.relative_to(SRC)): n for p in SRC.rglob("*.py") if (n := len(p.read_text(encoding="utf-8").splitlines())) > MAX_LINES}
     assert not long, f"split these files (over {MAX_LINES} lines): {long}"
+
+
+# The command line parses, calls minparam_cli.api, renders and sets the exit code (issue 30, "one
+# driver"): a command module imports the API, the renderers, output.py, errors.py and the CLI's own
+# modules, never a stage.  Checked here for identify and evaluate; every command once all are moved.
+CLI_MAY_IMPORT = ("minparam_cli.api", "minparam_cli.render", "minparam_cli.output", "minparam_cli.errors", "minparam_cli.cli")
+THIN_COMMANDS = ("minparam_cli.cli.identify", "minparam_cli.cli.identify_batch", "minparam_cli.cli.identify_consistency",
+                 "minparam_cli.cli.evaluate")
+
+
+def _stage_imports(names) -> dict[str, list[str]]:
+    modules = _modules()
+    out = {}
+    for name in names:
+        found = [i for i in sorted(_imports(name, modules[name], modules))
+                 if i.startswith("minparam_cli.") and not i.startswith(CLI_MAY_IMPORT)]
+        if found:
+            out[name] = found
+    return out
+
+
+def test_identify_and_evaluate_commands_import_only_the_api():
+    modules = _modules()
+    names = [m for m in THIN_COMMANDS if m in modules]
+    assert "minparam_cli.cli.identify" in names and "minparam_cli.cli.evaluate" in names
+    assert not _stage_imports(names)
+
+
+def test_the_thin_command_check_sees_a_stage_import(monkeypatch):
+    """The check can fail: a command importing a stage module is found."""
+    real = _imports
+
+    def with_stage(name, path, modules):
+        found = real(name, path, modules)
+        return found | {"minparam_cli.identify.stage"} if name == "minparam_cli.cli.evaluate" else found
+
+    monkeypatch.setattr(__import__(__name__), "_imports", with_stage)
+    assert _stage_imports(["minparam_cli.cli.evaluate"]) == {"minparam_cli.cli.evaluate": ["minparam_cli.identify.stage"]}
