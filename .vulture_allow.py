@@ -10,6 +10,7 @@ _.test_rigid  # Identification.test_rigid: the rigid model's errors on the test 
 _.sigma_ratio  # Singularity.sigma_ratio
 _.condition_number_si  # Excitation.condition_number_si: the condition number in SI units
 _.to_csv  # Excitation.to_csv (docs/commands/excite.md)
+_.relative_per_joint  # Errors.relative_per_joint (minparam.Errors): ‖r_j‖/‖τ_j‖ per joint
 _.kept_names  # BaseSet.kept_names (docs/api.md): the names of the kept columns
 _.dependent_names  # BaseSet.dependent_names (docs/api.md)
 _.unidentifiable_names  # BaseSet.unidentifiable_names (docs/api.md)

@@ -57,9 +57,9 @@ def test_a_changed_parameter_is_flagged_in_table_and_plot(recordings, tmp_path):
 
     same, other = recordings
     c, reports = consistency(ud.chain(), [same[0], same[1], other], IdentifyOptions())
-    assert len(reports) == 3 and "Fv1" in c["disagree"]
-    fv1 = next(p for p in c["parameters"] if p["parameter"] == "Fv1")
-    assert fv1["disagree"] and fv1["spread_over_sigma"] > 3
+    assert len(reports) == 3 and "Fv1" in c.disagree
+    fv1 = next(p for p in c.parameters if p.parameter == "Fv1")
+    assert fv1.disagree and fv1.spread_over_sigma > 3
     text = render_consistency(c)
     assert "σ: hac" in text and "DISAGREE" in text and "spread/σ textbook" in text
     save_png(consistency_plot(c, "test"), tmp_path / "consistency.png")

@@ -15,7 +15,7 @@ from minparam_cli.identify.assess.uncertainty import UncertaintyOptions
 
 def _run(path, bound=10.0, kind="hac"):
     ch = ud.chain()
-    return identify(ch, path, IdentifyOptions(diagnose=False, essential=bound, uncertainty=UncertaintyOptions(kind=kind)))[0]
+    return identify(ch, path, IdentifyOptions(diagnose=False, essential=bound, uncertainty=UncertaintyOptions(kind=kind)))[0].to_dict()
 
 
 def test_parameters_that_are_zero_are_dropped_the_rest_kept(tmp_path):

@@ -189,12 +189,19 @@ def test_rise_of_a_joint_error_is_flagged():
     class Fit:
         names, theta = ("ZZR1", "Fc2"), (1.0, -0.5)
 
-    def errs(*rms):
-        return {"rms_per_joint": list(rms), "rms_total": 1.0, "relative_error": 0.1}
+    from types import SimpleNamespace
 
-    report = {"before": errs(1.0, 1.0, 1.0), "after": errs(0.5, 1.05, 1.2), "steps": [{}, {}], "files": [],
-              "test": {"files": [{"source": "d.csv", "time_s": [12.0, None], "rigid": errs(1, 1, 1), "final": errs(1, 2.2, 1)}]}}
-    out = flags(report, Fit())
+    from minparam_cli.identify.estimate.errors import Errors
+    from minparam_cli.identify.estimate.records import Step, TestFigures, TestFile
+
+    def errs(*rms):
+        return Errors(rms_total=1.0, rms_per_joint=tuple(rms), relative_error=0.1)
+
+    step = Step(None, (), None, errs(1.0, 1.0, 1.0))
+    test = TestFigures((TestFile({"part": "test", "source": "d.csv", "time_s": [12.0, None]}, errs(1, 1, 1), errs(1, 2.2, 1)),))
+    result = SimpleNamespace(data="d.csv", validate=None, roles={}, files=(), steps=(step, step),
+                             before=errs(1.0, 1.0, 1.0), after=errs(0.5, 1.05, 1.2), test=test)
+    out = flags(result, Fit())
     assert any(f.startswith("joint 3: the selection rms rises") for f in out)
     assert not any(f.startswith("joint 2: the selection") for f in out)  # +5 %: below the 10 % bar
     assert any(f.startswith("joint 2: the test (d.csv, t ≥ 12 s) rms rises") for f in out)
@@ -287,7 +294,7 @@ def test_final_refit_keeps_a_term_only_where_it_is_physical(tmp_path):
     kept, fit2, acc2, steps = keep_physical(design, fit, acc, True)
     assert kept.terms == (Term("viscous", (0, 2, 3, 4, 5)),)
     assert all(c >= 0 for c in term_coefficients(kept, full_theta(fit2, kept.p))[0][:, 0])
-    assert len(steps) == 1 and steps[0]["joints"] == [1, 3, 4, 5, 6] and "Fv2 = -" in steps[0]["statistic"]["why"]
+    assert len(steps) == 1 and steps[0].joints == (1, 3, 4, 5, 6) and "Fv2 = -" in steps[0].statistic["why"]
     assert acc2["fit"].p == kept.p
 
 

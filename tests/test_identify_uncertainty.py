@@ -38,6 +38,7 @@ def runs(tmp_path_factory):
         for s in range(SEEDS):
             path = ud.write(tmp_path_factory.mktemp(kind) / "d.csv", DURATION, s, cutoff, ch=ch)
             rep, _ = identify(ch, path, _opts())
+            rep = rep.to_dict()
             est.append([v["value"] for v in rep["parameters"].values()])
             text.append(_sigma(rep, "std_percent_textbook"))
             hac.append(_sigma(rep, "std_percent"))
@@ -69,8 +70,11 @@ def test_bootstrap_matches_hac_and_is_seeded(tmp_path):
     ch = ud.chain()
     path = ud.write(tmp_path / "c.csv", DURATION, 7, 2.0, ch=ch)
     hac, _ = identify(ch, path, _opts())
+    hac = hac.to_dict()
     boot, _ = identify(ch, path, _opts("bootstrap", replicates=400, seed=3))
+    boot = boot.to_dict()
     again, _ = identify(ch, path, _opts("bootstrap", replicates=400, seed=3))
+    again = again.to_dict()
     # one recording of 24 blocks: each σ estimate is itself uncertain by ~15 %, and hac has a lag term the
     # bootstrap lacks; over 30 seeds both match the spread (docs/methods/uncertainty.md)
     r = _sigma(boot, "std_percent") / _sigma(hac, "std_percent")
@@ -84,10 +88,12 @@ def test_block_statistics_reproduce_the_fit(tmp_path):
     ch = ud.chain()
     path = ud.write(tmp_path / "c.csv", DURATION, 2, 2.0, ch=ch)
     rep, art = identify(ch, path, _opts())
+    rep = rep.to_dict()
     theta = np.array([v["value"] for v in rep["parameters"].values()])
     assert np.allclose(art.uncertainty.theta, theta, rtol=1e-8, atol=1e-10 * np.abs(theta).max())
     # textbook σ from the blocks equals fit.py's σ²(WᵀW)⁻¹
     t_rep, _ = identify(ch, path, _opts("textbook"))
+    t_rep = t_rep.to_dict()
     a = np.array([v["std_percent"] for v in t_rep["parameters"].values()])
     b = np.array([v["std_percent_textbook"] for v in rep["parameters"].values()])
     assert np.allclose(a, b, rtol=1e-6)
@@ -125,6 +131,7 @@ def test_block_statistics_follow_the_diagnosis_columns(tmp_path):
     ch = ud.chain(friction=())
     path = ud.write(tmp_path / "c.csv", DURATION, 1, 2.0, ch=ch)
     rep, art = identify(ch, path, IdentifyOptions(uncertainty=UncertaintyOptions()))
+    rep = rep.to_dict()
     assert any((s.get("label") or "").startswith("coulomb") for s in rep["steps"])
     theta = np.array([v["value"] for v in rep["parameters"].values()])
     assert len(art.uncertainty.theta) == len(theta) > 6
@@ -137,6 +144,7 @@ def test_short_data_with_the_default_block_falls_back_to_textbook_and_says_so(tm
     ch = ud.chain()
     path = ud.write(tmp_path / "s.csv", 1.5, 1, None, scale=0.05)
     rep, _ = identify(ch, path, _opts())
+    rep = rep.to_dict()
     assert rep["sigma"]["kind"] == "textbook"
     assert any("shorter than two blocks" in f for f in rep["flags"])
     r = _cli("identify", ud.ROBOT, path, "--friction", "viscous,coulomb", "--no-diagnose", "--quiet", "--block-length", "1")

@@ -17,19 +17,17 @@ This package holds re-exports and documentation only; the implementation lives i
 from minparam_cli import __version__
 from minparam_cli.api.excitation import excite
 from minparam_cli.api.generation import codegen
-from minparam_cli.api.identification import evaluate, identify
+from minparam_cli.api.evaluation import evaluate
+from minparam_cli.api.identification import identify
+from minparam_cli.api.identified import Errors, Evaluation, Identification, Model
 from minparam_cli.api.kinematics import singular
 from minparam_cli.api.platform import platform_fk, platform_ik, platform_workspace
 from minparam_cli.api.results import (
     BaseSet,
     CheckResult,
-    Errors,
-    Evaluation,
     Excitation,
     GeneratedCode,
-    Identification,
     LoadOptions,
-    Model,
     PlatformResult,
     Robot,
     Simulation,

@@ -1,60 +1,33 @@
-"""Identification from files or from arrays in memory, the model file, and its evaluation:
-``identify``, ``Model.load/save/predict``, ``evaluate``.
+"""Identification from files or from arrays in memory: ``identify`` (the library call) and
+``run_identify`` (the one driver, which ``minparam identify`` calls too), ``run_consistency``
+(``identify --consistency``), and the model file's ``load_model``/``save_model``/``predict``.
 
-``identify`` builds the same ``IdentifyOptions`` as ``minparam identify`` and calls the same stage
-(``identify.stage.identify``); data held in memory are registered under a name (``<data>``,
-``<validate>``, ``<test1>``...) for the call and read by the readers as a file would be
-(``measured.arrays``): no file is written, and pandas is imported only by whoever made the DataFrame.
-``evaluate`` shares ``open_model``, ``evaluation_setup`` and ``evaluation_report`` with the CLI.
+Both front ends build one ``api.options.identify.IdentifyOptions`` (its checks, its messages) and call
+``run_identify``: it loads the chain, runs the stage (``identify.stage.identify``), adds the payload
+and the scale note, makes the model and writes the files asked for.  Data held in memory are
+registered under a name (``<data>``, ``<validate>``, ``<test1>``...) for the call and read by the
+readers as a file would be (``measured.arrays``): no file is written, and pandas is imported only by
+whoever made the DataFrame.
 """
 
 from __future__ import annotations
 
-import math
-from dataclasses import dataclass, replace
+from dataclasses import replace
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Iterable, Sequence
 
-from minparam_cli.api.common import ProgressArg, choice, close, friction_kinds, gravity3, progress_callback, robot_path
-from minparam_cli.api.model_file import open_model
-from minparam_cli.api.results import Errors, Evaluation, Identification, Model, Robot
+from minparam_cli.api.common import ProgressArg, close, progress_callback, robot_path
+from minparam_cli.api.identified import Identification, Model
+from minparam_cli.api.options.identify import IdentifyOptions
+from minparam_cli.api.results import Robot
 from minparam_cli.errors import InputError
 
 if TYPE_CHECKING:
-    import numpy as np
 
-    from minparam_cli.measured.records import DataOptions
-    from minparam_cli.identify.passes.design import Design
-    from minparam_cli.model.file import SavedModel
-
-TIME_UNITS = ("s", "ms", "us", "ns")
-PRIORS = ("none", "nominal")
+    from minparam_cli.identify.consistency import ConsistencyResult
 
 
-def _positive(value: float | None, what: str, message: str = "must be positive") -> None:
-    if value is not None and not (math.isfinite(value) and value > 0):
-        raise InputError(f"{what}: {message}, got {value!r}")
-
-
-def _columns(columns: str | dict[str, str] | None) -> dict[str, str]:
-    from minparam_cli.measured.columns import parse_columns, spec_problem
-
-    if columns is None:
-        return {}
-    if isinstance(columns, str):
-        try:
-            return parse_columns(columns)
-        except ValueError as e:
-            raise InputError(f"columns: {e}") from None
-    out = {str(k): str(v) for k, v in columns.items()}
-    for k, v in out.items():
-        problem = spec_problem(k, v)
-        if problem:
-            raise InputError(f"columns: {problem}")
-    return out
-
-
-def _sources(data: Any, validate: Any, test: Any) -> tuple[Any, Any, tuple[Any, ...], list]:
+def _sources(data: Any, validate: Any, tests: tuple[Any, ...]) -> tuple[Any, Any, tuple[Any, ...], list]:
     """Paths as they are; records held in memory registered under <data>, <validate>, <test1>..."""
     from minparam_cli.measured.arrays import as_record, is_in_memory
 
@@ -71,31 +44,120 @@ def _sources(data: Any, validate: Any, test: Any) -> tuple[Any, Any, tuple[Any, 
         raise InputError(f"{name.strip('<>')}: expected a file path, a mapping of arrays or a pandas DataFrame, "
                          f"got {type(x).__name__}")
 
-    tests = [test] if test is not None and (isinstance(test, (str, Path)) or is_in_memory(test)) else list(test or ())
     return (one(data, "<data>"), one(validate, "<validate>"),
             tuple(one(t, f"<test{k + 1}>") for k, t in enumerate(tests)), records)
 
 
-def _payload(data: Any, mass: float | None, com: Sequence[float] | None, inertia: Sequence[float] | None):
-    """The known payload of ``payload_data`` (None without it); the CLI's one-line refusals."""
-    if data is None:
-        if any(v is not None for v in (mass, com, inertia)):
-            raise InputError("--payload-mass, --payload-com and --payload-inertia need --payload-data")
-        return None
-    from minparam_cli.identify.physical.payload import PayloadSpec, check_spec
+def load_identify_chain(opts: IdentifyOptions, robot: Path | None = None):
+    """The chain identify fits (``robot``: another file than ``opts.robot``, a batch's manifest row):
+    loaded with the declared extras, a fixed base, nominal inertias checked for --prior nominal (before
+    any data are read), Coulomb smoothing set."""
+    from minparam_cli.robot import DeriveOptions, load_chain, require_fixed_base
 
-    def floats(values, count: int, what: str):
-        if values is None:
-            return None
-        out = tuple(float(v) for v in values)
-        if len(out) != count or not all(math.isfinite(v) for v in out):
-            raise InputError(f"{what}: expected {count} finite numbers, got {list(values)!r}")
-        return out
+    path = opts.robot if robot is None else Path(robot)
+    _, chain = load_chain(path, DeriveOptions(friction=opts.friction, rotor_inertia=opts.rotor_inertia,
+                                              gravity=opts.gravity, mimic=opts.mimic))
+    require_fixed_base(chain, "identify")
+    if opts.nominal_prior:
+        from minparam_cli.dynamics.bodies import nominal_problems, nominal_problems_text
 
-    spec = PayloadSpec(None if mass is None else float(mass), floats(com, 3, "payload_com"),
-                       floats(inertia, 6, "payload_inertia"))
-    check_spec(spec)
-    return spec
+        if nominal_problems(chain):
+            raise InputError("--prior nominal: " + nominal_problems_text(str(path), nominal_problems(chain)))
+    return chain.with_coulomb_smoothing(opts.coulomb_smoothing)
+
+
+def stage_options(opts: IdentifyOptions, chain, motor_side, validate: str | None, tests: tuple[str, ...]):
+    """The stage's options (``identify.stage.IdentifyOptions``) for this chain and these data names."""
+    from minparam_cli.identify.diagnosis.diagnose import DiagnosisOptions
+    from minparam_cli.identify.stage import IdentifyOptions as StageOptions
+    from minparam_cli.measured.records import DataOptions
+    from minparam_cli.measured.rosbag import coordinate_names
+
+    physical = None
+    if opts.physical:
+        from minparam_cli.identify.physical.convex import PhysicalOptions
+
+        physical = PhysicalOptions(prior=opts.prior, prior_weight=opts.prior_weight)
+    return StageOptions(
+        data=DataOptions(columns=dict(opts.columns), cutoff_hz=opts.cutoff, force_filter=opts.force_filter,
+                         decimate=opts.decimate, step_s=(1.0 / opts.rate if opts.rate else None),
+                         trim_still_s=opts.trim_still, still_speed=opts.still_speed,
+                         rest_below_still=bool(opts.rest_below_still), time_unit=opts.time_unit, topic=opts.topic,
+                         joint_names=coordinate_names(chain), motor_side=motor_side),
+        split=opts.split, validate=validate, tests=tests, weighted=not opts.ols, diagnose=opts.diagnose,
+        diagnosis=DiagnosisOptions(effects=opts.effects, min_gain=opts.min_gain, weighted=not opts.ols),
+        seed=opts.seed, physical=physical, uncertainty=opts.uncertainty(),
+        essential=opts.essential_bound if opts.essential else None,
+    )
+
+
+def run_identify(opts: IdentifyOptions, data: Any, progress: Any = None, robot: Path | None = None,
+                 chain: Any = None) -> Identification:
+    """The one driver of ``minparam identify`` and ``minparam.identify``: fit on the fit data, choose
+    effects on the selection data, report on the test data; the payload with --payload-data; the model
+    and the files of --save-model, --export-urdf, --export-yaml.  ``progress``: a callable (done, total)
+    or None; ``robot``/``chain``: another robot file than ``opts.robot`` (a batch) or its chain."""
+    from minparam_cli.api.model_file import read_robot_bytes, write_identify_outputs
+    from minparam_cli.dynamics.transmission import motor_side_spec
+    from minparam_cli.identify.stage import identify as run
+    from minparam_cli.measured.arrays import as_record, is_in_memory, registered
+    from minparam_cli.model.file import saved_model
+
+    path = opts.robot if robot is None else Path(robot)
+    chain = load_identify_chain(opts, path) if chain is None else chain
+    motor_side, scale_note = motor_side_spec(chain, opts.side, opts.current)
+    payload = opts.payload_spec()
+    data_name, validate_name, test_names, records = _sources(data, opts.validate, opts.test)
+    payload_name = None
+    if payload is not None:
+        if is_in_memory(opts.payload_data):
+            records.append(as_record(opts.payload_data, "<payload>"))
+            payload_name = "<payload>"
+        else:
+            payload_name = str(opts.payload_data)
+    sopts = stage_options(opts, chain, motor_side, validate_name, test_names)
+    with registered(records):
+        result, art = run(chain, data_name, sopts, progress=progress)
+        if payload is not None:  # identify/physical/payload.py: the second recording, with a known payload
+            from minparam_cli.identify.physical.payload import payload_report
+
+            gains_unknown = scale_note is not None
+            result = replace(result, payload=payload_report(art.design, data_name, payload_name, sopts.data, payload,
+                                                            gains_unknown))
+            scale_note = None if gains_unknown else scale_note  # the known mass fixed the scale
+    if scale_note:
+        result = replace(result, flags=result.flags + (scale_note,))
+    robot_bytes = read_robot_bytes(path)
+    saved = saved_model(str(path), robot_bytes, opts.load_settings(), sopts.data, sopts.seed, art, result)
+    assert art.design is not None  # the stage always sets the final design
+    if opts.save_model is not None or opts.export_urdf is not None or opts.export_yaml is not None:
+        write_identify_outputs(path, chain, robot_bytes, saved, result.data,
+                               None if art.physical is None else art.physical.phi,
+                               opts.save_model, opts.export_urdf, opts.export_yaml)
+    model = Model(saved=saved, design=art.design, robot=str(path), names=tuple(saved.names))
+    return Identification(result=result, model=model, artifacts=art)
+
+
+def run_consistency(opts: IdentifyOptions, paths: Sequence[Path], progress: Any = None,
+                    requested: bool = True) -> ConsistencyResult:
+    """``identify A B C --consistency``: every recording fitted alone with the declared model, and all
+    together; where they disagree beyond their σ (``identify.consistency``).  ``requested``: whether
+    --consistency was given (several data files without it are refused)."""
+    from minparam_cli.dynamics.transmission import motor_side_spec
+    from minparam_cli.identify.consistency import consistency
+
+    chain = load_identify_chain(opts)
+    motor_side, _ = motor_side_spec(chain, opts.side, opts.current)
+    if not requested:
+        raise InputError(f"{len(paths)} data files given: compare several recordings with --consistency, "
+                         "or give selection and test data with --validate and --test")
+    for flag, value in (("--validate", opts.validate), ("--test", opts.test), ("--physical", opts.physical),
+                        ("--save-model", opts.save_model)):
+        if value:
+            raise InputError(f"--consistency does not combine with {flag}: every recording is split into fit, "
+                             "selection and test data by --split and fitted with the declared model")
+    result, _ = consistency(chain, [Path(p) for p in paths], stage_options(opts, chain, motor_side, None, ()), progress)
+    return replace(result, robot=chain.name)
 
 
 def identify(robot: Robot | str | Path, data: Any, *, validate: Any = None, test: Any = None,
@@ -115,216 +177,37 @@ def identify(robot: Robot | str | Path, data: Any, *, validate: Any = None, test
     ``data``, ``validate`` and each ``test``: a data file (CSV, .npz, ROS bag), a mapping of arrays
     ``{"t": (N,), "q": (N, dof), "dq": ..., "ddq": ..., "tau": (N, dof)}`` (dq, ddq optional: derived
     by filtering as for a file), a mapping of CSV-style columns (``t, q1.., tau1..``) or a pandas
-    DataFrame with such columns.  The options are the CLI's (same names, same defaults).  The
-    diagnosis adds the effects the selection data ask for; ``result.test`` is measured on data that
-    chose nothing.  ``sigma``: "hac" (default), "bootstrap" or "textbook" (docs/methods/uncertainty.md),
-    over time blocks of ``block_length`` s; ``essential``: the bound (%) of the essential-parameter
-    reduction (the CLI's ``--essential --essential-bound``), None for none.  ``side="motor"``: the data
-    are motor angles and torques (``current=True``: currents), converted with the robot's transmission;
-    ``payload_data`` (a second recording with a known payload on the last link, ``payload_mass`` kg,
-    optionally ``payload_com`` and ``payload_inertia``) adds the payload's identification
-    (docs/methods/transmission.md).
+    DataFrame with such columns.  The options are the CLI's (same names, same defaults, same checks and
+    messages: ``api.options.identify.IdentifyOptions``).  The diagnosis adds the effects the selection
+    data ask for; ``result.test`` is measured on data that chose nothing.  ``sigma``: "hac" (default),
+    "bootstrap" or "textbook" (docs/methods/uncertainty.md), over time blocks of ``block_length`` s;
+    ``essential``: the bound (%) of the essential-parameter reduction (the CLI's ``--essential
+    --essential-bound``), None for none.  ``side="motor"``: the data are motor angles and torques
+    (``current=True``: currents), converted with the robot's transmission; ``payload_data`` (a second
+    recording with a known payload on the last link, ``payload_mass`` kg, optionally ``payload_com``
+    and ``payload_inertia``) adds the payload's identification (docs/methods/transmission.md).
     """
-    from minparam_cli.measured.records import DataOptions
-    from minparam_cli.identify.assess.uncertainty import UncertaintyOptions, check_options
-    from minparam_cli.identify.diagnosis.diagnose import DiagnosisOptions
-    from minparam_cli.dynamics.effects import EFFECT_IDS
-    from minparam_cli.model.file import LoadSettings, saved_model
-    from minparam_cli.identify.stage import IdentifyOptions, identify as run
-    from minparam_cli.measured.arrays import registered
-    from minparam_cli.measured.rosbag import coordinate_names
-    from minparam_cli.robot import DeriveOptions, load_chain, require_fixed_base
-
     path = robot_path(robot)
     base = robot.options if isinstance(robot, Robot) else None
-    kinds = friction_kinds(friction) if friction is not None else (base.friction if base else ())
-    rotor = bool(rotor_inertia) if rotor_inertia is not None else (base.rotor_inertia if base else False)
-    g = gravity3(gravity) if gravity is not None else (base.gravity if base else None)
-    smoothing = float(coulomb_smoothing) if coulomb_smoothing is not None else (base.coulomb_smoothing if base else 0.0)
-    mimic_mode = choice(mimic, ("coupled", "fixed"), "mimic") if mimic is not None else (base.mimic if base else "coupled")
-    ids = (tuple(k.strip() for k in (effects.split(",") if isinstance(effects, str) else effects) if k.strip())
-           if effects is not None else ()) or EFFECT_IDS
-    for k in ids:
-        if k not in EFFECT_IDS:
-            raise InputError(f"effects: unknown effect {k!r}; expected any of {','.join(EFFECT_IDS)}")
-    shares = tuple(float(x) for x in split)
-    if (len(shares) != 3 or any(not (math.isfinite(v) and 0 <= v <= 1) for v in shares) or shares[0] <= 0
-            or sum(shares) <= 0):
-        raise InputError("split: three shares FIT,SELECTION,TEST in [0, 1], FIT > 0")
-    _positive(cutoff, "cutoff")
-    _positive(rate, "rate")
-    _positive(trim_still, "trim_still", "must be a positive number of seconds")
-    _positive(still_speed, "still_speed", "must be a positive speed")
-    _positive(prior_weight, "prior_weight", "must be a positive number")
-    if decimate is not None and decimate < 1:
-        raise InputError(f"decimate: must be >= 1, got {decimate}")
-    if not 0 <= min_gain < 1:
-        raise InputError(f"min_gain: must be in [0, 1), got {min_gain!r}")
-    if not (math.isfinite(smoothing) and smoothing >= 0):
-        raise InputError("coulomb_smoothing: must be a finite velocity >= 0 (0: sign)")
-    if seed < 0:
-        raise InputError(f"seed: must be >= 0, got {seed}")
-    unit = choice(time_unit, TIME_UNITS, "time_unit")
-    uncertainty = UncertaintyOptions(kind=choice(sigma, ("hac", "bootstrap", "textbook"), "sigma"),
-                                     block_s=None if block_length is None else float(block_length),
-                                     replicates=int(replicates), seed=seed)
-    check_options(uncertainty)
-    if essential is not None and not (math.isfinite(essential) and essential > 0):
-        raise InputError(f"essential: {essential}: expected a positive percentage")
-    prior = choice(prior, PRIORS, "prior")
-    if prior != "none" and not physical:
-        raise InputError("prior: a prior needs physical=True")
-    column_map = _columns(columns)
-    physical_opts = None
-    if physical:
-        from minparam_cli.identify.physical.convex import PhysicalOptions
-
-        physical_opts = PhysicalOptions(prior=prior, prior_weight=prior_weight)
-    _, chain = load_chain(path, DeriveOptions(friction=kinds, rotor_inertia=rotor, gravity=g, mimic=mimic_mode))
-    require_fixed_base(chain, "identify")
-    if physical and prior == "nominal":
-        from minparam_cli.dynamics.bodies import nominal_problems, nominal_problems_text
-
-        if nominal_problems(chain):
-            raise InputError("--prior nominal: " + nominal_problems_text(str(path), nominal_problems(chain)))
-    chain = chain.with_coulomb_smoothing(smoothing)
-    from minparam_cli.dynamics.transmission import motor_side_spec
-
-    from minparam_cli.measured.arrays import as_record, is_in_memory
-
-    motor_side, scale_note = motor_side_spec(chain, choice(side, ("joint", "motor"), "side"), bool(current))
-    payload = _payload(payload_data, payload_mass, payload_com, payload_inertia)
-    data_name, validate_name, test_names, records = _sources(data, validate, test)
-    payload_name = None
-    if payload is not None:
-        if is_in_memory(payload_data):
-            records.append(as_record(payload_data, "<payload>"))
-            payload_name = "<payload>"
-        else:
-            payload_name = str(payload_data)
     opts = IdentifyOptions(
-        data=DataOptions(columns=column_map, cutoff_hz=cutoff, force_filter=filter, decimate=decimate,
-                         step_s=(1.0 / rate if rate else None), trim_still_s=trim_still, still_speed=still_speed,
-                         rest_below_still=bool(rest_below_still),
-                         time_unit=unit, topic=topic, joint_names=coordinate_names(chain), motor_side=motor_side),
-        split=(shares[0], shares[1], shares[2]),
-        validate=validate_name,
-        tests=test_names,
-        weighted=not ols,
-        diagnose=diagnose,
-        diagnosis=DiagnosisOptions(effects=ids, min_gain=min_gain, weighted=not ols),
-        seed=seed,
-        physical=physical_opts,
-        uncertainty=uncertainty,
-        essential=None if essential is None else float(essential),
+        robot=path, validate=validate, test=test, split=tuple(split), columns=columns, time_unit=time_unit,
+        topic=topic, cutoff=cutoff, force_filter=filter, rate=rate, decimate=decimate, trim_still=trim_still,
+        still_speed=still_speed, rest_below_still=rest_below_still,
+        friction=friction if friction is not None else (base.friction if base else ()),
+        rotor_inertia=bool(rotor_inertia) if rotor_inertia is not None else (base.rotor_inertia if base else False),
+        coulomb_smoothing=float(coulomb_smoothing) if coulomb_smoothing is not None else (base.coulomb_smoothing if base else 0.0),
+        gravity=gravity if gravity is not None else (base.gravity if base else None),
+        effects=effects, diagnose=diagnose, min_gain=min_gain, physical=physical, prior=prior,
+        prior_weight=prior_weight, sigma=sigma, block_length=block_length, replicates=replicates,
+        essential=essential is not None, essential_bound=10.0 if essential is None else float(essential),
+        ols=ols, seed=seed, mimic=mimic if mimic is not None else (base.mimic if base else "coupled"),
+        side=side, current=bool(current), payload_data=payload_data, payload_mass=payload_mass,
+        payload_com=payload_com, payload_inertia=payload_inertia,
     )
     bar = progress_callback(progress, 1, "diagnosis")
     try:
-        with registered(records):
-            report, art = run(chain, data_name, opts, progress=bar)
-            if payload is not None:  # identify/physical/payload.py: the second recording, with a known payload
-                from minparam_cli.identify.physical.payload import payload_report
-
-                gains_unknown = scale_note is not None
-                report["payload"] = payload_report(art.design, data_name, payload_name, opts.data, payload, gains_unknown)
-                scale_note = None if gains_unknown else scale_note  # the known mass fixed the scale
+        return run_identify(opts, data, progress=bar)
     finally:
         close(bar)
-    if scale_note:
-        report.setdefault("flags", []).append(scale_note)
-    from minparam_cli.safety import read_bounded  # the robot file's bytes, for its hash
-
-    load = LoadSettings(friction=kinds, rotor_inertia=rotor, gravity=g, coulomb_smoothing=smoothing, mimic=mimic_mode)
-    saved = saved_model(str(path), read_bounded(Path(path)), load, opts.data, opts.seed, art, report)
-    assert art.design is not None  # the stage always sets the final design
-    model = Model(saved=saved, design=art.design, robot=str(path), names=tuple(saved.names))
-    test_doc = report["test"]
-    return Identification(
-        robot=report["robot"], names=tuple(saved.names), theta=saved.theta.copy(), std_percent=saved.std_percent,
-        before=Errors.from_dict(report["before"]), after=Errors.from_dict(report["after"]),
-        test=Errors.from_dict(test_doc.get("final")), test_rigid=Errors.from_dict(test_doc.get("rigid")),
-        effects=tuple(report["effects"]), flags=tuple(report["flags"]), model=model, _report=report,
-    )
 
 
-# --- evaluate -----------------------------------------------------------------------------------------
-
-
-@dataclass(frozen=True)
-class EvaluationSetup:
-    """What ``evaluate`` reads the data with: the model, its design and parameters, the data options."""
-
-    model_file: str
-    robot: str
-    saved: SavedModel
-    design: Design
-    kind: str
-    theta: np.ndarray
-    data: DataOptions
-
-
-def evaluation_setup(model_file: str, saved: SavedModel, robot_file: str, design: Design, which: str | None,
-                     time_unit: str = "s", topic: str | None = None) -> EvaluationSetup:
-    """The parameters to use (the physical fit by default when the model has one) and the model's data
-    settings with these files' time unit, a bag's topic and the robot's joint names."""
-    from minparam_cli.measured.rosbag import coordinate_names
-
-    kind = which if which is not None else ("physical" if saved.physical is not None else "fit")
-    theta = saved.fit_theta(kind)
-    data = replace(saved.data, time_unit=time_unit, topic=topic, joint_names=coordinate_names(design.chain))
-    return EvaluationSetup(model_file, robot_file, saved, design, kind, theta, data)
-
-
-def evaluation_report(setup: EvaluationSetup, result: Any) -> dict:
-    """The JSON report of ``minparam evaluate``."""
-    m, kind = setup.saved, setup.kind
-    report = {"model_file": setup.model_file, "robot": setup.robot, "parameters": len(setup.theta), **result.to_dict()}
-    ident = ((m.figures.get("physical") or {}).get("test") if kind == "physical" else None)
-    test = m.figures.get("test") or {}
-    if kind == "fit" and test.get("final"):
-        report["identify_test"] = test["final"]
-    elif kind == "physical" and ident and len(ident) == 1:
-        report["identify_test"] = next(iter(ident.values()))
-    return report
-
-
-def evaluate(model: Model | str | Path, data: Any, *, which: str | None = None, robot: str | Path | None = None,
-             time_unit: str = "s", topic: str | None = None) -> Evaluation:
-    """Errors of a saved model on data (``minparam evaluate``): per file and pooled.
-
-    ``model``: a :class:`Model` or a model file; ``data``: one data set or a list of them (files,
-    mappings of arrays, DataFrames), read with the model's settings.  ``which``: "physical" or "fit"
-    (default: physical when the model has one).
-    """
-    from minparam_cli.model.evaluation import evaluate as run
-    from minparam_cli.measured.arrays import as_record, is_in_memory, registered
-
-    if isinstance(model, Model):
-        saved, robot_file, design, source = model.saved, model.robot, model.design, "<model>"
-    else:
-        saved, robot_path_, design = open_model(model, robot)
-        robot_file, source = str(robot_path_), str(model)
-    if which is not None:
-        which = choice(which, ("physical", "fit"), "which")
-    items = [data] if isinstance(data, (str, Path)) or is_in_memory(data) else list(data)
-    names, records = [], []
-    for k, x in enumerate(items):
-        if is_in_memory(x):
-            records.append(as_record(x, f"<data{k + 1}>"))
-            names.append(f"<data{k + 1}>")
-        else:
-            check_data_file(Path(x))
-            names.append(str(x))
-    setup = evaluation_setup(source, saved, robot_file, design, which, choice(time_unit, TIME_UNITS, "time_unit"), topic)
-    with registered(records):
-        result = run(setup.design, setup.theta, names, setup.data, setup.kind)
-    report = evaluation_report(setup, result)
-    return Evaluation(which=setup.kind, pooled=Errors.from_dict(report["pooled"]), files=tuple(names), _report=report)
-
-
-def check_data_file(p: Path) -> None:
-    """A data file must exist (a ROS bag may be a folder)."""
-    from minparam_cli.measured.rosbag import is_bag
-
-    if not p.is_file() and not (p.is_dir() and is_bag(p)):
-        raise InputError(f"{p}: data file not found")

@@ -1,5 +1,6 @@
 """Opening a saved model file (``identify --save-model``) for ``evaluate``, ``codegen --model`` and
-``Model.load``: below the result classes, which call it."""
+``Model.load`` (below the result classes, which call it), and writing the files identify writes
+beside its report (the model file, the robot exports)."""
 
 from __future__ import annotations
 
@@ -29,3 +30,37 @@ def open_model(model: str | Path, robot: str | Path | None = None) -> tuple[Save
     require_fixed_base(chain, "evaluate")
     chain = chain.with_coulomb_smoothing(m.load.coulomb_smoothing)
     return m, robot_file, model_design(m, chain, str(model))
+
+
+def read_robot_bytes(robot: str | Path) -> bytes:
+    """The robot file's bytes (for its hash): a regular file within the description size cap."""
+    from minparam_cli.safety import read_bounded
+
+    return read_bounded(Path(robot))
+
+
+def write_identify_outputs(robot: Path, chain, robot_bytes: bytes, saved: SavedModel, data_name: str, physical_phi,
+                           save_model: Path | None, export_urdf: Path | None, export_yaml: Path | None) -> None:
+    """Write the files of one identify run beside its report, atomically: the model file (--save-model)
+    and the robot with the physical fit's inertials (--export-urdf, --export-yaml)."""
+    from minparam_cli.output import write_output
+
+    if save_model is not None:
+        from minparam_cli.model.file import dumps
+
+        write_output(dumps(saved), save_model)
+    if export_urdf is None and export_yaml is None:
+        return
+    from minparam_cli.model import export_robot
+
+    note = f"inertials: physical fit of minparam identify on {data_name} (robot file {robot})"
+    if export_urdf is not None:
+        if robot.suffix.lower() == ".urdf":
+            text = export_robot.urdf_with_inertials(robot_bytes, chain, physical_phi, note)
+        else:
+            text = export_robot.urdf_from_chain(chain, physical_phi, note)
+        write_output(text, export_urdf)
+    if export_yaml is not None:
+        from minparam_cli.safety import read_yaml
+
+        write_output(export_robot.yaml_with_inertials(read_yaml(robot), chain, physical_phi, note), export_yaml)

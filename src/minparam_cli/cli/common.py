@@ -75,7 +75,6 @@ class _FiniteFloat:
     """Mixed into a click float type (FLOAT, FloatRange): 'nan', 'inf' and '1e999' are refused."""
 
     def convert(self, value, param, ctx):
-        import math
 
         x = super().convert(value, param, ctx)
         if x is not None and not math.isfinite(x):
@@ -193,16 +192,3 @@ def option_errors():
         yield
     except OptionError as e:
         raise typer.BadParameter(e.detail, param_hint=e.option) from None
-
-
-def parse_floats(text: str, n: int | None, what: str) -> tuple[float, ...]:
-    """'0,0,-9.81' -> floats, with a BadParameter naming the option on failure."""
-    try:
-        vals = tuple(float(x) for x in text.replace(" ", "").split(",") if x != "")
-    except ValueError:
-        raise typer.BadParameter(f"expected comma-separated numbers, got {text!r}", param_hint=what) from None
-    if n is not None and len(vals) != n:
-        raise typer.BadParameter(f"expected {n} comma-separated numbers, got {len(vals)}", param_hint=what)
-    if not all(math.isfinite(v) for v in vals):
-        raise typer.BadParameter(f"expected finite numbers, got {text!r}", param_hint=what)
-    return vals

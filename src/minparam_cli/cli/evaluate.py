@@ -9,7 +9,7 @@ from typing import List, Optional
 
 import typer
 
-from minparam_cli.cli.common import guarded
+from minparam_cli.cli.common import guarded, option_errors
 from minparam_cli.output import write_output
 from minparam_cli.cli.identify import Fmt, TimeUnit, time_unit_option, topic_option
 
@@ -52,74 +52,21 @@ def evaluate(
 
 @guarded
 def _evaluate(model, data, which, predictions, fmt, output, robot, time_unit, topic, band=False, band_level=0.95):
-    from minparam_cli.api.identification import check_data_file, evaluation_report, evaluation_setup
-    from minparam_cli.api.model_file import open_model
-    from minparam_cli.errors import InputError
-    from minparam_cli.model.evaluation import evaluate as run
+    """Parse, call the API (``api.evaluation``), render, write."""
+    from minparam_cli.api.evaluation import run_evaluate
+    from minparam_cli.api.options.evaluate import EvaluateOptions
 
-    if predictions is not None and len(data) > 1:
-        raise InputError(f"--predictions writes one file: give one DATA file (got {len(data)})")
-    m, robot_path, design = open_model(model, robot)
-    for p in data:
-        check_data_file(p)
-    setup = evaluation_setup(str(model), m, str(robot_path), design, which.value if which is not None else None,
-                             TimeUnit(time_unit).value, topic)
-    prediction_band = _band(setup.saved, setup.kind, design.chain.dof, str(model), band_level) if band else None
-    if predictions is None:
-        result = run(setup.design, setup.theta, data, setup.data, setup.kind, band=prediction_band)
-    else:
-        result = _with_predictions(predictions, setup.design, setup.theta, data, setup, setup.kind, run, prediction_band)
-    report = evaluation_report(setup, result)
+    with option_errors():
+        opts = EvaluateOptions(which=which.value if which is not None else None, predictions=predictions, band=band,
+                               band_level=band_level, robot=robot, time_unit=TimeUnit(time_unit).value, topic=topic)
+    result = run_evaluate(model, list(data), opts)
     if fmt == Fmt.json:
-        text = json.dumps(report, indent=2, ensure_ascii=False)
+        text = json.dumps(result.to_dict(), indent=2, ensure_ascii=False)
     else:
         from minparam_cli.render.evaluate_text import render_evaluate
 
-        text = render_evaluate(report)
+        text = render_evaluate(result.result)
     write_output(text, output)
-
-
-def _band(m, kind: str, n: int, source: str, level: float):
-    """The prediction band of the model file's covariance (one line, exit 2 where it cannot be made)."""
-    import numpy as np
-
-    from minparam_cli.model.bands import Band, check_level
-    from minparam_cli.model.file import ModelError
-
-    check_level(level)
-    if kind != "fit":
-        raise ModelError("--band needs --model fit: the stored covariance is that of the unconstrained fit")
-    u = m.uncertainty
-    if u is None:
-        raise ModelError(f"{source}: the model file has no parameter covariance (saved by an older minparam): "
-                         "run identify --save-model again for --band")
-    if len(u["residual_sigma_per_joint"]) != n:
-        raise ModelError(f"{source}: uncertainty.residual_sigma_per_joint has {len(u['residual_sigma_per_joint'])} "
-                         f"values, the robot has {n} joints")
-    return Band(np.array(u["columns"]), np.array(u["covariance"]), np.array(u["residual_sigma_per_joint"]), level, u["sigma"])
-
-
-def _with_predictions(path: Path, design, theta, data, m, kind, run, band=None):
-    """Evaluate while streaming every block's predictions into a temporary file renamed at the end."""
-    import numpy as np
-
-    from minparam_cli.output import atomic_write
-
-    n = design.chain.dof
-    header = ",".join(["t"] + [f"tau_meas{j}" for j in range(1, n + 1)] + [f"tau_pred{j}" for j in range(1, n + 1)])
-    out = {}
-
-    def write(tmp: str) -> None:
-        with open(tmp, "w", encoding="utf-8") as fh:
-            fh.write(header + "\n")
-
-            def sink(t, tau, pred):
-                np.savetxt(fh, np.column_stack([t, tau, pred]), delimiter=",", fmt="%.12g")
-
-            out["result"] = run(design, theta, data, m.data, kind, sink=sink, band=band)  # m: the EvaluationSetup
-
-    atomic_write(path, write, suffix=".csv")
-    return out["result"]
 
 
 def register(app: typer.Typer) -> None:

@@ -3,14 +3,13 @@
 from __future__ import annotations
 
 import json
-import math
 from enum import Enum
 from pathlib import Path
 from typing import List, Optional
 
 import typer
 
-from minparam_cli.cli.common import MimicMode, guarded, mimic_option, parse_floats, save_png
+from minparam_cli.cli.common import MimicMode, guarded, mimic_option, option_errors, save_png
 from minparam_cli.output import Progress, write_output
 from minparam_cli.cli.executor import scheduler_option
 
@@ -60,15 +59,6 @@ class Sigma(str, Enum):
 class Fmt(str, Enum):
     table = "table"
     json = "json"
-
-
-def _columns(text: str) -> dict[str, str]:
-    from minparam_cli.measured.columns import parse_columns
-
-    try:
-        return parse_columns(text)
-    except ValueError as e:
-        raise typer.BadParameter(str(e), param_hint="--columns") from None
 
 
 class Side(str, Enum):
@@ -145,192 +135,72 @@ def identify(
     _identify(**locals())
 
 
-def _split(text: str) -> tuple[float, float, float]:
-    values = parse_floats(text, 3, "--split")
-    if any(not (math.isfinite(v) and 0 <= v <= 1) for v in values) or values[0] <= 0 or sum(values) <= 0:
-        raise typer.BadParameter("three shares FIT,SELECTION,TEST in [0, 1], FIT > 0", param_hint="--split")
-    return tuple(values)
-
-
 @guarded
 def _identify(robot, data, validate, test, split, columns, time_unit, topic, cutoff, force_filter, rate, decimate, trim_still, still_speed,
               rest_below_still,
               friction, rotor_inertia, coulomb_smoothing, gravity, effects, no_diagnose, min_gain, physical, prior,
               prior_weight, sigma, block_length, replicates, consistency, essential, essential_bound, ols, fmt, output, plot, seed, save_model, export_urdf, export_yaml, mimic, quiet, jobs=1, scheduler=None,
               side="joint", current=False, payload_data=None, payload_mass=None, payload_com=None, payload_inertia=None):
-    from minparam_cli.measured.records import DataOptions
-    from minparam_cli.identify.diagnosis.diagnose import DiagnosisOptions
-    from minparam_cli.dynamics.effects import EFFECT_IDS
-    from minparam_cli.identify.stage import IdentifyOptions, identify as run
-    from minparam_cli.measured.rosbag import coordinate_names
-    from minparam_cli.params import FRICTION_KINDS
-    from minparam_cli.robot import DeriveOptions, load_chain, require_fixed_base
+    """Parse, call the API (``api.identification``), render, write."""
+    from minparam_cli.api.options.identify import IdentifyOptions
 
-    kinds = tuple(k.strip() for k in friction.split(",") if k.strip())
-    for k in kinds:
-        if k not in FRICTION_KINDS:
-            raise typer.BadParameter(f"unknown friction kind {k!r}", param_hint="--friction")
-    ids = tuple(k.strip() for k in effects.split(",") if k.strip()) or EFFECT_IDS
-    for k in ids:
-        if k not in EFFECT_IDS:
-            raise typer.BadParameter(f"unknown effect {k!r}; expected any of {','.join(EFFECT_IDS)}", param_hint="--effects")
-    shares = _split(split)
-    if cutoff <= 0:
-        raise typer.BadParameter("must be positive", param_hint="--cutoff")
-    if rate is not None and rate <= 0:
-        raise typer.BadParameter("must be positive", param_hint="--rate")
-    if trim_still is not None and not (math.isfinite(trim_still) and trim_still > 0):
-        raise typer.BadParameter("must be a positive number of seconds", param_hint="--trim-still")
-    if not (math.isfinite(still_speed) and still_speed > 0):
-        raise typer.BadParameter("must be a positive speed", param_hint="--still-speed")
-    if not 0 <= min_gain < 1:
-        raise typer.BadParameter("must be in [0, 1)", param_hint="--min-gain")
-    if not (math.isfinite(coulomb_smoothing) and coulomb_smoothing >= 0):
-        raise typer.BadParameter("must be a finite velocity >= 0 (0: sign)", param_hint="--coulomb-smoothing")
+    with option_errors():
+        opts = IdentifyOptions(
+            robot=robot, validate=validate, test=tuple(test), split=split, columns=columns, time_unit=TimeUnit(time_unit).value,
+            topic=topic, cutoff=cutoff, force_filter=force_filter, rate=rate, decimate=decimate, trim_still=trim_still,
+            still_speed=still_speed, rest_below_still=rest_below_still, friction=friction, rotor_inertia=rotor_inertia,
+            coulomb_smoothing=coulomb_smoothing, gravity=gravity, effects=effects, diagnose=not no_diagnose,
+            min_gain=min_gain, physical=physical, prior=Prior(prior).value, prior_weight=prior_weight,
+            sigma=Sigma(sigma).value, block_length=block_length, replicates=replicates, essential=essential,
+            essential_bound=essential_bound, ols=ols, seed=seed, mimic=MimicMode(mimic).value, side=Side(side).value,
+            current=current, payload_data=payload_data, payload_mass=payload_mass, payload_com=payload_com,
+            payload_inertia=payload_inertia, save_model=save_model, export_urdf=export_urdf, export_yaml=export_yaml,
+        )
     if plot is not None:
         from minparam_cli.output import output_folder
 
         output_folder(plot, "--plot")  # created when missing
-    if not (math.isfinite(prior_weight) and prior_weight > 0):
-        raise typer.BadParameter("must be a positive number", param_hint="--prior-weight")
-    if prior != Prior.none and not physical:
-        raise typer.BadParameter("a prior needs --physical", param_hint="--prior")
-    _check_exports(robot, physical, export_urdf, export_yaml)
-    physical_opts = None
-    if physical:
-        from minparam_cli.identify.physical.convex import PhysicalOptions
-
-        physical_opts = PhysicalOptions(prior=prior.value, prior_weight=prior_weight)
-    g = parse_floats(gravity, 3, "--gravity") if gravity is not None else None
-    _, chain = load_chain(robot, DeriveOptions(friction=kinds, rotor_inertia=rotor_inertia, gravity=g,
-                                               mimic=MimicMode(mimic).value))
-    require_fixed_base(chain, "identify")
-    if physical and prior == Prior.nominal:  # refused before any data are read
-        from minparam_cli.dynamics.bodies import nominal_problems, nominal_problems_text
-        from minparam_cli.errors import InputError
-
-        if nominal_problems(chain):
-            raise InputError("--prior nominal: " + nominal_problems_text(str(robot), nominal_problems(chain)))
-    chain = chain.with_coulomb_smoothing(coulomb_smoothing)
-    from minparam_cli.dynamics.transmission import motor_side_spec
-
-    motor_side, scale_note = motor_side_spec(chain, Side(side).value, current)
-    payload = _payload_spec(payload_data, payload_mass, payload_com, payload_inertia)
-    opts = IdentifyOptions(
-        data=DataOptions(columns=_columns(columns), cutoff_hz=cutoff, force_filter=force_filter,
-                         decimate=decimate, step_s=(1.0 / rate if rate else None),
-                         trim_still_s=trim_still, still_speed=still_speed, rest_below_still=rest_below_still,
-                         time_unit=TimeUnit(time_unit).value,
-                         topic=topic, joint_names=coordinate_names(chain), motor_side=motor_side),
-        split=shares,
-        validate=str(validate) if validate else None,
-        tests=tuple(str(t) for t in test),
-        weighted=not ols,
-        diagnose=not no_diagnose,
-        diagnosis=DiagnosisOptions(effects=ids, min_gain=min_gain, weighted=not ols),
-        seed=seed,
-        physical=physical_opts,
-        uncertainty=_uncertainty(sigma, block_length, replicates, seed),
-        essential=_essential(essential, essential_bound),
-    )
     if len(data) == 1:
         from minparam_cli.cli.identify_batch import maybe_batch
-        from minparam_cli.model.file import LoadSettings
 
-        load = LoadSettings(friction=kinds, rotor_inertia=rotor_inertia, gravity=g, coulomb_smoothing=coulomb_smoothing, mimic=MimicMode(mimic).value)
         single = {"validate": validate, "test": test, "plot": plot, "save_model": save_model, "export_urdf": export_urdf, "export_yaml": export_yaml}
-        if maybe_batch(robot, data[0], opts, load, physical and prior == Prior.nominal, single, fmt == Fmt.json, output, jobs, scheduler, quiet):
+        if maybe_batch(opts, data[0], single, fmt == Fmt.json, output, jobs, scheduler, quiet):
             return  # a folder or a manifest of recordings: cli/identify_batch.py
     if consistency or len(data) > 1:
         from minparam_cli.cli.identify_consistency import run_consistency
 
-        return run_consistency(chain, data, opts, consistency, fmt.value, output, plot, quiet,
-                               {"--validate": validate, "--test": test, "--physical": physical, "--save-model": save_model})
-    data = data[0]
+        return run_consistency(opts, data, consistency, fmt.value, output, plot, quiet)
+    from minparam_cli.api.identification import run_identify
+
     bar = Progress(1, "diagnosis", quiet)
     try:
-        report, art = run(chain, data, opts, progress=bar)
+        ident = run_identify(opts, data[0], progress=bar)
     finally:
         bar.close()
-    if plot is not None and art.hold is not None and art.models:
-        from minparam_cli.render.identify_plots import measured_vs_predicted, residual_vs_velocity
-
-        for k in range(1, len(art.models)):
-            fig = residual_vs_velocity(art.hold, art.models[k - 1], art.models[k], f"{chain.name}: step {k}, {art.models[k][0]} (selection data)")
-            save_png(fig, plot / f"residual_vs_velocity_step{k}.png")
-        if len(art.models) == 1:
-            save_png(residual_vs_velocity(art.hold, art.models[0], art.models[0], f"{chain.name}: rigid-body residual (selection data)"), plot / "residual_vs_velocity_step0.png")
-        save_png(measured_vs_predicted(art.hold, art.models[-1], f"{chain.name}: selection-data torque"), plot / "measured_vs_predicted.png")
-    if payload is not None:  # identify/physical/payload.py: a second recording with a known payload
-        from minparam_cli.identify.physical.payload import payload_report
-
-        gains_unknown = scale_note is not None
-        report["payload"] = payload_report(art.design, data, payload_data, opts.data, payload, gains_unknown)
-        scale_note = None if gains_unknown else scale_note  # the known mass fixed the scale
-    if scale_note:
-        report.setdefault("flags", []).append(scale_note)
-    if save_model is not None or export_urdf is not None or export_yaml is not None:
-        from minparam_cli.cli.model_files import write_identify_outputs
-        from minparam_cli.model.file import LoadSettings
-
-        load = LoadSettings(friction=kinds, rotor_inertia=rotor_inertia, gravity=g, coulomb_smoothing=coulomb_smoothing,
-                            mimic=MimicMode(mimic).value)
-        write_identify_outputs(robot, chain, load, opts, report, art, save_model, export_urdf, export_yaml)
+    if plot is not None:
+        _plots(ident, plot)
     if fmt == Fmt.json:
-        text = json.dumps(report, indent=2, ensure_ascii=False)
+        text = json.dumps(ident.to_dict(), indent=2, ensure_ascii=False)
     else:
         from minparam_cli.render.identify_text import render_identify
 
-        text = render_identify(report)
-        if "payload" in report:
-            from minparam_cli.render.payload_text import render_payload
-
-            text = text.rstrip("\n") + "\n\n" + render_payload(report["payload"])
+        text = render_identify(ident.result)
     write_output(text, output)
 
 
-def _uncertainty(sigma, block_length, replicates, seed):
-    from minparam_cli.identify.assess.uncertainty import UncertaintyOptions, check_options
+def _plots(ident, plot: Path) -> None:
+    """The figures of --plot: the residual against the velocity at every step, measured against predicted."""
+    art, name = ident.artifacts, ident.robot
+    if art.hold is None or not art.models:
+        return
+    from minparam_cli.render.identify_plots import measured_vs_predicted, residual_vs_velocity
 
-    u = UncertaintyOptions(kind=Sigma(sigma).value, block_s=block_length, replicates=replicates, seed=seed)
-    check_options(u)
-    return u
-
-
-def _essential(essential: bool, bound: float):
-    from minparam_cli.errors import InputError
-
-    if not (math.isfinite(bound) and bound > 0):
-        raise InputError(f"--essential-bound {bound}: expected a positive percentage")
-    return bound if essential else None
-
-
-def _payload_spec(payload_data, mass, com, inertia):
-    """The known payload (None without --payload-data); one-line refusals of incomplete options."""
-    from minparam_cli.errors import InputError
-
-    if payload_data is None:
-        if any(v is not None for v in (mass, com, inertia)):
-            raise InputError("--payload-mass, --payload-com and --payload-inertia need --payload-data")
-        return None
-    from minparam_cli.identify.physical.payload import PayloadSpec, check_spec
-
-    spec = PayloadSpec(None if mass is None else float(mass), parse_floats(com, 3, "--payload-com") if com is not None else None,
-                       parse_floats(inertia, 6, "--payload-inertia") if inertia is not None else None)
-    check_spec(spec)
-    return spec
-
-
-def _check_exports(robot: Path, physical: bool, export_urdf, export_yaml) -> None:
-    """Refuse an export the run cannot make before the fit runs (one line, exit 2)."""
-    from minparam_cli.errors import InputError
-
-    for flag, path in (("--export-urdf", export_urdf), ("--export-yaml", export_yaml)):
-        if path is not None and not physical:
-            raise InputError(f"{flag} needs --physical: the exported inertias are the bodies of the physical fit")
-    if export_yaml is not None and robot.suffix.lower() not in (".yaml", ".yml"):
-        raise InputError(f"--export-yaml needs a YAML (DH/MDH) robot; {robot} is a URDF, whose joints are not DH rows "
-                         "(use --export-urdf)")
+    for k in range(1, len(art.models)):
+        fig = residual_vs_velocity(art.hold, art.models[k - 1], art.models[k], f"{name}: step {k}, {art.models[k][0]} (selection data)")
+        save_png(fig, plot / f"residual_vs_velocity_step{k}.png")
+    if len(art.models) == 1:
+        save_png(residual_vs_velocity(art.hold, art.models[0], art.models[0], f"{name}: rigid-body residual (selection data)"), plot / "residual_vs_velocity_step0.png")
+    save_png(measured_vs_predicted(art.hold, art.models[-1], f"{name}: selection-data torque"), plot / "measured_vs_predicted.png")
 
 
 def register(app: typer.Typer) -> None:

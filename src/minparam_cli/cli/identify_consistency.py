@@ -1,4 +1,4 @@
-"""`identify A B C --consistency`: the CLI side (parse checks, call the stage, render, write)."""
+"""`identify A B C --consistency`: the CLI side (call the API, render, write)."""
 
 from __future__ import annotations
 
@@ -7,33 +7,25 @@ from pathlib import Path
 
 from minparam_cli.cli.common import save_png
 from minparam_cli.output import Progress, write_output
-from minparam_cli.errors import InputError
 
 
-def run_consistency(chain, data: list[Path], opts, consistency: bool, fmt: str, output, plot, quiet: bool, excluded: dict) -> None:
-    from minparam_cli.identify.consistency import consistency as run
+def run_consistency(opts, data: list[Path], consistency: bool, fmt: str, output, plot, quiet: bool) -> None:
+    from minparam_cli.api.identification import run_consistency as run
 
-    if not consistency:
-        raise InputError(f"{len(data)} data files given: compare several recordings with --consistency, "
-                         "or give selection and test data with --validate and --test")
-    for flag, value in excluded.items():
-        if value:
-            raise InputError(f"--consistency does not combine with {flag}: every recording is split into fit, "
-                             "selection and test data by --split and fitted with the declared model")
     bar = Progress(len(data), "recordings", quiet)
     try:
-        report, _ = run(chain, list(data), opts, progress=bar)
+        result = run(opts, list(data), progress=bar, requested=consistency)
     finally:
         bar.close()
     if plot is not None:
         from minparam_cli.render.consistency_plot import consistency_plot
 
-        save_png(consistency_plot(report, f"{chain.name}: {len(data)} recordings (σ: {report['sigma']})"),
+        save_png(consistency_plot(result, f"{result.robot}: {len(data)} recordings (σ: {result.sigma})"),
                  Path(plot) / "consistency.png")
     if fmt == "json":
-        text = json.dumps(report, indent=2, ensure_ascii=False)
+        text = json.dumps(result.to_dict(), indent=2, ensure_ascii=False)
     else:
         from minparam_cli.render.consistency_text import render_consistency
 
-        text = render_consistency(report)
+        text = render_consistency(result)
     write_output(text, output)

@@ -1,4 +1,4 @@
-"""`identify` as one pure stage: robot chain + data file(s) -> report dict.
+"""`identify` as one pure stage: robot chain + data file(s) -> ``IdentifyResult`` (identify/result.py).
 
 The data are streamed once: per-joint QR accumulators of the declared model
 plus the slot columns of the effect library (training and held-out parts, see
@@ -24,14 +24,17 @@ from minparam_cli.measured.blocks import time_span
 from minparam_cli.measured.records import Block, DataOptions
 from minparam_cli.identify.passes.design import Design
 from minparam_cli.identify.diagnosis.diagnose import DiagnosisOptions, diagnose
-from minparam_cli.identify.estimate.fit import errors, full_theta, solve
+from minparam_cli.identify.estimate.fit import Errors, errors, full_theta, solve
+from minparam_cli.identify.estimate.records import Estimate, Step, TestFigures, TestFile
 from minparam_cli.identify.diagnosis.explain import describe_rejected, describe_terms, nominal_notes
 from minparam_cli.identify.physical.convex import PhysicalOptions
+from minparam_cli.identify.physical.report import PhysicalReport
 from minparam_cli.identify.assess.quality import COND_LIMIT, check_excitation, flags, keep_physical
 from minparam_cli.identify.passes.roles import DEFAULT_SPLIT, FIT, SELECTION, TEST, describe, plan
 from minparam_cli.identify.passes.slots import final_maps, slot_sources
 from minparam_cli.identify.passes.stream import stream
 from minparam_cli.identify.assess.uncertainty import BlockGrams, UncertaintyOptions, block_length, estimate, relative_percent
+from minparam_cli.identify.result import IdentifyResult
 
 DIAGNOSIS_CAP = 12_000  # samples kept for the diagnosis (fit part; half as many of the selection part)
 
@@ -55,7 +58,7 @@ class IdentifyOptions:
 
 @dataclass
 class Artifacts:
-    """What plots and a saved model need beside the report."""
+    """What plots and a saved model need beside the result."""
 
     hold: Block | None = None  # selection samples of the diagnosis
     models: list = field(default_factory=list)  # (label, design, theta) of every step
@@ -68,13 +71,13 @@ class Artifacts:
     grams: object | None = None  # uncertainty.BlockGrams of the fit data, with the map to the final fit's columns
 
 
-def identify(chain: Chain, data_path: str | Path, opts: IdentifyOptions, progress=None) -> tuple[dict, Artifacts]:
+def identify(chain: Chain, data_path: str | Path, opts: IdentifyOptions, progress=None) -> tuple[IdentifyResult, Artifacts]:
     """Fit on the fit data, choose effects on the selection data, report on the test data (see ``roles``)."""
     with np.errstate(all="ignore"):  # numpy's floating-point warnings, this thread only: no process-wide filter
         return _identify(chain, Path(data_path), opts, progress)
 
 
-def _identify(chain: Chain, data_path: Path, opts: IdentifyOptions, progress) -> tuple[dict, Artifacts]:
+def _identify(chain: Chain, data_path: Path, opts: IdentifyOptions, progress) -> tuple[IdentifyResult, Artifacts]:
     from minparam_cli.base.qr import derive_qr
 
     t_start = time.perf_counter()
@@ -108,7 +111,7 @@ def _identify(chain: Chain, data_path: Path, opts: IdentifyOptions, progress) ->
     tests_rigid = {k: errors(acc[k], fit0.theta, fit0.columns) for k in test_keys}
     design = replace(design, theta_model=full_theta(fit0, design.p))
 
-    steps_out = [{"effect": None, "joints": [], "statistic": None, **_errs(before)}]
+    steps_out = [Step(None, (), None, before)]
     stop_reason = "diagnosis off (--no-diagnose)"
     final_fit, after, final_design, acc_final = fit0, before, design, acc
     diag_info, rejected = {}, []
@@ -123,10 +126,10 @@ def _identify(chain: Chain, data_path: Path, opts: IdentifyOptions, progress) ->
         artifacts.models = [("rigid body" if s.term is None else f"+ {s.term.label()}", s.design, s.theta) for s in d.steps]
         diag_info = {"samples_fit": len(train), "samples_selection": len(hold), "candidates_per_step": d.candidates_per_step,
                      "bic_threshold": opts.diagnosis.bic_threshold, "min_gain": opts.diagnosis.min_gain}
-        steps_out[0]["statistic"] = d.steps[0].statistic
+        steps_out[0] = replace(steps_out[0], statistic=d.steps[0].statistic)
         for s_ in d.steps[1:]:
-            steps_out.append({"effect": s_.term.effect, "joints": [j + 1 for j in s_.term.joints], "hyper": s_.term.hyper,
-                              "label": s_.term.label(), "statistic": s_.statistic, **s_.errors})
+            steps_out.append(Step(s_.term.effect, tuple(j + 1 for j in s_.term.joints), s_.statistic, s_.errors,
+                                  s_.term.hyper, s_.term.label()))
         if d.design.terms:
             final_design = d.design
             maps = final_maps(final_design, slots)
@@ -146,7 +149,7 @@ def _identify(chain: Chain, data_path: Path, opts: IdentifyOptions, progress) ->
             after = errors(acc_final[SELECTION], final_fit.theta, final_fit.columns)
             if len(steps_out) > 1:
                 # the last step's errors are the refit on all the fit data, measured on all selection samples
-                steps_out[-1].update(_errs(after))
+                steps_out[-1] = replace(steps_out[-1], errors=after)
     tests_final = {k: errors(acc_final[k], final_fit.theta, final_fit.columns) for k in test_keys}
     final_fit, artifacts.uncertainty = _honest_sigma(grams, maps, final_fit, opts, progress)
     artifacts.grams = (grams, maps)
@@ -174,47 +177,44 @@ def _identify(chain: Chain, data_path: Path, opts: IdentifyOptions, progress) ->
     for entries in roles.values():
         for entry in entries:
             entry["still_share"] = motion.still_share(entry["part"])
-    report = {
-        "robot": chain.name,
-        "data": str(data_path),
-        "validate": opts.validate,
-        "test_files": [str(t) for t in tests],
-        "split": list(opts.split),
-        "roles": roles,
-        "samples_used": int(sum(acc[k].rows[0] for k in keys)),
-        "samples_fit": int(acc[FIT].rows[0]),
-        "samples_selection": int(acc[SELECTION].rows[0]),
-        "samples_test": int(sum(acc[k].rows[0] for k in test_keys)),
-        "dropped": dropped,
-        "preprocessing": data_reports[0],
-        "files": data_reports,
-        "coulomb_model": "sign(dq)" if chain.coulomb_smoothing == 0 else f"tanh(dq / {chain.coulomb_smoothing:g})",
-        "method": final_fit.method,
-        "condition_number": final_fit.cond,
-        "condition_number_scaled": cond_scaled,
-        "sigma_per_joint": [float(x) for x in final_fit.sigma],
-        "steps": steps_out,
-        "stop_reason": stop_reason,
-        "before": {"data": SELECTION, **_errs(before)},
-        "after": {"data": SELECTION, **_errs(after)},
-        "test": _test_report(roles, tests_rigid, tests_final, acc),
-        "effects": describe_terms(final_design, final_fit, motion),
-        "rejected": [describe_rejected(r, data_reports) for r in rejected],
-        "parameters": {nm: {"value": float(v), "std_percent": _finite(s), "std_percent_textbook": _finite(s0)}
-                       for nm, v, s, s0 in zip(final_fit.names, final_fit.theta, final_fit.std_percent, _textbook(artifacts, final_fit))},
-        "sigma": artifacts.uncertainty.as_dict() if artifacts.uncertainty is not None else {"kind": "textbook"},
-        "regrouped_on_this_data": list(final_fit.dependent),
-        "nominal_notes": nominal_notes(chain, base, final_fit, opts.seed),
-        "diagnosis": diag_info,
-        "seed": opts.seed,
-    }
-    if physical is not None:
-        report["physical"] = physical
-    if essential is not None:
-        report["essential"] = essential
-    report["flags"] = flags(report, final_fit) + (artifacts.uncertainty.flags() if artifacts.uncertainty is not None else [])
-    report["elapsed_s"] = round(time.perf_counter() - t_start, 4)
-    return report, artifacts
+    result = IdentifyResult(
+        robot=chain.name,
+        data=str(data_path),
+        validate=opts.validate,
+        test_files=tuple(str(t) for t in tests),
+        split=tuple(opts.split),
+        roles=roles,
+        samples_used=int(sum(acc[k].rows[0] for k in keys)),
+        samples_fit=int(acc[FIT].rows[0]),
+        samples_selection=int(acc[SELECTION].rows[0]),
+        samples_test=int(sum(acc[k].rows[0] for k in test_keys)),
+        dropped=dropped,
+        preprocessing=data_reports[0],
+        files=tuple(data_reports),
+        coulomb_model="sign(dq)" if chain.coulomb_smoothing == 0 else f"tanh(dq / {chain.coulomb_smoothing:g})",
+        method=final_fit.method,
+        condition_number=final_fit.cond,
+        condition_number_scaled=cond_scaled,
+        sigma_per_joint=tuple(float(x) for x in final_fit.sigma),
+        steps=tuple(steps_out),
+        stop_reason=stop_reason,
+        before=before,
+        after=after,
+        test=_test_figures(roles, tests_rigid, tests_final, acc),
+        effects=tuple(describe_terms(final_design, final_fit, motion)),
+        rejected=tuple(describe_rejected(r, data_reports) for r in rejected),
+        parameters=tuple(Estimate(nm, float(v), _finite(s), _finite(s0))
+                         for nm, v, s, s0 in zip(final_fit.names, final_fit.theta, final_fit.std_percent, _textbook(artifacts, final_fit))),
+        sigma=artifacts.uncertainty.summary() if artifacts.uncertainty is not None else None,
+        regrouped_on_this_data=tuple(final_fit.dependent),
+        nominal_notes=tuple(nominal_notes(chain, base, final_fit, opts.seed)),
+        diagnosis=diag_info,
+        seed=opts.seed,
+        physical=physical,
+        essential=essential,
+    )
+    found = flags(result, final_fit) + (artifacts.uncertainty.flags() if artifacts.uncertainty is not None else [])
+    return replace(result, flags=tuple(found), elapsed_s=round(time.perf_counter() - t_start, 4)), artifacts
 
 
 def _textbook(artifacts: Artifacts, fit) -> np.ndarray:
@@ -251,44 +251,39 @@ def _physical(chain: Chain, base, design: Design, fit, acc: dict, popts: Physica
     for b, informed in zip(bodies, pf.informed):
         b["informed_directions"] = informed  # of its 10 parameters' directions, set by the data
     nb = len(design.kept)
-    out = {
-        "solver": pf.solver, "status": pf.status, "prior": popts.prior,
-        "prior_weight": popts.prior_weight if popts.prior != "none" else None,
-        "margin_kg": popts.margin, "data_cost": pf.data_cost, "prior_cost": pf.prior_cost,
-        "elapsed_s": round(pf.elapsed_s, 4),
-        "selection": _errs(errors(acc[SELECTION], pf.theta)),
-        "test": {k: _errs(errors(acc[k], pf.theta)) for k in test_keys},
-        "base_parameters": {nm: float(v) for nm, v in zip(design.names[:nb], pf.theta[:nb])},
-        "effect_coefficients": {nm: float(v) for nm, v in zip(design.names[nb:], pf.theta[nb:])},
-        "phi": {nm: float(v) for nm, v in zip(pf.names, pf.phi)},
-        "links": bodies,
-        "not_informed": [b["link"] for b in bodies if b["informed_directions"] == 0],
-        "partly_informed": [b["link"] for b in bodies if 0 < b["informed_directions"] < 10],
-    }
+    out = PhysicalReport(
+        solver=pf.solver, status=pf.status, prior=popts.prior,
+        prior_weight=popts.prior_weight if popts.prior != "none" else None,
+        margin_kg=popts.margin, data_cost=pf.data_cost, prior_cost=pf.prior_cost,
+        elapsed_s=round(pf.elapsed_s, 4),
+        selection=errors(acc[SELECTION], pf.theta),
+        test={k: errors(acc[k], pf.theta) for k in test_keys},
+        base_parameters={nm: float(v) for nm, v in zip(design.names[:nb], pf.theta[:nb])},
+        effect_coefficients={nm: float(v) for nm, v in zip(design.names[nb:], pf.theta[nb:])},
+        phi={nm: float(v) for nm, v in zip(pf.names, pf.phi)},
+        links=tuple(bodies),
+        not_informed=tuple(b["link"] for b in bodies if b["informed_directions"] == 0),
+        partly_informed=tuple(b["link"] for b in bodies if 0 < b["informed_directions"] < 10),
+    )
     return out, pf
 
 
-def _errs(e) -> dict:
-    d = e.as_dict()
-    return {"rms_total": d["rms_total"], "rms_per_joint": d["rms_per_joint"], "relative_error": d["relative_error"]}
-
-
-def _test_report(roles: dict, rigid: dict, final: dict, acc: dict) -> dict:
+def _test_figures(roles: dict, rigid: dict, final: dict, acc: dict) -> TestFigures:
     """Test errors per test part and pooled over all of them (each part's squares summed)."""
-    files = []
-    for entry in roles[TEST]:
-        k = entry["part"]
-        files.append({**entry, "rigid": _errs(rigid[k]), "final": _errs(final[k])})
-    out = {"files": files, "rigid": None, "final": None}
+    files = tuple(TestFile(entry, rigid[entry["part"]], final[entry["part"]]) for entry in roles[TEST])
     if len(files) == 1:
-        out.update(rigid=files[0]["rigid"], final=files[0]["final"])
-    for name, errs in (("rigid", rigid), ("final", final)) if len(files) > 1 else ():
+        return TestFigures(files, files[0].rigid, files[0].final)
+    if not files:
+        return TestFigures()
+    pooled = []
+    for errs in (rigid, final):
         rss = sum(np.asarray(e.rms_per_joint) ** 2 * np.maximum(acc[k].rows, 1) for k, e in errs.items())
         rows = sum(np.maximum(acc[k].rows, 1) for k in errs)
         y2 = sum(acc[k].y_norm2().sum() for k in errs)
-        out[name] = {"rms_total": float(np.sqrt(rss.sum() / rows.sum())), "rms_per_joint": [float(x) for x in np.sqrt(rss / rows)],
-                     "relative_error": float(np.sqrt(rss.sum() / y2)) if y2 > 0 else float("nan")}
-    return out
+        pooled.append(Errors(rms_total=float(np.sqrt(rss.sum() / rows.sum())),
+                             rms_per_joint=tuple(float(x) for x in np.sqrt(rss / rows)),
+                             relative_error=float(np.sqrt(rss.sum() / y2)) if y2 > 0 else float("nan")))
+    return TestFigures(files, pooled[0], pooled[1])
 
 
 def _finite(x: float):

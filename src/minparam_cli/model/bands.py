@@ -71,12 +71,23 @@ class BandCounts:
     def __add__(self, o: "BandCounts") -> "BandCounts":
         return BandCounts(self.rows + o.rows, self.inside + o.inside, self.half + o.half, self.half_param + o.half_param)
 
+    def inside_per_joint(self) -> list[float]:
+        """Per joint, the share of samples inside the band."""
+        return [float(x) for x in self.inside / np.maximum(self.rows, 1)]
+
+    def half_width_per_joint(self) -> list[float]:
+        """Per joint, the band's mean half-width (N·m or N)."""
+        return [float(x) for x in self.half / np.maximum(self.rows, 1)]
+
+    def parameter_half_width_per_joint(self) -> list[float]:
+        """Per joint, the mean half-width of the band's parameter part."""
+        return [float(x) for x in self.half_param / np.maximum(self.rows, 1)]
+
     def as_dict(self) -> dict:
-        rows = np.maximum(self.rows, 1)
         return {
-            "inside_per_joint": [float(x) for x in self.inside / rows],
-            "half_width_per_joint": [float(x) for x in self.half / rows],
-            "parameter_half_width_per_joint": [float(x) for x in self.half_param / rows],
+            "inside_per_joint": self.inside_per_joint(),
+            "half_width_per_joint": self.half_width_per_joint(),
+            "parameter_half_width_per_joint": self.parameter_half_width_per_joint(),
         }
 
 

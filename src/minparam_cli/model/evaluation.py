@@ -8,14 +8,16 @@ in total, and ‖r‖/‖τ‖.
 
 from __future__ import annotations
 
+import copy
 from dataclasses import dataclass
-from typing import Callable
+from typing import Any, Callable, Mapping
 
 import numpy as np
 
 from minparam_cli.errors import DataError
 from minparam_cli.measured.blocks import iter_blocks
 from minparam_cli.measured.records import DataOptions, DataReport
+from minparam_cli.identify.estimate.errors import Errors
 from minparam_cli.identify.passes.design import Design
 
 REGRESSOR_ROWS = 4096  # samples per regressor evaluation: the full regressor is n·10n numbers a sample
@@ -41,16 +43,20 @@ class Sums:
     def __add__(self, other: "Sums") -> "Sums":
         return Sums(self.rows + other.rows, self.rss + other.rss, self.y2 + other.y2)
 
-    def as_dict(self) -> dict:
+    @property
+    def samples(self) -> int:
+        return int(self.rows[0]) if len(self.rows) else 0
+
+    def errors(self) -> Errors:
         """The identify report's figures (``fit.errors``): RMS per joint and in total, ‖r‖/‖τ‖."""
         rows = np.maximum(self.rows, 1)
         y2 = float(self.y2.sum())
-        return {
-            "samples": int(self.rows[0]) if len(self.rows) else 0,
-            "rms_total": float(np.sqrt(self.rss.sum() / rows.sum())),
-            "rms_per_joint": [float(x) for x in np.sqrt(self.rss / rows)],
-            "relative_error": float(np.sqrt(self.rss.sum() / y2)) if y2 > 0 else float("nan"),
-        }
+        return Errors(rms_total=float(np.sqrt(self.rss.sum() / rows.sum())),
+                      rms_per_joint=tuple(float(x) for x in np.sqrt(self.rss / rows)),
+                      relative_error=float(np.sqrt(self.rss.sum() / y2)) if y2 > 0 else float("nan"))
+
+    def as_dict(self) -> dict:
+        return {"samples": self.samples, **self.errors().to_dict()}
 
 
 @dataclass(frozen=True)
@@ -61,6 +67,15 @@ class Evaluation:
     bands: tuple | None = None  # per file, bands.BandCounts (with a Band)
     band: object | None = None  # the bands.Band
 
+    def pooled_band(self):
+        """The band counts of all files together (None without a band)."""
+        if self.bands is None:
+            return None
+        pooled = self.bands[0]
+        for c in self.bands[1:]:
+            pooled = pooled + c
+        return pooled
+
     def to_dict(self) -> dict:
         out = {
             "model": self.which,
@@ -70,12 +85,36 @@ class Evaluation:
         if self.bands is not None:
             for f, c in zip(out["files"], self.bands):
                 f["band"] = c.as_dict()
-            pooled = self.bands[0]
-            for c in self.bands[1:]:
-                pooled = pooled + c
-            out["pooled"]["band"] = pooled.as_dict()
+            out["pooled"]["band"] = self.pooled_band().as_dict()
             out["band"] = {"level": self.band.level, "z": self.band.z, "sigma": self.band.kind,
                            "residual_sigma_per_joint": [float(x) for x in self.band.sigma]}
+        return out
+
+
+SCHEMA = "minparam.evaluate/1"
+
+
+@dataclass(frozen=True)
+class EvaluateResult:
+    """``minparam evaluate``: a saved model's errors on data files (``evaluation``), the model file and
+    robot it came from, its number of parameters, and identify's test figure for the same parameters
+    (as the model file stores it; None when it has none).  ``to_dict()`` is the JSON."""
+
+    model_file: str
+    robot: str
+    parameters: int
+    evaluation: Evaluation
+    identify_test: Mapping[str, Any] | None = None
+
+    @property
+    def which(self) -> str:
+        return self.evaluation.which
+
+    def to_dict(self) -> dict:
+        out = {"schema": SCHEMA, "model_file": self.model_file, "robot": self.robot, "parameters": self.parameters,
+               **self.evaluation.to_dict()}
+        if self.identify_test is not None:
+            out["identify_test"] = copy.deepcopy(dict(self.identify_test))
         return out
 
 

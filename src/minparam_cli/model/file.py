@@ -26,12 +26,17 @@ import json
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from minparam_cli.errors import InputError
 from minparam_cli.measured.records import DataOptions
+from minparam_cli.identify.estimate.records import selection_dict
 from minparam_cli.identify.passes.design import Design, Term
+
+if TYPE_CHECKING:
+    from minparam_cli.identify.result import IdentifyResult
 
 FORMAT = "minparam-model"
 VERSION = 1
@@ -139,34 +144,37 @@ def sha256_hex(data: bytes) -> str:
     return hashlib.sha256(data).hexdigest()
 
 
-def saved_model(robot: str, robot_bytes: bytes, load: LoadSettings, data: DataOptions, seed: int, artifacts, report: dict) -> SavedModel:
-    """The model of one identify run: its ``Artifacts`` (final design, θ, σ, physical fit) and report."""
+def saved_model(robot: str, robot_bytes: bytes, load: LoadSettings, data: DataOptions, seed: int, artifacts,
+                result: IdentifyResult) -> SavedModel:
+    """The model of one identify run: its ``Artifacts`` (final design, θ, σ, physical fit) and result."""
     d = artifacts.design
     physical = None
     if artifacts.physical is not None:
         pf = artifacts.physical
         physical = PhysicalParameters(tuple(pf.names), np.asarray(pf.phi, dtype=float), np.asarray(pf.theta, dtype=float))
-    figures = {"selection": {"before": report["before"], "after": report["after"]}, "test": report["test"]}
-    if "physical" in report:
-        figures["physical"] = {"selection": report["physical"]["selection"], "test": report["physical"]["test"]}
+    figures = {"selection": {"before": selection_dict(result.before), "after": selection_dict(result.after)},
+               "test": result.test.to_dict()}
+    if result.physical is not None:
+        figures["physical"] = {"selection": result.physical.selection.to_dict(),
+                               "test": {k: e.to_dict() for k, e in result.physical.test.items()}}
     return SavedModel(
         robot=str(robot), robot_sha256=sha256_hex(robot_bytes), load=load, seed=int(seed),
         kept=tuple(int(k) for k in d.kept), base_names=tuple(d.base_names), terms=tuple(d.terms),
         theta_model=None if d.theta_model is None else np.asarray(d.theta_model, dtype=float),
         t0=None if d.t0 is None else float(d.t0), names=tuple(d.names), theta=np.asarray(artifacts.theta, dtype=float),
         std_percent=tuple(float(s) if math.isfinite(s) else None for s in artifacts.std_percent),
-        data=data, physical=physical, figures=figures, uncertainty=_uncertainty(artifacts, report),
+        data=data, physical=physical, figures=figures, uncertainty=_uncertainty(artifacts, result),
     )
 
 
-def _uncertainty(artifacts, report: dict) -> dict | None:
+def _uncertainty(artifacts, result: IdentifyResult) -> dict | None:
     """The covariance of the fitted parameters (the kind the report shows) and the residual σ per joint."""
     u = getattr(artifacts, "uncertainty", None)
     if u is None:
         return None
     return {"sigma": u.kind, "columns": [int(c) for c in u.columns],
             "covariance": [[float(x) for x in row] for row in u.cov],
-            "residual_sigma_per_joint": [float(x) for x in report["sigma_per_joint"]]}
+            "residual_sigma_per_joint": [float(x) for x in result.sigma_per_joint]}
 
 
 def dumps(model: SavedModel) -> str:

@@ -34,18 +34,6 @@ class Essential:
     cond_full: float
     columns: tuple[int, ...]  # positions of the essential set in the full fit's columns
 
-    def as_dict(self, err_before: dict, err_after: dict, data: str) -> dict:
-        return {
-            "bound_percent": self.bound,
-            "parameters": {n: {"value": float(v), "std_percent": float(s)} for n, v, s in zip(self.names, self.theta, self.std_percent)},
-            "dropped": self.dropped,
-            "condition_number": self.cond,
-            "condition_number_full": self.cond_full,
-            "error_data": data,
-            "error_before": err_before,
-            "error_after": err_after,
-        }
-
 
 def _cond(H: np.ndarray) -> float:
     w = np.linalg.eigvalsh(H)
@@ -91,7 +79,7 @@ def compare_errors(acc: dict, fit, ess: Essential, parts: list[str]) -> tuple[di
         for k in parts:
             a: Accumulator = acc[k]
             e = errors(a, theta, fit.columns)
-            rss += float(np.sum(e.rms_per_joint**2 * np.maximum(a.rows, 1)))
+            rss += float(np.sum(np.asarray(e.rms_per_joint) ** 2 * np.maximum(a.rows, 1)))
             y2 += float(a.y_norm2().sum())
             rows += float(a.rows.sum())
             per.append(e.rms_per_joint)
@@ -99,8 +87,32 @@ def compare_errors(acc: dict, fit, ess: Essential, parts: list[str]) -> tuple[di
     return out[0], out[1], ", ".join(parts)
 
 
-def essential_report(grams, maps, fit, opts: UncertaintyOptions, bound: float, acc: dict, test_parts: list[str]) -> dict:
-    """The report's "essential" entry: the reduction, and its error on the test parts (selection data if none)."""
+@dataclass(frozen=True)
+class EssentialReport:
+    """The report's "essential" entry: the reduction, and the error of the full and the essential fit
+    (rms_total, relative_error) on ``error_data`` (the test parts; the selection data without them)."""
+
+    essential: Essential
+    error_before: dict
+    error_after: dict
+    error_data: str
+
+    def to_dict(self) -> dict:
+        e = self.essential
+        return {
+            "bound_percent": e.bound,
+            "parameters": {n: {"value": float(v), "std_percent": float(s)} for n, v, s in zip(e.names, e.theta, e.std_percent)},
+            "dropped": [dict(d) for d in e.dropped],
+            "condition_number": e.cond,
+            "condition_number_full": e.cond_full,
+            "error_data": self.error_data,
+            "error_before": dict(self.error_before),
+            "error_after": dict(self.error_after),
+        }
+
+
+def essential_report(grams, maps, fit, opts: UncertaintyOptions, bound: float, acc: dict, test_parts: list[str]) -> EssentialReport:
+    """The reduction, and its error on the test parts (selection data if none)."""
     ess = reduce(grams, maps, fit, opts, bound)
     before, after, data = compare_errors(acc, fit, ess, test_parts or ["selection"])
-    return ess.as_dict(before, after, data)
+    return EssentialReport(ess, before, after, data)

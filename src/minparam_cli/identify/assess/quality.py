@@ -22,6 +22,7 @@ from __future__ import annotations
 
 from dataclasses import replace
 from pathlib import Path
+from typing import Any, Mapping, Protocol
 
 import numpy as np
 
@@ -29,7 +30,8 @@ from minparam_cli.errors import ComputationError
 from minparam_cli.identify.passes.design import Design, Term
 from minparam_cli.identify.diagnosis.diagnose import term_coefficients
 from minparam_cli.dynamics.effects import EFFECTS, in_bounds
-from minparam_cli.identify.estimate.fit import full_theta, solve
+from minparam_cli.identify.estimate.fit import Errors, full_theta, solve
+from minparam_cli.identify.estimate.records import Step, TestFigures
 from minparam_cli.identify.passes.roles import overlaps, span_text
 
 # Column-scaled condition number of the fit data's rigid-body design past which the fit is refused.
@@ -124,33 +126,44 @@ def keep_physical(design: Design, fit, acc: dict, weighted: bool):
         acc = {k: a.restrict(cols) for k, a in acc.items()}
         fit = solve(acc["fit"], new.names, weighted)
         design = new
-        e = errors(acc["selection"], fit.theta, fit.columns).as_dict()
+        e = errors(acc["selection"], fit.theta, fit.columns)
         for t, good, bad in changed:
             names = ", ".join(f"{EFFECTS[t.effect].column_names[0]}{j + 1} = {row[0]:.3g}" for j, row in bad)
-            steps.append({
-                "effect": t.effect, "joints": [j + 1 for j in good], "hyper": t.hyper,
-                "label": f"{t.effect} kept on joint(s) {', '.join(str(j + 1) for j in good)}" if good else f"{t.effect} removed",
-                "statistic": {"removed": t.label(), "why": f"outside the physical range on all the fit data ({names})"},
-                "rms_per_joint": e["rms_per_joint"], "rms_total": e["rms_total"], "relative_error": e["relative_error"],
-            })
+            label = f"{t.effect} kept on joint(s) {', '.join(str(j + 1) for j in good)}" if good else f"{t.effect} removed"
+            steps.append(Step(t.effect, tuple(j + 1 for j in good),
+                              {"removed": t.label(), "why": f"outside the physical range on all the fit data ({names})"},
+                              e, t.hyper, label))
     return design, fit, acc, steps
 
 
-def flags(report: dict, fit) -> list[str]:
+class Figures(Protocol):
+    """What the flags read of an identification (``identify.result.IdentifyResult``)."""
+
+    data: str
+    validate: str | None
+    roles: Mapping[str, Any]
+    files: tuple[Mapping[str, Any], ...]
+    steps: tuple[Step, ...]
+    before: Errors
+    after: Errors
+    test: TestFigures
+
+
+def flags(result: Figures, fit) -> list[str]:
     """Warnings a user must see next to the figures (strings, one line each)."""
     out = []
-    if report.get("validate") and overlaps(Path(report["data"]), Path(report["validate"])):
+    if result.validate and overlaps(Path(result.data), Path(result.validate)):
         out.append("the selection data (--validate) are the data file itself: before and after are in-sample "
                    "figures there, and the effects were chosen on data that also fitted them")
-    if not report["test"]["files"]:
+    if not result.test.files:
         out.append("no test data (--split test share 0, no --test file): every figure comes from data that fitted "
                    "or chose the model")
-    comparisons = [("selection", report["before"], report["after"])]
-    for f in report["test"]["files"]:
-        comparisons.append((f"test ({span_text(f)})", f["rigid"], f["final"]))
-    if report["steps"][1:]:
+    comparisons = [("selection", result.before, result.after)]
+    for f in result.test.files:
+        comparisons.append((f"test ({span_text(f.entry)})", f.rigid, f.final))
+    if result.steps[1:]:
         for name, b, a in comparisons:
-            for j, (x, y) in enumerate(zip(b["rms_per_joint"], a["rms_per_joint"])):
+            for j, (x, y) in enumerate(zip(b.rms_per_joint, a.rms_per_joint)):
                 if x > 0 and y > (1 + RISE_FLAG) * x:
                     out.append(f"joint {j + 1}: the {name} rms rises from {x:.4g} to {y:.4g} "
                                f"(+{100 * (y / x - 1):.0f} %) from the rigid-body model to the final one")
@@ -161,12 +174,12 @@ def flags(report: dict, fit) -> list[str]:
             out.append(f"declared {what} {name} = {v:.4g} is negative: not {what} (a model error or a "
                        "standstill artefact is taking its place)")
     for role in ("selection", "test"):
-        for entry in report.get("roles", {}).get(role, []):
+        for entry in result.roles.get(role, []):
             share = entry.get("still_share")
             if share is not None and share > STILL_PART_FLAG:
                 out.append(f"the {role} data ({span_text(entry)}) stand still in {100 * share:.0f} % of their samples "
                            "(every joint): their figures measure standstill more than motion")
-    for f in report["files"]:
+    for f in result.files:
         still = [(j, s) for j, s in enumerate(f.get("still_share") or []) if s > STILL_FLAG]
         if still:
             js = ", ".join(str(j + 1) for j, _ in still)

@@ -37,6 +37,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from minparam_cli.errors import DataError, InputError
+from minparam_cli.identify.estimate.records import SigmaSummary
 
 SIGMA_KINDS = ("hac", "bootstrap", "textbook")
 DEFAULT_SIGMA = "hac"
@@ -206,17 +207,11 @@ class Uncertainty:
         cov = self.cov_textbook if which == "textbook" else self.cov
         return np.sqrt(np.maximum(np.diag(cov), 0.0))
 
-    def as_dict(self) -> dict:
+    def summary(self) -> SigmaSummary:
+        """The report's "sigma" entry: the kind, its blocks and how it compares with the textbook σ."""
         ratio = self.std() / np.where(self.std("textbook") > 0, self.std("textbook"), np.nan)
-        return {
-            "kind": self.kind,
-            "block_length_s": self.block_s,
-            "blocks": self.blocks,
-            "replicates": self.replicates,
-            "seed": self.seed,
-            "ratio_to_textbook_median": _num(np.nanmedian(ratio)) if len(ratio) else None,
-            "block_doubling_ratio": _num(self.doubling_ratio),
-        }
+        return SigmaSummary(self.kind, self.block_s, self.blocks, self.replicates, self.seed,
+                            _num(np.nanmedian(ratio)) if len(ratio) else None, _num(self.doubling_ratio))
 
     def flags(self) -> list[str]:
         out = [self.note] if self.note else []

@@ -22,6 +22,7 @@ import numpy as np
 from minparam_cli.measured.records import Block
 from minparam_cli.identify.passes.design import Design, Term
 from minparam_cli.dynamics.effects import EFFECTS, source_columns
+from minparam_cli.identify.estimate.errors import Errors
 
 ZERO = -1  # selection index of a zero column (the factors carry a zero column last)
 
@@ -130,12 +131,12 @@ class Compressed:
         sigma = np.sqrt(self.joint_rss(sel, theta) / max(self.N - sel.shape[1] / self.n, 1))
         return np.where(sigma > 0, sigma, 1.0)
 
-    def selection_errors(self, sel: np.ndarray, theta: np.ndarray) -> dict:
+    def selection_errors(self, sel: np.ndarray, theta: np.ndarray) -> Errors:
         """Selection data (the held-out factors), unweighted: rms per joint, rms in all, ‖r‖/‖τ‖."""
         rss = self.joint_rss(sel, theta, hold=True)
         y2 = sum(float(np.sum(T[:, self.cat.y] ** 2)) for T in self.Th)
-        return {
-            "rms_per_joint": [float(x) for x in np.sqrt(rss / self.Nh)],
-            "rms_total": float(np.sqrt(rss.sum() / (self.Nh * self.n))),
-            "relative_error": float(np.sqrt(rss.sum() / y2)),
-        }
+        return Errors(
+            rms_total=float(np.sqrt(rss.sum() / (self.Nh * self.n))),
+            rms_per_joint=tuple(float(x) for x in np.sqrt(rss / self.Nh)),
+            relative_error=float(np.sqrt(rss.sum() / y2)),
+        )

@@ -45,6 +45,7 @@ from minparam_cli.measured.records import Block
 from minparam_cli.identify.passes.design import Design, Term
 from minparam_cli.dynamics.effects import EFFECT_IDS, EFFECTS, in_bounds
 from minparam_cli.identify.diagnosis.scoring import score
+from minparam_cli.identify.estimate.errors import Errors
 
 BIC_THRESHOLD = -10.0
 # a selection error below this (relative) is the data's own rounding: no effect is looked for in it
@@ -71,7 +72,7 @@ class DiagnosisOptions:
 class Step:
     term: Term | None
     statistic: dict
-    errors: dict  # selection data, unweighted: rms_per_joint, rms_total, relative_error
+    errors: Errors  # selection data, unweighted
     design: Design | None = None
     theta: np.ndarray | None = None
 
@@ -206,7 +207,7 @@ def diagnose(design: Design, train: Block, hold: Block, opts: DiagnosisOptions, 
             out.steps.append(Step(None, {"rss_fit_weighted": rss0, "rss_selection_weighted": rssh0}, errs, out.design, theta))
         if step == opts.max_steps:
             break
-        rel = errs["relative_error"]
+        rel = errs.relative_error
         if rel < ROUNDING:
             out.stop_reason = (f"the model explains the selection data to their rounding (relative error {rel:.1g}): "
                                "nothing left to trace")

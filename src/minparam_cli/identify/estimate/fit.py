@@ -20,6 +20,7 @@ import numpy as np
 
 from minparam_cli.errors import ComputationError
 from minparam_cli.identify.estimate.accumulate import Accumulator
+from minparam_cli.identify.estimate.errors import Errors
 
 __all__ = ["Accumulator", "Errors", "Fit", "errors", "full_theta", "independent_columns", "solve"]
 
@@ -35,22 +36,6 @@ class Fit:
     rows: int
     columns: tuple[int, ...] = ()  # columns of the design that were fitted
     dependent: tuple[str, ...] = ()  # names dropped as combinations of earlier columns
-
-
-@dataclass(frozen=True)
-class Errors:
-    rms_per_joint: np.ndarray
-    rms_total: float
-    relative_error: float
-    relative_per_joint: np.ndarray
-
-    def as_dict(self) -> dict:
-        return {
-            "rms_total": float(self.rms_total),
-            "rms_per_joint": [float(x) for x in self.rms_per_joint],
-            "relative_error": float(self.relative_error),
-            "relative_per_joint": [float(x) for x in self.relative_per_joint],
-        }
 
 
 DEPENDENCE_TOL = 1e-9  # |R_ii| of unit-norm columns below this: a combination of earlier columns
@@ -119,8 +104,8 @@ def errors(acc: Accumulator, theta: np.ndarray, columns: tuple[int, ...] | None 
     with np.errstate(divide="ignore", invalid="ignore"):
         rel_j = np.where(y2 > 0, np.sqrt(rss / y2), np.nan)
     return Errors(
-        rms_per_joint=np.sqrt(rss / rows),
         rms_total=float(np.sqrt(rss.sum() / rows.sum())),
+        rms_per_joint=tuple(float(x) for x in np.sqrt(rss / rows)),
         relative_error=float(np.sqrt(rss.sum() / y2.sum())) if y2.sum() > 0 else float("nan"),
-        relative_per_joint=rel_j,
+        relative_per_joint=tuple(float(x) for x in rel_j),
     )

@@ -27,12 +27,13 @@ through XX − YY) are not identifiable from torques and are reported as such.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
 from minparam_cli.dynamics.regressor import regressor
 from minparam_cli.errors import ComputationError, InputError
+from minparam_cli.identify.physical.report import Entry, GainsTLS, PayloadReport
 from minparam_cli.params import LINK_PARAMS
 
 # a payload column whose part outside the span of the columns before it is below this share of its norm
@@ -97,7 +98,7 @@ def gain_columns(chain, b) -> np.ndarray:
     return np.einsum("sk,kj->sjk", c, N)
 
 
-def fit_payload(design, unloaded, loaded, spec: PayloadSpec, gains_unknown: bool) -> dict:
+def fit_payload(design, unloaded, loaded, spec: PayloadSpec, gains_unknown: bool) -> PayloadReport:
     """Payload parameters (and drive gains when ``gains_unknown``) with σ; see the module docstring."""
     check_spec(spec)
     if gains_unknown and spec.mass is None:
@@ -137,7 +138,7 @@ def fit_payload(design, unloaded, loaded, spec: PayloadSpec, gains_unknown: bool
     if gains_unknown:  # Gautier & Briot's total least squares, reported beside (an independent computation)
         gi = [keep.index(i) for i in range(p + len(unknown), A.shape[2])]
         xt, st = _tls(A[:, :, keep], b, r)
-        tls = {"method": TLS_METHOD, "drive_gains": {f"motor {k + 1}": _entry(xt[j], st[j]) for k, j in enumerate(gi)}}
+        tls = GainsTLS(TLS_METHOD, {f"motor {k + 1}": Entry.of(xt[j], st[j]) for k, j in enumerate(gi)})
     if gains_unknown:  # the currents sit in the regressor: refine on the currents themselves (no errors-in-variables bias)
         from minparam_cli.dynamics.transmission import motor_matrix
 
@@ -160,25 +161,20 @@ def fit_payload(design, unloaded, loaded, spec: PayloadSpec, gains_unknown: bool
     sigma_j = np.sqrt(np.mean(r**2, axis=0))
     full = dict(zip([names[i] for i in keep], zip(x, std)))
 
-    entry = _entry
-    out = {"method": method, "known": {k: float(v) for k, v in known.items()}, "frame": f"link {chain.n} ({chain.link_names[-1]})",
-           "parameters": {}, "not_identifiable": [k[:-1] for k in dropped_payload],
-           "samples": [len(unloaded), len(loaded)], "relative_error": rel, "sigma_per_joint": sigma_j.tolist()}
-    for k in unknown:
-        if f"{k}L" in full:
-            out["parameters"][k] = entry(*full[f"{k}L"])
-    mass = spec.mass if spec.mass is not None else out["parameters"].get("M", {}).get("value")
-    if spec.com is None and mass and all(k in out["parameters"] for k in ("MX", "MY", "MZ")):
-        out["com"] = [out["parameters"][k]["value"] / mass for k in ("MX", "MY", "MZ")]
+    params = {k: Entry.of(*full[f"{k}L"]) for k in unknown if f"{k}L" in full}
+    mass = spec.mass if spec.mass is not None else (params["M"].value if "M" in params else None)
+    com = None
+    if spec.com is None and mass and all(k in params for k in ("MX", "MY", "MZ")):
+        com = tuple(params[k].value / mass for k in ("MX", "MY", "MZ"))
+    gains = base = None
     if gains_unknown:  # the gains and the model in the unit the known mass fixed (N·m)
-        out["drive_gains"] = {f"motor {k + 1}": entry(*full[f"g{k + 1}"]) for k in range(n)}
-        out["base_parameters"] = {name: entry(*full[name]) for name in design.names if name in full}
-        out["total_least_squares"] = tls
-    return out
-
-
-def _entry(value, s) -> dict:
-    return {"value": float(value), "std": float(s), "std_percent": float(100 * s / abs(value)) if value != 0 else float("inf")}
+        gains = {f"motor {k + 1}": Entry.of(*full[f"g{k + 1}"]) for k in range(n)}
+        base = {name: Entry.of(*full[name]) for name in design.names if name in full}
+    return PayloadReport(method=method, known={k: float(v) for k, v in known.items()},
+                         frame=f"link {chain.n} ({chain.link_names[-1]})", parameters=params,
+                         not_identifiable=tuple(k[:-1] for k in dropped_payload), samples=(len(unloaded), len(loaded)),
+                         relative_error=rel, sigma_per_joint=tuple(sigma_j.tolist()), com=com, drive_gains=gains,
+                         base_parameters=base, total_least_squares=tls)
 
 
 TLS_METHOD = ("total least squares of the stacked unloaded and loaded recordings, [W, -C | -Y_k phi_k] "
@@ -315,21 +311,18 @@ def _wls(A: np.ndarray, b: np.ndarray):
     return x, np.sqrt(np.maximum(np.diag(cov), 0.0)), b - A @ x
 
 
-def payload_report(design, data_path, payload_path, data_opts, spec: PayloadSpec, gains_unknown: bool) -> dict:
+def payload_report(design, data_path, payload_path, data_opts, spec: PayloadSpec, gains_unknown: bool) -> PayloadReport:
     """Read the whole unloaded and loaded files (same preprocessing as the main fit) and fit the payload."""
     from minparam_cli.measured.blocks import load_all
 
     check_spec(spec)
     n = design.chain.dof
     unloaded, loaded = load_all(data_path, n, data_opts), load_all(payload_path, n, data_opts)
-    out = fit_payload(design, unloaded, loaded, spec, gains_unknown)
-    out["files"] = [str(data_path), str(payload_path)]
-    return out
+    return replace(fit_payload(design, unloaded, loaded, spec, gains_unknown), files=(str(data_path), str(payload_path)))
 
 
 def with_payload(sim, chain, spec: PayloadSpec):
     """A simulation with the payload's torque Y_n φ_L added (``simulate --payload-mass``)."""
-    from dataclasses import replace
 
     check_spec(spec)
     phi = np.zeros(10)
