@@ -279,7 +279,7 @@ def _note_rejected(out: Diagnosis, cands, scores, mask, dbic, gain, beat: float,
     out.rejected.append(Rejected(t, np.asarray(scores.coefficients[k]), float(gain[k]), float(dbic[k])))
 
 
-def _selection_score(data: Compressed, design: Design, sigma: np.ndarray) -> tuple[float, float, np.ndarray, dict, bool]:
+def _selection_score(data: Compressed, design: Design, sigma: np.ndarray) -> tuple[float, float, np.ndarray, Errors, bool]:
     """Selection-data BIC of a design fitted on the fit data under the given weights ``sigma`` (the same
     for every design compared), its unweighted selection RSS, theta, errors and whether its added
     terms' coefficients lie in their physical ranges."""
