@@ -4,6 +4,7 @@ identities; the identified model's predictions and its file round trip."""
 
 from __future__ import annotations
 
+import dataclasses
 import subprocess
 import sys
 
@@ -249,7 +250,7 @@ def test_excite_prints_nothing_and_warns(capsys):
     np.testing.assert_allclose(np.hstack([q, dq, ddq]), np.hstack([r.q, r.dq, r.ddq]), rtol=0, atol=1e-12)
     starts = r.to_dict()["starts"]
     assert r.criterion <= starts[r.to_dict()["best_start"] - 1]["start"]
-    with pytest.raises(Exception):
+    with pytest.raises(dataclasses.FrozenInstanceError):
         r.seed = 3  # type: ignore[misc]
 
 

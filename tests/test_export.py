@@ -167,7 +167,7 @@ def assert_urdf_reproduces(text: str, chain, phi, seed=0):
 def _pin_q(model, q):
     """pinocchio's configuration: a continuous joint is (cos q, sin q)."""
     out = []
-    for joint, qj in zip(list(model.joints)[1:], q):
+    for joint, qj in zip(list(model.joints)[1:], q, strict=True):
         out += [math.cos(qj), math.sin(qj)] if joint.nq == 2 else [qj]
     return np.array(out)
 

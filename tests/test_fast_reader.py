@@ -46,7 +46,7 @@ def outcome(path, monkeypatch, reader: str, rows: int = 700):
 def same(a, b) -> bool:
     if isinstance(a, str) or isinstance(b, str):
         return a == b
-    return len(a) == len(b) and all(x.shape == y.shape and np.array_equal(x.view(np.uint64), y.view(np.uint64)) for x, y in zip(a, b))
+    return len(a) == len(b) and all(x.shape == y.shape and np.array_equal(x.view(np.uint64), y.view(np.uint64)) for x, y in zip(a, b, strict=True))
 
 
 def number_texts(rng, n: int) -> list[str]:
@@ -56,9 +56,9 @@ def number_texts(rng, n: int) -> list[str]:
     kinds = [lambda v: repr(float(v)), lambda v: f"{v:.17g}", lambda v: f"{v:.9g}", lambda v: f"{v:e}",
              lambda v: str(int(v * 1000)), lambda v: f"+{abs(v):.6f}", lambda v: f" {v:.4f} ",
              lambda v: f"{v:.40f}", lambda v: f"{v:.3e}".replace("e", "E")]
-    out = [kinds[int(k)](v) for k, v in zip(rng.integers(0, len(kinds), n), x)]
+    out = [kinds[int(k)](v) for k, v in zip(rng.integers(0, len(kinds), n), x, strict=True)]
     for i, special in zip(rng.choice(n, 8, replace=False), ["4.9e-324", "2.2250738585072011e-308", "1e-400", "1.7976931348623157e308",
-                                                           "0.1000000000000000055511151231257827021181583404541015625", "-0", ".5", "5."]):
+                                                           "0.1000000000000000055511151231257827021181583404541015625", "-0", ".5", "5."], strict=True):
         out[i] = special
     return out
 

@@ -107,7 +107,7 @@ def test_base_force_rows_are_newtons_law_for_the_whole_robot(tmp_path):
 
     def centres(t):
         frames, _, _ = ref._fk(chain, q0 + qd * t + 0.5 * qdd * t * t)
-        return np.array([(frames[j][:3, :3] @ c + frames[j][:3, 3]).real for j, c in zip(bodies, coms)])
+        return np.array([(frames[j][:3, :3] @ c + frames[j][:3, 3]).real for j, c in zip(bodies, coms, strict=True)])
 
     h = 1e-4
     acc = (centres(h) - 2 * centres(0.0) + centres(-h)) / (h * h)

@@ -480,7 +480,7 @@ def test_heavy_cases_as_subprocesses(corpus, tmp_path):
     with ThreadPoolExecutor(max_workers=2) as pool:
         results = list(pool.map(lambda kc: _run_heavy(kc[1], outs[kc[0]]), enumerate(heavy)))
     failures = []
-    for case, out, (code, stderr, elapsed, rss) in zip(heavy, outs, results):
+    for case, out, (code, stderr, elapsed, rss) in zip(heavy, outs, results, strict=True):
         problems = _check_result(case, code, stderr, out, elapsed)
         if rss > MEMORY_LIMIT_MB:
             problems.append(f"peak RSS {rss:.0f} MB")

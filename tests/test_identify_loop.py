@@ -42,7 +42,7 @@ def steps_fall(rep: dict) -> bool:
     """Every step that adds an effect lowers the selection error it reports."""
     errs = [s["relative_error"] for s in rep["steps"] if not (s["statistic"] or {}).get("replaces")
             and "removed" not in (s["statistic"] or {})]
-    return all(b < a for a, b in zip(errs, errs[1:]))
+    return all(b < a for a, b in zip(errs, errs[1:], strict=False))
 
 
 # --- three roles --------------------------------------------------------------------------------

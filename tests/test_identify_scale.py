@@ -64,7 +64,7 @@ def test_fast_update_equals_householder(monkeypatch):
     _accumulate(X, y, 1000)
     assert calls["fast"] > 30  # the fast path did the work
     slow = _accumulate(X, y, 1000, fast=False, monkeypatch=monkeypatch)
-    for Rf, Rs in zip(fast.R, slow.R):
+    for Rf, Rs in zip(fast.R, slow.R, strict=True):
         Gf, Gs = Rf.T @ Rf, Rs.T @ Rs
         scale = np.sqrt(np.outer(np.diag(Gs), np.diag(Gs))) + 1e-300
         assert np.max(np.abs(Gf - Gs) / scale) < 1e-12
@@ -91,13 +91,13 @@ def test_segment_grams_from_the_update_equal_the_rows_grams(monkeypatch, fast):
         segments = [(0, 400), (400, 401), (401, 1500)]
         out = acc.add_columns(cols, segments)
         for j, (active, grams) in enumerate(out):
-            for (a, b), G in zip(segments, grams):
+            for (a, b), G in zip(segments, grams, strict=True):
                 A = rows[s0 + a : s0 + b, j][:, active]
                 ref = A.T @ A
                 scale = np.sqrt(np.outer(np.diag(ref), np.diag(ref))) + 1e-300
                 assert np.max(np.abs(G - ref) / scale) < 1e-9
             assert 5 not in active or j != 1  # joint 2's zero column is never factored
-    for Ra, Rb in zip(acc.R, plain.R):
+    for Ra, Rb in zip(acc.R, plain.R, strict=True):
         assert np.allclose(Ra.T @ Ra, Rb.T @ Rb, rtol=1e-10, atol=1e-10 * np.abs(Rb.T @ Rb).max())
 
 

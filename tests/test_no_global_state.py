@@ -191,5 +191,5 @@ def test_the_numpy_csv_reader_warns_about_nothing_and_reads_what_loadtxt_reads(t
         with FilterChanges() as changes:
             got = list(tables._sequential(fh, rows))
     assert not heard and changes.count == 0, [str(w.message) for w in heard]
-    assert len(got) == len(expected) and all(a.shape == b.shape and np.array_equal(a, b) for a, b in zip(got, expected))
+    assert len(got) == len(expected) and all(a.shape == b.shape and np.array_equal(a, b) for a, b in zip(got, expected, strict=True))
     assert sum(len(c) for c in got) == 40

@@ -52,7 +52,7 @@ def test_gains_from_currents_and_a_known_payload_mass(recordings):
         # the currents are fitted, not used as regressors: no errors-in-variables bias beyond σ
         assert abs(e["value"] - g) < 5 * e["std"], (k, e, g)
     assert p["method"].startswith("Gauss–Newton")
-    for name, value in zip(("MX", "MY", "MZ"), COM):
+    for name, value in zip(("MX", "MY", "MZ"), COM, strict=True):
         assert p["parameters"][name]["value"] == pytest.approx(MASS * value, rel=0.03, abs=1e-3)
     assert not any("arbitrary" in f for f in r["flags"])  # the known mass fixed the scale
     assert "payload" not in json.dumps(r["steps"])  # never a missing effect

@@ -21,7 +21,7 @@ def base_truth(robot: str, phi: np.ndarray) -> dict:
 
     _, chain = load_chain(f"robots/{robot}", DeriveOptions())
     base = derive_qr(chain, seed=0)
-    return dict(zip(base.base_names, base.K @ phi))
+    return dict(zip(base.base_names, base.K @ phi, strict=True))
 
 
 def consistent(links: list[dict], tol: float = 1e-9) -> bool:

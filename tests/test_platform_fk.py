@@ -85,7 +85,7 @@ def test_paper_pso_modes_are_exact_modes_for_every_seed(paper, paper_exact):
         r = forward_kinematics(paper, PAPER_L, "pso", seed=seed, rng=np.random.default_rng(seed))
         assert r.seed == seed and r.starts == 30
         assert sum(s.starts for s in r.solutions) + r.failed_starts == 30
-        for s, k in zip(r.solutions, keys(paper, r)):
+        for s, k in zip(r.solutions, keys(paper, r), strict=True):
             assert s.residual <= 1e-9
             assert any(np.max(np.abs(k - e)) <= 1e-6 for e in exact)
             if not any(np.max(np.abs(k - u)) <= 1e-6 for u in union):

@@ -109,9 +109,9 @@ def test_ik_by_hand_eq3(paper):
 def test_ik_vectorised_equals_loop(paper):
     poses = np.column_stack([RNG.normal(0, 50, (20, 3)), RNG.uniform(-0.5, 0.5, (20, 3))])
     batch = leg_lengths(paper, poses)
-    for q, row in zip(poses, batch):
+    for q, row in zip(poses, batch, strict=True):
         R = matrix_from_rpy(*q[3:])
-        for k, (b, p) in enumerate(zip(paper.leg_base, paper.leg_platform)):
+        for k, (b, p) in enumerate(zip(paper.leg_base, paper.leg_platform, strict=True)):
             v = -paper.base[b] + q[:3] + R @ paper.platform[p]
             assert row[k] == pytest.approx(np.linalg.norm(v), rel=1e-14)
 

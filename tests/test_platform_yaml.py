@@ -78,10 +78,10 @@ def test_paper_file_loads_with_the_recorded_angles():
     d = load_platform(ROBOTS / "dodekapod_dang2013.yaml")
     assert d.structure == "platform" and d.angle_unit == "deg" and d.length_unit == "mm"
     assert [leg.name for leg in d.legs] == ["l12", "l13", "l21", "l23", "l31", "l32"]
-    for (x, y, z), phi in zip(d.base_coords, (90, 210, 330)):
+    for (x, y, z), phi in zip(d.base_coords, (90, 210, 330), strict=True):
         assert x == pytest.approx(90 * math.cos(math.radians(phi)), abs=1e-12)
         assert y == pytest.approx(90 * math.sin(math.radians(phi)), abs=1e-12) and z == 0
-    for (x, y, _), lam in zip(d.platform_coords, (90, 30, 150)):
+    for (x, y, _), lam in zip(d.platform_coords, (90, 30, 150), strict=True):
         assert math.hypot(x, y) == pytest.approx(81) and math.degrees(math.atan2(y, x)) == pytest.approx(lam)
     assert all(leg.limits == (150.0, 300.0) for leg in d.legs)
 

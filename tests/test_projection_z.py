@@ -59,10 +59,10 @@ def test_decomposition_reproduces_the_joint_transform_and_its_derivative(kind):
         for q in rng.uniform(-3, 3, 4):
             A = pre @ motion(kind, axis, np.array([q]))[0] @ post
             x = x_functions(kind, q)
-            assert np.allclose(sum(c * m for c, m in zip(x, terms.A)), A, atol=1e-12)
+            assert np.allclose(sum(c * m for c, m in zip(x, terms.A, strict=True)), A, atol=1e-12)
             h = 1e-6
             dA = (pre @ (motion(kind, axis, np.array([q + h]))[0] - motion(kind, axis, np.array([q - h]))[0]) @ post) / (2 * h)
-            dsum = sum(c * m for c, m in zip(x, terms.D) if m is not None)
+            dsum = sum(c * m for c, m in zip(x, terms.D, strict=True) if m is not None)
             assert np.allclose(dsum, dA, atol=1e-7)
 
 
@@ -78,8 +78,8 @@ def test_linear_maps_are_the_products_re_expanded_on_Y(kind, left, right):
     out = (M @ X.reshape(16, 1)).reshape(Y_SIZE[kind], 4, 4)
     for q in rng.uniform(-3, 3, 4):
         x = x_functions(kind, q)
-        Lq = sum(c * m for c, m in zip(x, L) if m is not None)
-        Rq = sum(c * m for c, m in zip(x, R) if m is not None)
+        Lq = sum(c * m for c, m in zip(x, L, strict=True) if m is not None)
+        Rq = sum(c * m for c, m in zip(x, R, strict=True) if m is not None)
         expanded = np.einsum("c,cij->ij", y_functions(kind, q), out)
         assert np.allclose(expanded, Lq.T @ X @ Rq, atol=1e-12)
     assert set(PRODUCT_RULES[kind]) == set(itertools.product(range(len(x)), repeat=2))
@@ -117,7 +117,7 @@ def z_by_sampling(chain):
         shape = tuple(len(g) for g in grids)
         values = np.zeros(shape + ((n, n, P) if part == KINETIC else (P,)))
         for idx in itertools.product(*[range(s) for s in shape]):
-            q = np.array([g[i] for g, i in zip(grids, idx)])
+            q = np.array([g[i] for g, i in zip(grids, idx, strict=True)])
             for c in range(P):
                 if part == KINETIC:
                     values[idx + (slice(None), slice(None), c)] = ref.mass_matrix(chain, eye[c], q).real
@@ -138,8 +138,8 @@ def _records_chain(joints):
     """A URDF-like chain built from records: arbitrary origins and axes, any joint kinds."""
     recs = []
     for k, (kind, xyz, rpy, axis) in enumerate(joints):
-        origin = {key: GeomValue(v, f"{key}{k}") for key, v in zip("xyz", xyz)}
-        origin.update({key: GeomValue(v, f"{key}{k}", True) for key, v in zip(("roll", "pitch", "yaw"), rpy)})
+        origin = {key: GeomValue(v, f"{key}{k}") for key, v in zip("xyz", xyz, strict=True)}
+        origin.update({key: GeomValue(v, f"{key}{k}", True) for key, v in zip(("roll", "pitch", "yaw"), rpy, strict=True)})
         recs.append(JointRecord(name=f"j{k}", type=kind, parent=k - 1, link_name=f"l{k}", origin=origin, axis=axis))
     desc = RobotDescription("records", "records", "urdf", tuple(recs), gravity=(0.3, -1.2, -9.7))
     return build_chain(desc)
@@ -170,7 +170,7 @@ def test_recursion_z_equals_sampled_and_transformed_energy(name):
     labels, Z = coordinate_matrix(chain)
     Z = Z[:, : 10 * chain.n]
     rec = {}
-    for lab, row in zip(labels, Z):
+    for lab, row in zip(labels, Z, strict=True):
         key = lab[:3] + (lab[3],) if lab[0] == KINETIC else lab
         assert key not in rec, f"row {key} produced twice"
         rec[key] = row

@@ -103,9 +103,9 @@ def test_tx40_no_joint_rises_on_the_test_block(tmp_path):
     for block in (rep["test"]["rigid"], rep["before"]):
         assert block["rms_total"] > 0
     before, after = rep["test"]["rigid"]["rms_per_joint"], rep["test"]["final"]["rms_per_joint"]
-    assert all(a < b for a, b in zip(after, before)), (before, after)
+    assert all(a < b for a, b in zip(after, before, strict=True)), (before, after)
     sel_before, sel_after = rep["before"]["rms_per_joint"], rep["after"]["rms_per_joint"]
-    assert all(a < b for a, b in zip(sel_after, sel_before))
+    assert all(a < b for a, b in zip(sel_after, sel_before, strict=True))
     # the plain sign(dq) (the former default) lets joint 4 rise on the test block: the cause this fixes
     old = reports["--keep-slow-velocity"]["test"]
     assert old["final"]["rms_per_joint"][3] > old["rigid"]["rms_per_joint"][3]

@@ -51,7 +51,7 @@ def write_bag(path: Path, kind: str, csv: Path, names=NAMES, topic="/joint_state
         conns = [writer.add_connection(t, JointState.__msgtype__, typestore=store) for t in (topic, *extra_topics)]
         for r, row in enumerate(table):
             ns = int(round(row[col["t"]] * 1e9))
-            pick = lambda key: np.array([row[col[f"{key}{j + 1}"]] for j in perm], dtype=np.float64)  # noqa: E731
+            pick = lambda key, row=row: np.array([row[col[f"{key}{j + 1}"]] for j in perm], dtype=np.float64)  # noqa: E731
             msg = JointState(
                 header=Header(**({"seq": r} if ros1 else {}), stamp=Time(sec=ns // 10**9, nanosec=ns % 10**9), frame_id=""),
                 name=[names[j] for j in perm],

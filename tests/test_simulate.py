@@ -435,7 +435,7 @@ def test_body_from_standard_inverts_standard_from_com():
 
     rng = np.random.default_rng(11)
     bodies = random_inertia(4, 0.5, rng)
-    for m, c, Ic, phi in zip(bodies.mass, bodies.com, bodies.inertia_com, bodies.phi.reshape(4, 10)):
+    for m, c, Ic, phi in zip(bodies.mass, bodies.com, bodies.inertia_com, bodies.phi.reshape(4, 10), strict=True):
         m2, c2, Ic2 = body_from_standard(phi)
         assert m2 == m and np.allclose(c2, c, rtol=1e-12, atol=1e-15) and np.allclose(Ic2, Ic, rtol=1e-10, atol=1e-14)
         assert np.allclose(standard_from_com(m2, c2, Ic2), phi, rtol=1e-10, atol=1e-14)

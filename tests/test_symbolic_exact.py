@@ -133,7 +133,7 @@ def compare_with_numeric(path, opts, n_geometries=2, seed=18, file_kept=False):
         # as with CAD numbers of 1e-17, below the numeric route's cut at the file's values)
         report_names = [b["name"] for b in report["base_parameters"]]
         assert [unmark(n) for n in num.base_names] == [unmark(n) for n in report_names]
-        got = dict(zip(keys, (float(v) for v in f(*[values[s.name] for s in symbols], g))))
+        got = dict(zip(keys, (float(v) for v in f(*[values[s.name] for s in symbols], g)), strict=True))
         W = stacked_regressor(other, 60, sample_rng(int(rng.integers(1 << 30))))
         norms = np.linalg.norm(W, axis=0)
         for i, name in enumerate(report_names):

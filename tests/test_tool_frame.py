@@ -137,8 +137,8 @@ def test_flange_is_the_default_tool_point_and_its_velocity_matches_a_hand_comput
     v = P[3:] @ QD + np.cross(w, c)
     # ... equals the hand sum of z_i × (c - o_i) q̇_i
     axes = [(R1 @ [0, 0, 1], p1), (R2 @ [0, 1, 0], p2), (R3 @ [0, 1, 0], p3)]
-    v_hand = sum(qd * np.cross(z, c - o) for qd, (z, o) in zip(QD, axes))
-    w_hand = sum(qd * z for qd, (z, _) in zip(QD, axes))
+    v_hand = sum(qd * np.cross(z, c - o) for qd, (z, o) in zip(QD, axes, strict=True))
+    w_hand = sum(qd * z for qd, (z, _) in zip(QD, axes, strict=True))
     assert np.allclose(w, w_hand, atol=1e-12) and np.allclose(v, v_hand, atol=1e-12)
 
 

@@ -203,7 +203,7 @@ def columns(rows: list[tuple], headers: tuple[str, ...] | None = None, right: tu
     widths = [max(len(r[i]) for r in cells) for i in range(len(cells[0]))]
 
     def line(r):
-        parts = [c.rjust(w) if i in right else c.ljust(w) for i, (c, w) in enumerate(zip(r, widths))]
+        parts = [c.rjust(w) if i in right else c.ljust(w) for i, (c, w) in enumerate(zip(r, widths, strict=True))]
         return "  ".join(parts).rstrip()
 
     out = [line(r) for r in cells]

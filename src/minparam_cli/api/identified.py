@@ -71,7 +71,7 @@ class Model:
 
         n = self.design.chain.dof
         arrays = [np.atleast_2d(np.asarray(x, dtype=float)) for x in (q, dq, ddq)]
-        for name, x in zip(("q", "dq", "ddq"), arrays):
+        for name, x in zip(("q", "dq", "ddq"), arrays, strict=True):
             if x.ndim != 2 or x.shape != arrays[0].shape or x.shape[1] != n:
                 raise InputError(f"{name}: expected shape (N, {n}) like q, got {x.shape}")
         N = arrays[0].shape[0]
@@ -142,7 +142,7 @@ class Identification:
     @property
     def parameters(self) -> dict[str, float]:
         """{parameter name: value} of the final fit."""
-        return {n: float(v) for n, v in zip(self.names, self.model.saved.theta)}
+        return {n: float(v) for n, v in zip(self.names, self.model.saved.theta, strict=True)}
 
     def to_dict(self) -> dict[str, Any]:
         """The JSON of ``minparam identify --format json`` for the same call."""

@@ -122,7 +122,7 @@ def regressor(robot: Robot | str | Path, q: Any, dq: Any, ddq: Any, base: bool |
     arrays = [np.asarray(x, dtype=float) for x in (q, dq, ddq)]
     single = arrays[0].ndim == 1
     arrays = [np.atleast_2d(x) for x in arrays]
-    for name, x in zip(("q", "dq", "ddq"), arrays):
+    for name, x in zip(("q", "dq", "ddq"), arrays, strict=True):
         if x.ndim != 2 or x.shape[1] != chain.dof or x.shape != arrays[0].shape:
             raise InputError(f"{name}: expected shape (N, {chain.dof}) like q, got {x.shape}")
         if not np.all(np.isfinite(x)):

@@ -55,7 +55,7 @@ class ExactRowSpace:
         for f in free:
             v = [Fraction(0)] * self.d
             v[f] = Fraction(1)
-            for p, r in zip(self.pivots, self.rref):
+            for p, r in zip(self.pivots, self.rref, strict=True):
                 v[p] = -r[f]
             den = lcm(*[x.denominator for x in v])
             cols.append(_primitive([int(x * den) for x in v]))
@@ -77,17 +77,17 @@ class ExactRowSpace:
 
     def _insert(self, row: list[int]) -> None:
         r = [Fraction(v) for v in row]
-        for p, b in zip(self.pivots, self.rref):
+        for p, b in zip(self.pivots, self.rref, strict=True):
             if r[p]:
                 f = r[p]
-                r = [x - f * y for x, y in zip(r, b)]
+                r = [x - f * y for x, y in zip(r, b, strict=True)]
         lead = next(i for i, x in enumerate(r) if x)
         f = r[lead]
         r = [x / f for x in r]
         for i, b in enumerate(self.rref):
             if b[lead]:
                 g = b[lead]
-                self.rref[i] = [x - g * y for x, y in zip(b, r)]
+                self.rref[i] = [x - g * y for x, y in zip(b, r, strict=True)]
         self.pivots.append(lead)
         self.rref.append(r)
         self.rows.append(_primitive(row))
@@ -154,12 +154,12 @@ def integer_rref(rows: list[list[int]]) -> tuple[list[int], list[list[int]]]:
     basis: list[list[int]] = []
     for row in rows:
         r = list(row)
-        for p, b in zip(pivots, basis):
+        for p, b in zip(pivots, basis, strict=True):
             if r[p]:
                 a, c = b[p], r[p]
                 g = gcd(a, c)
                 a, c = a // g, c // g
-                r = [a * x - c * y for x, y in zip(r, b)]
+                r = [a * x - c * y for x, y in zip(r, b, strict=True)]
         lead = next((i for i, x in enumerate(r) if x), None)
         if lead is None:
             continue
@@ -171,7 +171,7 @@ def integer_rref(rows: list[list[int]]) -> tuple[list[int], list[list[int]]]:
                 a, c = r[lead], b[lead]
                 g = gcd(a, c)
                 a, c = a // g, c // g
-                nb = _primitive([a * x - c * y for x, y in zip(b, r)])
+                nb = _primitive([a * x - c * y for x, y in zip(b, r, strict=True)])
                 if nb[pivots[i]] < 0:
                     nb = [-x for x in nb]
                 basis[i] = nb
@@ -185,7 +185,7 @@ def solve_dense(rows: list[list], rhs: list, zero):
     """Exact solution of a tall consistent system (rows x unknowns); None if inconsistent or
     not of full column rank."""
     m = len(rows[0]) if rows else 0
-    A = [list(r) + [b] for r, b in zip(rows, rhs)]
+    A = [list(r) + [b] for r, b in zip(rows, rhs, strict=True)]
     piv_rows = []
     r = 0
     for c in range(m):
@@ -198,7 +198,7 @@ def solve_dense(rows: list[list], rhs: list, zero):
         for i in range(len(A)):
             if i != r and A[i][c]:
                 f = A[i][c]
-                A[i] = [x - f * y for x, y in zip(A[i], A[r])]
+                A[i] = [x - f * y for x, y in zip(A[i], A[r], strict=True)]
         piv_rows.append(r)
         r += 1
     if any(A[i][m] for i in range(r, len(A))):

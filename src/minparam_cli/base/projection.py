@@ -207,7 +207,7 @@ def _exact_result(geom: ProjectionGeometry, stream: dict):
         for space, psi in ((stream["kin"][t], stream["maps"][t][0]), (stream["pot"][t], stream["maps"][t][1])):
             psi_i = _int_matrix(psi)
             for b in space.rows:
-                rows.append([sum(p * x for p, x in zip(prow, b) if x) for prow in psi_i])
+                rows.append([sum(p * x for p, x in zip(prow, b, strict=True) if x) for prow in psi_i])
     for col in _extra_unit_rows(chain):
         rows.append([1 if c == col else 0 for c in range(P)])
     rows = [r for r in rows if any(r)]
@@ -217,7 +217,7 @@ def _exact_result(geom: ProjectionGeometry, stream: dict):
     # relations in the rescaled units, then back to SI: beta_k = beta'_k * s_d / s_k
     s = geom.column_scales()
     K_exact = []
-    for p, r in zip(pivots, reduced):
+    for p, r in zip(pivots, reduced, strict=True):
         row = [Fraction(0)] * P
         row[p] = Fraction(1)
         for d in range(P):

@@ -126,9 +126,9 @@ def report_dict(base) -> dict[str, Any]:
     stage call), the base set's own fields only."""
     d = base.derivation
     names = list(base.standard_names)
-    params = [{"name": n, "expression": expression(t), "terms": t} for n, t in zip(base.names, base.terms)]
+    params = [{"name": n, "expression": expression(t), "terms": t} for n, t in zip(base.names, base.terms, strict=True)]
     if d is not None and d.symbolic is not None and d.symbolic.parameters is not None:
-        params = [dict(b, **s) for b, s in zip(params, d.symbolic.parameters)]
+        params = [dict(b, **s) for b, s in zip(params, d.symbolic.parameters, strict=True)]
     head: dict[str, Any] = {"schema": SCHEMA}
     if d is not None:
         a = d.about

@@ -140,7 +140,7 @@ class BaseSet:
         numeric = self.numeric_expressions
         if d is None or d.symbolic is None or d.symbolic.parameters is None:
             return numeric
-        return tuple(s.get("symbolic") or e for s, e in zip(d.symbolic.parameters, numeric))
+        return tuple(s.get("symbolic") or e for s, e in zip(d.symbolic.parameters, numeric, strict=True))
 
     @property
     def robot(self) -> str:

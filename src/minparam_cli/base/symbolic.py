@@ -83,7 +83,7 @@ class BetaSampler:
 
     def chain_at(self, x):
         values = dict(self.pins)
-        values.update({s.name: float(v) for s, v in zip(self.symbols, x)})
+        values.update({s.name: float(v) for s, v in zip(self.symbols, x, strict=True)})
         return build_chain(axes_at(self.desc, values), values=values or None, extras=self.extras)
 
     def regressor_at(self, x):
@@ -176,7 +176,7 @@ def exact_forms(desc, chain, symbols, pins, rng, numbers=None):
 
 def _generator_values(symbols, gravity_values, x) -> dict:
     out = dict(gravity_values)
-    for s, v in zip(symbols, x):
+    for s, v in zip(symbols, x, strict=True):
         if s.is_angle:
             out[f"sin_{s.name}"], out[f"cos_{s.name}"] = np.sin(v), np.cos(v)
         else:
@@ -206,12 +206,12 @@ def verify(exprs, exact, symbols, gravity_values, beta_of, X) -> float:
         B = beta_of(x)
         vals = f(*x)
         gv = _generator_values(symbols, gravity_values, x)
-        for k, v in zip(keys, vals):
+        for k, v in zip(keys, vals, strict=True):
             num = B[k]
             size = max(abs(float(v)), abs(num), exact[k].size(gv))
             worst = max(worst, abs(float(v) - num) / (size + 1e-300))
         nz = np.abs(B) > 1e-9 * (1.0 + np.abs(B).max())
-        for idx in zip(*np.nonzero(nz)):
+        for idx in zip(*np.nonzero(nz), strict=True):
             if tuple(int(i) for i in idx) not in exprs:
                 worst = max(worst, 1.0)
     return worst
@@ -231,7 +231,7 @@ def identity_error(exprs, symbols, gravity_values, W_of, kept, dependent, X) -> 
     for x in X:
         W = W_of(x)
         B = np.zeros((len(kept), len(dependent)))
-        for k, v in zip(keys, f(*x)):
+        for k, v in zip(keys, f(*x), strict=True):
             B[k] = float(v)
         Wk, Wd = W[:, list(kept)], W[:, list(dependent)]
         nk, nd = np.linalg.norm(Wk, axis=0), np.linalg.norm(Wd, axis=0)

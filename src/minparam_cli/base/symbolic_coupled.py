@@ -82,9 +82,9 @@ class Coupled:
         point: dict = {}
         for joints, lat in self.lattice.values():
             phis = [circle() for _ in lat[0]]
-            for j, row in zip(joints, lat):
+            for j, row in zip(joints, lat, strict=True):
                 c, s = Fraction(1), Fraction(0)
-                for (pc, ps), e in zip(phis, row):
+                for (pc, ps), e in zip(phis, row, strict=True):
                     ec, es = _multiple_angle((pc, ps), e)
                     c, s = c * ec - s * es, c * es + s * ec
                 point[j] = (c, s)
@@ -124,7 +124,7 @@ def _collisions(ks) -> list[tuple[int, ...]]:
     out = []
     for delta in itertools.product(range(-4, 5), repeat=len(ks) - 1):
         # the last component is fixed by the others when it exists: δ_m = −Σ δ_j K_j / K_m
-        rest = -sum(d * x for d, x in zip(delta, K[:-1]))
+        rest = -sum(d * x for d, x in zip(delta, K[:-1], strict=True))
         if rest % K[-1] == 0 and abs(rest // K[-1]) <= 4:
             full = (*delta, int(rest // K[-1]))
             if any(full):

@@ -79,7 +79,7 @@ def _apply(Xm, forms: list[dict]) -> list[dict]:
     out = []
     for row in Xm:
         f: dict = {}
-        for a, form in zip(row, forms):
+        for a, form in zip(row, forms, strict=True):
             if a:
                 _axpy(f, a, form)
         out.append(f)
@@ -172,7 +172,7 @@ def column_values(desc, cols, ar: Arith, transforms, state, only=None) -> list:
         elif w[0] == "offset":
             out.append(-q[w[1]])
         elif w[0] == "motor":
-            rate = sum((ar.const(x) * qd[j] for x, j in zip(w[2], w[3]) if x), ar.zero)
+            rate = sum((ar.const(x) * qd[j] for x, j in zip(w[2], w[3], strict=True) if x), ar.zero)
             out.append(half * rate * rate)
         else:
             out.append(None)
@@ -260,7 +260,7 @@ def exact_relations(desc, chain, cols, ar: Arith, transforms, relations, rng, ra
                 raise ComputationError(
                     f"{desc.source}: column {cols[d].label} is dependent at a random geometry but no exact relation "
                     f"on {', '.join(cols[k].label for k in support)} holds")
-            for k, c in zip(support, coef):
+            for k, c in zip(support, coef, strict=True):
                 if c:
                     _axpy(forms[k], c, forms[d])
         forms.pop(d)

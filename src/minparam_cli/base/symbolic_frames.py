@@ -74,7 +74,7 @@ def gravity_symbols(desc, taken: set[str]):
     names = [f"g{'xyz'[k]}" for k in nonzero]
     if set(names) & taken:
         names = [n + "_0" for n in names]
-    return tuple((n, k, 1) for n, k in zip(names, nonzero)), {n: gvec[k] for n, k in zip(names, nonzero)}
+    return tuple((n, k, 1) for n, k in zip(names, nonzero, strict=True)), {n: gvec[k] for n, k in zip(names, nonzero, strict=True)}
 
 
 def field_symbols(desc, symbols) -> FieldSymbols:
@@ -173,7 +173,7 @@ def matmul(a, b, zero):
 
 
 def transpose(a):
-    return [list(r) for r in zip(*a)]
+    return [list(r) for r in zip(*a, strict=True)]
 
 
 def matvec(a, v, zero):
@@ -215,7 +215,7 @@ def joint_transforms(desc, ar: Arith):
         cos_sin = staticmethod(ar.cos_sin)
 
     out = []
-    for (pre, axis, post), jr in zip(joint_matrices(_RecordsOnly(desc), _Num), desc.joints):
+    for (pre, _axis, post), jr in zip(joint_matrices(_RecordsOnly(desc), _Num), desc.joints, strict=True):
         if jr.origin is not None and AXIS_THETA in jr.origin:
             Ru = axis_rotation_oblique(jr, ar)
         else:

@@ -88,7 +88,7 @@ def friction_relations(chain, cols, plan) -> dict[int, list[tuple[int, Fraction]
         if coef is None:
             kept_visc.append((d, entries))
         else:
-            out[d] = [(k, x) for (k, _), x in zip(kept_visc, coef) if x]
+            out[d] = [(k, x) for (k, _), x in zip(kept_visc, coef, strict=True) if x]
     return out
 
 

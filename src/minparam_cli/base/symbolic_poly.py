@@ -25,7 +25,7 @@ class ExactContext:
 
         R, *gens = ring(",".join(names), QQ) if names else ring("_unused", QQ)
         self.R, self.QQ = R, QQ
-        self.gen = dict(zip(names, gens))
+        self.gen = dict(zip(names, gens, strict=True))
         self.circle = [self.gen[s] ** 2 + self.gen[c] ** 2 - 1 for s, c in angle_pairs]
         self.sin_index = [names.index(s) for s, _ in angle_pairs]
         self.cos_index = [names.index(c) for _, c in angle_pairs]
@@ -45,7 +45,7 @@ class ExactContext:
         from math import comb
 
         terms = dict(p.items())
-        for si, ci in zip(self.sin_index, self.cos_index):
+        for si, ci in zip(self.sin_index, self.cos_index, strict=True):
             if degs[si] < 2:
                 continue
             out: dict = {}
@@ -195,7 +195,7 @@ def _float_eval(p, x, absolute: bool) -> float:
     tot = 0.0
     for mon, c in p.terms():
         t = float(c)
-        for xi, e in zip(x, mon):
+        for xi, e in zip(x, mon, strict=True):
             if e:
                 t *= xi**e
         tot += abs(t) if absolute else t

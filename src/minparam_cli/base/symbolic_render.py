@@ -135,7 +135,7 @@ def field_to_sympy(value, fs):
     best = min(range(len(forms)), key=lambda i: (len(str(firsts[i][0])), i))
     cands = expr(*forms[best], firsts[best]) + [f[0] for f in firsts]
     lengths = {*fs.lengths, *(g for g, _, _ in fs.gravity)}
-    for (n, fl, R), circle, (_, _, syms) in zip(forms, circles, firsts):
+    for (n, fl, R), circle, (_, _, syms) in zip(forms, circles, firsts, strict=True):
         c = _collected(n, fl, R, circle, syms, lengths)
         if c is not None:
             cands.append(c)
@@ -177,7 +177,7 @@ def _collected(n, fl, R, circle, syms, lengths):
     out = []
     for key, terms in groups.items():
         m = sp.Integer(1)
-        for i, e in zip(idx, key):
+        for i, e in zip(idx, key, strict=True):
             m *= syms[i] ** e
         p, fl_m = _cancel_by_division(R.from_dict(terms), fl)  # irreducible factors: complete cancellation
         d = sp.Rational(c.numerator, c.denominator)

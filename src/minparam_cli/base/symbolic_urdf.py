@@ -80,8 +80,8 @@ def symbolic_description(desc, right_angle_tol: float):
             T = F @ _origin_matrix(origin)
             xyz = T[:3, 3]
             tiny = 1e-12 * max(1e-3, float(np.abs(xyz).max()))
-            new = dict(zip(("x", "y", "z"), (0.0 if abs(v) <= tiny else float(v) for v in xyz)))
-            new.update(zip(_RPY, (_snap(a, 1e-14) for a in rpy_of(T[:3, :3]))))
+            new = dict(zip(("x", "y", "z"), (0.0 if abs(v) <= tiny else float(v) for v in xyz), strict=True))
+            new.update(zip(_RPY, (_snap(a, 1e-14) for a in rpy_of(T[:3, :3])), strict=True))
             # a fixed rotation by right angles only: the composed lengths are sums of the file's
             # decimals (read back to 12 significant digits); else irrational, kept as symbols only
             perm = bool(np.all(np.isin(F[:3, :3], (-1.0, 0.0, 1.0)) | (np.abs(F[:3, :3]) < 1e-15)))
@@ -144,7 +144,7 @@ def rational_axis(axis):
     """The unit axis as exact rationals (e.g. 0.6 0.8 0, or 1 2 2 / 3) or None: components within
     1e-12 of the file's unit axis whose squares sum to 1 exactly."""
     u = [Fraction(float(c)).limit_denominator(10**6) for c in axis]
-    if sum(c * c for c in u) != 1 or any(abs(float(c) - float(a)) > 1e-12 for c, a in zip(u, axis)):
+    if sum(c * c for c in u) != 1 or any(abs(float(c) - float(a)) > 1e-12 for c, a in zip(u, axis, strict=True)):
         return None
     return u
 

@@ -66,7 +66,7 @@ def table(b) -> str:
     """``minparam derive`` (the terminal table)."""
     head = columns(_header_lines(b))
     rows = [(i + 1, name, s.get("symbolic_text") or expr)
-            for i, (name, expr, s) in enumerate(zip(b.names, b.numeric_expressions, _symbolic(b)))]
+            for i, (name, expr, s) in enumerate(zip(b.names, b.numeric_expressions, _symbolic(b), strict=True))]
     body = columns(rows, ("#", "base parameter", "= standard parameters"), right=(0,))
     out = [head, "", body]
     none = _unidentifiable(b)
@@ -136,7 +136,7 @@ def markdown(b) -> str:
     for k, v in _header_lines(b):
         lines.append(f"- **{k}**: {v}")
     lines += ["", "| # | base parameter | expression |", "|---|---|---|"]
-    for i, (name, expr, s) in enumerate(zip(b.names, b.numeric_expressions, _symbolic(b))):
+    for i, (name, expr, s) in enumerate(zip(b.names, b.numeric_expressions, _symbolic(b), strict=True)):
         lines.append(f"| {i + 1} | `{name}` | `{s.get('symbolic_text') or expr}` |")
     none = _unidentifiable(b)
     if none:
@@ -180,7 +180,7 @@ def latex(b) -> str:
         f"% {a.robot}: {b.n_base} base parameters of {b.n_standard} ({b.method}), gravity ({g}) m/s^2, SI units",
         r"\begin{align*}",
     ]
-    items = list(zip(b.names, b.terms, _symbolic(b)))
+    items = list(zip(b.names, b.terms, _symbolic(b), strict=True))
     for i, (name, terms, s) in enumerate(items):
         end = r" \\" if i < len(items) - 1 else ""
         rhs = s.get("symbolic_latex") or latex_terms(terms)

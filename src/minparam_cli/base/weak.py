@@ -53,7 +53,7 @@ def weak_parameters(chain: Chain, base: BaseSet, explain: bool = True, samples: 
     candidates = sorted((c for c in near_special_relations(chain) if c["joint"] in upstream), key=lambda c: c["delta"])
     for cand in candidates[:MAX_CANDIDATES]:
         kept = set(derive_qr(cand["chain"], samples=samples, seed=seed).kept)
-        for entry, (c, _) in zip(out, weak):
+        for entry, (c, _) in zip(out, weak, strict=True):
             if c not in kept:
                 entry["geometry"].append(cand["text"])
     return out

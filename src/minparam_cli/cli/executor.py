@@ -72,7 +72,7 @@ class DaskExecutor:
                 if progress:
                     progress(done, n)
             out = []
-            for item, fut in zip(items, futures):
+            for item, fut in zip(items, futures, strict=True):
                 # result(), not the status: a result lost with its worker after the task finished is
                 # computed again by the scheduler, and result() waits for it
                 try:

@@ -39,7 +39,7 @@ def run_identify_batch(recordings: list[Recording], opts, output: Path, as_json:
     finally:
         bar.close()
     rows = []
-    for rec, res in zip(recordings, results):
+    for rec, res in zip(recordings, results, strict=True):
         if res["ok"]:
             write_output(json.dumps(res["result"]["result"].to_dict(), indent=2, ensure_ascii=False), folder / f"{rec.name}.report.json")
             write_output(res["result"]["model"], folder / f"{rec.name}.model.json")

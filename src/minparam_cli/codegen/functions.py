@@ -70,7 +70,7 @@ def identifier(name: str) -> str:
 def base_definitions(base) -> list[str]:
     """One line per base parameter: its name and the standard parameters it regroups."""
     out = []
-    for name, terms in zip(base.base_names, base.terms):
+    for name, terms in zip(base.base_names, base.terms, strict=True):
         parts = []
         for k, (std, coef) in enumerate(terms.items()):
             if k == 0 and coef == 1.0:

@@ -88,7 +88,7 @@ def _link_wrench(w, d, a) -> list:
 
 def _dot(xs, ys):
     out = 0.0
-    for x, y in zip(xs, ys):
+    for x, y in zip(xs, ys, strict=True):
         out = out + x * y
     return out
 
@@ -306,7 +306,7 @@ def inverse_dynamics(rec: Recorded, kept, theta, terms=(), theta_model=None, smo
         for j in term.joints:
             tm = None if tau_model is None else tau_model[j]
             cols = effect_columns(prog, term.effect, rec.q[j], rec.qd[j], rec.qdd[j], tm, term.hyper, smoothing)
-            for x, coef in zip(cols, theta[c : c + m]):
+            for x, coef in zip(cols, theta[c : c + m], strict=True):
                 tau[j] = tau[j] + x * float(coef)
             c += m
     return tau, tuple(omitted)

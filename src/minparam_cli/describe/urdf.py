@@ -146,7 +146,7 @@ def _snap_joint_angles(joints: list[dict], tol: float) -> tuple[dict, ...]:
 
     changes = []
     for j in joints:
-        for i, (key, text) in enumerate(zip(("roll", "pitch", "yaw"), j["rpy"])):
+        for i, (key, text) in enumerate(zip(("roll", "pitch", "yaw"), j["rpy"], strict=True)):
             hit = snapped_angle(float(text), tol)
             if hit is None:
                 continue

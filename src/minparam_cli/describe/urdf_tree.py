@@ -61,9 +61,9 @@ def _joint_record(j: dict, body_parent: np.ndarray, parent: int) -> dict:
     """Record of actuated joint j hanging on body ``parent`` through the fixed transform ``body_parent``."""
     base = _symbol_base(j["name"])
     origin = {}
-    for k, s in zip(("x", "y", "z"), j["xyz"]):
+    for k, s in zip(("x", "y", "z"), j["xyz"], strict=True):
         origin[k] = GeomValue(float(s), f"{base}_{k}", False, Fraction(s))
-    for k, s, deg in zip(("roll", "pitch", "yaw"), j["rpy"], j["rpy_deg"]):
+    for k, s, deg in zip(("roll", "pitch", "yaw"), j["rpy"], j["rpy_deg"], strict=True):
         v = float(s)
         origin[k] = GeomValue(v, f"{base}_{k}", True, Fraction(0) if v == 0 else deg)
     axis = np.asarray(j["axis"], dtype=float)
@@ -184,7 +184,7 @@ def build_description(name: str, src: str, links: dict, joints: list[dict], floa
         raise DescriptionError("some links are not connected to the root", src)
 
     out = []
-    for rec, body_sum in zip(records, body_phi):
+    for rec, body_sum in zip(records, body_phi, strict=True):
         out.append(JointRecord(**rec, inertial=None if body_sum is None else _to_inertial(body_sum)))
     tool_link, tool = default_tool(attached, records)
     return RobotDescription(

@@ -68,7 +68,7 @@ def body_from_standard(phi_link) -> tuple[float, np.ndarray, np.ndarray]:
     """The 10 standard parameters of one link -> (mass, centre of mass, inertia about it), the inverse of
     ``standard_from_com`` (same frame).  A mass that is not positive has no centre of mass: NaN, and the
     inertia about the frame origin."""
-    p = dict(zip(LINK_PARAMS, np.asarray(phi_link, dtype=float).reshape(N_LINK_PARAMS)))
+    p = dict(zip(LINK_PARAMS, np.asarray(phi_link, dtype=float).reshape(N_LINK_PARAMS), strict=True))
     m = float(p["M"])
     Io = np.array([[p["XX"], p["XY"], p["XZ"]], [p["XY"], p["YY"], p["YZ"]], [p["XZ"], p["YZ"], p["ZZ"]]])
     if not m > 0:
@@ -79,7 +79,7 @@ def body_from_standard(phi_link) -> tuple[float, np.ndarray, np.ndarray]:
 
 def pseudo_inertia_from_standard(phi_link) -> np.ndarray:
     """The 4x4 pseudo-inertia matrix J of one link (Wensing et al. 2018) from its 10 parameters."""
-    p = dict(zip(LINK_PARAMS, np.asarray(phi_link, dtype=float).reshape(N_LINK_PARAMS)))
+    p = dict(zip(LINK_PARAMS, np.asarray(phi_link, dtype=float).reshape(N_LINK_PARAMS), strict=True))
     Io = np.array([[p["XX"], p["XY"], p["XZ"]], [p["XY"], p["YY"], p["YZ"]], [p["XZ"], p["YZ"], p["ZZ"]]])
     J = np.zeros((4, 4))
     J[:3, :3] = 0.5 * np.trace(Io) * np.eye(3) - Io

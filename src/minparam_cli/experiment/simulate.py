@@ -239,14 +239,14 @@ def plan(chain: Chain, options: SimulationOptions, rng: np.random.Generator, pro
         for e, mdq, mddq, terms in pool.map(first_pass, _bounds(samples, chunk)):
             np.maximum(max_dq, mdq, out=max_dq)
             np.maximum(max_ddq, mddq, out=max_ddq)
-            for g, term in zip(flat, terms):
+            for g, term in zip(flat, terms, strict=True):
                 g += term
             if progress:
                 progress(e, 2 * samples)
 
     rms_rigid = np.sqrt(np.einsum("ij,ij->j", tau_rigid, tau_rigid) / samples)
     injected = tuple(effect_coefficients(spec, spec_grams, samples, rms_rigid, options.strength, effect_rng)
-                     for spec, spec_grams in zip(options.effects, grams))
+                     for spec, spec_grams in zip(options.effects, grams, strict=True))
     return Plan(
         chain=chain, options=options, samples=samples, trajectory=traj, ranges=tuple(ranges), phi=phi,
         inertia_source=source, inertia=inertia, effects=injected, tau_rigid=tau_rigid,
@@ -285,7 +285,7 @@ class Stream:
                                   motor=motor)
                 for record in p.effects:
                     effect = EFFECTS[record.effect]
-                    for j, c in zip(record.joints, record.coefficients):
+                    for j, c in zip(record.joints, record.coefficients, strict=True):
                         effects[:, j] += effect.columns(signals, j, record.hyper) @ np.asarray(c)
             tau = rigid + effects
             if o.noise > 0:

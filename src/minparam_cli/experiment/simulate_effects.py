@@ -25,7 +25,7 @@ def effect_coefficients(spec: EffectSpec, grams: list[np.ndarray], samples: int,
     see the module docstring for the rule."""
     effect = EFFECTS[spec.effect]
     coefficients, rms = [], []
-    for j, gram in zip(spec.joints, grams):
+    for j, gram in zip(spec.joints, grams, strict=True):
         m: int = gram.shape[0]
         weights = rng.uniform(*WEIGHT_RANGE, size=m)
         signs = rng.choice((-1.0, 1.0), size=m)

@@ -77,7 +77,7 @@ class MotionLimits:
 
     @property
     def over_effort(self) -> tuple[int, ...]:
-        return tuple(j for j, (lim, x) in enumerate(zip(self.effort, self.max_abs_tau)) if lim is not None and x > lim)
+        return tuple(j for j, (lim, x) in enumerate(zip(self.effort, self.max_abs_tau, strict=True)) if lim is not None and x > lim)
 
     def any_given(self) -> bool:
         return any(v is not None for v in self.velocity + self.acceleration + self.effort)

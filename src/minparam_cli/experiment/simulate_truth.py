@@ -20,11 +20,11 @@ def truth_record(sim: Simulation | Plan, robot: str, seed: int, robot_name: str 
             {
                 "effect": e.effect,
                 "joints": [j + 1 for j in e.joints],
-                "coefficients": {str(j + 1): list(c) for j, c in zip(e.joints, e.coefficients)},
+                "coefficients": {str(j + 1): list(c) for j, c in zip(e.joints, e.coefficients, strict=True)},
                 "hyper": e.hyper,
                 "hyper_name": e.hyper_name or None,
                 "columns": list(e.column_names),
-                "rms": {str(j + 1): r for j, r in zip(e.joints, e.rms)},
+                "rms": {str(j + 1): r for j, r in zip(e.joints, e.rms, strict=True)},
             }
         )
     traj = sim.trajectory

@@ -154,7 +154,7 @@ def project_to_rest(X: np.ndarray) -> np.ndarray:
 def joint_ranges(types, limits) -> tuple[tuple[float, float], ...]:
     """Limits per joint (rad or m), with the defaults where the file gives none."""
     out = []
-    for kind, lim in zip(types, limits or (None,) * len(types)):
+    for kind, lim in zip(types, limits or (None,) * len(types), strict=True):
         if lim is not None:
             out.append((float(lim[0]), float(lim[1])))
         elif kind == PRISMATIC:

@@ -204,7 +204,7 @@ def _identify(chain: Chain, data_path: Path, opts: IdentifyOptions, progress) ->
         effects=tuple(describe_terms(final_design, final_fit, motion)),
         rejected=tuple(describe_rejected(r, data_reports) for r in rejected),
         parameters=tuple(Estimate(nm, float(v), _finite(s), _finite(s0))
-                         for nm, v, s, s0 in zip(final_fit.names, final_fit.theta, final_fit.std_percent, _textbook(artifacts, final_fit))),
+                         for nm, v, s, s0 in zip(final_fit.names, final_fit.theta, final_fit.std_percent, _textbook(artifacts, final_fit), strict=True)),
         sigma=artifacts.uncertainty.summary() if artifacts.uncertainty is not None else None,
         regrouped_on_this_data=tuple(final_fit.dependent),
         nominal_notes=tuple(nominal_notes(chain, base, final_fit, opts.seed)),
@@ -248,7 +248,7 @@ def _physical(chain: Chain, base, design: Design, fit, acc: dict, popts: Physica
     pf = fit_physical(chain, base.K, design, R, int(acc[FIT].rows.sum()), popts)
     n_links = chain.layout.n_inertial // 10
     bodies = link_bodies(pf.phi, n_links)
-    for b, informed in zip(bodies, pf.informed):
+    for b, informed in zip(bodies, pf.informed, strict=True):
         b["informed_directions"] = informed  # of its 10 parameters' directions, set by the data
     nb = len(design.kept)
     out = PhysicalReport(
@@ -258,9 +258,9 @@ def _physical(chain: Chain, base, design: Design, fit, acc: dict, popts: Physica
         elapsed_s=round(pf.elapsed_s, 4),
         selection=errors(acc[SELECTION], pf.theta),
         test={k: errors(acc[k], pf.theta) for k in test_keys},
-        base_parameters={nm: float(v) for nm, v in zip(design.names[:nb], pf.theta[:nb])},
-        effect_coefficients={nm: float(v) for nm, v in zip(design.names[nb:], pf.theta[nb:])},
-        phi={nm: float(v) for nm, v in zip(pf.names, pf.phi)},
+        base_parameters={nm: float(v) for nm, v in zip(design.names[:nb], pf.theta[:nb], strict=True)},
+        effect_coefficients={nm: float(v) for nm, v in zip(design.names[nb:], pf.theta[nb:], strict=True)},
+        phi={nm: float(v) for nm, v in zip(pf.names, pf.phi, strict=True)},
         links=tuple(bodies),
         not_informed=tuple(b["link"] for b in bodies if b["informed_directions"] == 0),
         partly_informed=tuple(b["link"] for b in bodies if 0 < b["informed_directions"] < 10),

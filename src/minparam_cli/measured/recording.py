@@ -203,7 +203,7 @@ def recording_time_span(path: Path, opts) -> tuple[float, float]:
     from minparam_cli.measured.tables import require_data_file
 
     rec = read_description(path)
-    for i, part in enumerate(rec.parts):
+    for part in rec.parts:
         if "t" in part.columns:
             from dataclasses import replace
 

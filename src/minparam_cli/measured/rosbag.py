@@ -131,7 +131,7 @@ class _Bag:
         offset = 4
         k = 0
         try:
-            for conn, _, raw in self.reader.messages(connections=self.connections):
+            for _conn, _, raw in self.reader.messages(connections=self.connections):
                 k += 1
                 if len(raw) < offset + 8:
                     raise DataError(f"{self.src}: message {k} on {self.topic} is {len(raw)} bytes, too short for a header")

@@ -83,7 +83,7 @@ class Evaluation:
             "pooled": self.pooled.as_dict(),
         }
         if self.bands is not None:
-            for f, c in zip(out["files"], self.bands):
+            for f, c in zip(out["files"], self.bands, strict=True):
                 f["band"] = c.as_dict()
             out["pooled"]["band"] = self.pooled_band().as_dict()
             out["band"] = {"level": self.band.level, "z": self.band.z, "sigma": self.band.kind,

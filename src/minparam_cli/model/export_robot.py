@@ -109,7 +109,7 @@ def urdf_with_inertials(data: bytes, chain, phi: np.ndarray, note: str = "") -> 
     for j in root.findall("joint"):
         if j.get("type") == "fixed":
             fixed_children.setdefault(j.find("parent").get("link"), []).append(j.find("child").get("link"))
-    for name, phi10 in zip(chain.link_names, link_phi(chain, phi)):
+    for name, phi10 in zip(chain.link_names, link_phi(chain, phi), strict=True):
         el = links[name]
         _replace_inertial(etree, el, _inertial_xml(phi10, _indent_of(el) + "  "))
         stack = list(fixed_children.get(name, []))
@@ -224,7 +224,7 @@ def yaml_with_inertials(doc: dict, chain, phi: np.ndarray, note: str = "") -> st
 
     out = copy.deepcopy(doc)
     unit = float(LENGTH_UNITS[(out.get("units") or {}).get("length", "m")])
-    for jd, phi10 in zip(out["joints"], link_phi(chain, phi)):
+    for jd, phi10 in zip(out["joints"], link_phi(chain, phi), strict=True):
         m, c, Ic = body(phi10)
         jd["inertial"] = {"mass": float(m), "com": [float(x) / unit for x in c],
                           "inertia": [float(Ic[0, 0]), float(Ic[0, 1]), float(Ic[0, 2]), float(Ic[1, 1]), float(Ic[1, 2]), float(Ic[2, 2])]}

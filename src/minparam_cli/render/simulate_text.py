@@ -48,7 +48,7 @@ def summary_text(sim, limits, robot_name: str, seed: int, output: Path | None, t
         for label, given, seen in (("|dq|", lim.velocity, lim.max_abs_dq), ("|ddq|", lim.acceleration, lim.max_abs_ddq),
                                    ("|tau|", lim.effort, lim.max_abs_tau)):
             if any(v is not None for v in given):
-                ratios = " ".join("-" if v is None else f"{x / v:.2f}" for v, x in zip(given, seen))
+                ratios = " ".join("-" if v is None else f"{x / v:.2f}" for v, x in zip(given, seen, strict=True))
                 lines.append(f"{'limits' if label == '|dq|' else '':<10} max {label}/limit {ratios}")
     wrote = ["stdout" if is_stdout(p) else str(p) for p in (output, truth) if p is not None]
     if wrote:

@@ -34,7 +34,7 @@ def _joints1(js) -> list[int]:
 
 def _q_text(chain_types, q, angle) -> str:
     out = []
-    for t, v in zip(chain_types, q):
+    for t, v in zip(chain_types, q, strict=True):
         if t == "revolute":
             out.append(_num(math.degrees(v) if angle == "deg" else v, 1.0))
         else:

@@ -39,7 +39,7 @@ def essential_lines(r: EssentialReport) -> list[str]:
     e = r.essential
     out = [(f"Essential parameters (every relative σ ≤ {e.bound:g} %): {len(e.names)} kept, "
             f"{len(e.dropped)} dropped; condition number {e.cond:.4g} (all: {e.cond_full:.4g})")]
-    rows = [(k, f"{float(v):.6g}", f"{float(s):.3g}") for k, v, s in zip(e.names, e.theta, e.std_percent)]
+    rows = [(k, f"{float(v):.6g}", f"{float(s):.3g}") for k, v, s in zip(e.names, e.theta, e.std_percent, strict=True)]
     out.append(columns(rows, ("essential", "value", "σ %"), right=(1, 2)))
     for d in e.dropped:
         out.append(f"dropped {d['parameter']} = {d['value']:.4g}: {d['why']}")
@@ -62,10 +62,10 @@ def band_lines(r: EvaluateResult) -> list[str]:
     n = len(ev.pooled.rows)
     rows = []
     bands = ev.bands or ()
-    entries = [(f[0], c) for f, c in zip(ev.files, bands)] + ([("pooled", ev.pooled_band())] if len(ev.files) > 1 else [])
+    entries = [(f[0], c) for f, c in zip(ev.files, bands, strict=True)] + ([("pooled", ev.pooled_band())] if len(ev.files) > 1 else [])
     for label, e in entries:
         rows.append((label, *[f"{100 * x:.1f} %" for x in e.inside_per_joint()],
-                     *[f"{h:.3g} ({hp:.2g})" for h, hp in zip(e.half_width_per_joint(), e.parameter_half_width_per_joint())]))
+                     *[f"{h:.3g} ({hp:.2g})" for h, hp in zip(e.half_width_per_joint(), e.parameter_half_width_per_joint(), strict=True)]))
     hdr = ("data", *[f"inside {j}" for j in range(1, n + 1)], *[f"± {j} (θ part)" for j in range(1, n + 1)])
     return [(f"Prediction band {100 * b.level:g} % (z = {b.z:.3g}; parameter covariance: {b.kind}, "
              "plus the fit's residual σ per joint): share of samples inside, mean half-width (N·m or N)"),

@@ -270,7 +270,8 @@ def design(chain: Chain, base: BaseSet, options: ExciteOptions, limits: cons.Lim
 
     t = output_times(options)
     failures = []
-    for _, best, best_x in sorted(ends, key=lambda e: e[0]):  # the best end point that passes the dense check
+    # the best end point that passes the dense check (best: read after the loop)
+    for _, best, best_x in sorted(ends, key=lambda e: e[0]):  # noqa: B007
         traj, scale, broken = _checked(chain, FourierTrajectory.from_matrix(best_x.reshape(n, m), options.base_frequency), limits,
                                        phi if use_tau else None, t)
         if not broken:
@@ -328,7 +329,7 @@ def _grid_feasible(x, A, b, constraints, slack, rtol: float = 1e-6) -> bool:
     scale = max(1.0, float(np.abs(b).max()))
     if np.any(A @ x - b > rtol * scale):
         return False
-    for c, sl in zip(constraints[1:], slack[1:]):
+    for c, sl in zip(constraints[1:], slack[1:], strict=True):
         v = c["fun"](x)
         if c["type"] == "eq" and np.any(np.abs(v) > rtol * scale):
             return False

@@ -101,7 +101,7 @@ class EssentialReport:
         e = self.essential
         return {
             "bound_percent": e.bound,
-            "parameters": {n: {"value": float(v), "std_percent": float(s)} for n, v, s in zip(e.names, e.theta, e.std_percent)},
+            "parameters": {n: {"value": float(v), "std_percent": float(s)} for n, v, s in zip(e.names, e.theta, e.std_percent, strict=True)},
             "dropped": [dict(d) for d in e.dropped],
             "condition_number": e.cond,
             "condition_number_full": e.cond_full,

@@ -109,17 +109,17 @@ def keep_physical(design: Design, fit, acc: dict, weighted: bool):
     steps = []
     for _ in range(len(design.terms) + 1):
         coefs = term_coefficients(design, full_theta(fit, design.p))
-        if all(in_bounds(t.effect, c) for t, c in zip(design.terms, coefs)):
+        if all(in_bounds(t.effect, c) for t, c in zip(design.terms, coefs, strict=True)):
             break
         terms, changed = [], []
-        for t, c in zip(design.terms, coefs):
-            good = tuple(j for j, row in zip(t.joints, c) if in_bounds(t.effect, row))
+        for t, c in zip(design.terms, coefs, strict=True):
+            good = tuple(j for j, row in zip(t.joints, c, strict=True) if in_bounds(t.effect, row))
             if len(good) == len(t.joints):
                 terms.append(t)
                 continue
             if good:
                 terms.append(Term(t.effect, good, t.hyper))
-            bad = [(j, row) for j, row in zip(t.joints, c) if not in_bounds(t.effect, row)]
+            bad = [(j, row) for j, row in zip(t.joints, c, strict=True) if not in_bounds(t.effect, row)]
             changed.append((t, good, bad))
         new = replace(design, terms=tuple(terms))
         cols = positions(design, new)
@@ -163,11 +163,11 @@ def flags(result: Figures, fit) -> list[str]:
         comparisons.append((f"test ({span_text(f.entry)})", f.rigid, f.final))
     if result.steps[1:]:
         for name, b, a in comparisons:
-            for j, (x, y) in enumerate(zip(b.rms_per_joint, a.rms_per_joint)):
+            for j, (x, y) in enumerate(zip(b.rms_per_joint, a.rms_per_joint, strict=True)):
                 if x > 0 and y > (1 + RISE_FLAG) * x:
                     out.append(f"joint {j + 1}: the {name} rms rises from {x:.4g} to {y:.4g} "
                                f"(+{100 * (y / x - 1):.0f} %) from the rigid-body model to the final one")
-    for name, v in zip(fit.names, fit.theta):
+    for name, v in zip(fit.names, fit.theta, strict=True):
         kind = name.rstrip("0123456789")
         if kind in ("Fc", "Fv", "Ia") and v < 0:
             what = {"Fc": "Coulomb friction", "Fv": "viscous friction", "Ia": "rotor inertia"}[kind]

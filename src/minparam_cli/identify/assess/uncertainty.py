@@ -128,7 +128,7 @@ class BlockGrams:
         self.t_last = float(t[-1])
         k = np.floor((t - self.t0) / self.length).astype(np.int64)
         starts = np.flatnonzero(np.concatenate([[True], k[1:] != k[:-1]]))
-        return [(int(k[s]), int(s), int(e)) for s, e in zip(starts, np.append(starts[1:], len(k)))]
+        return [(int(k[s]), int(s), int(e)) for s, e in zip(starts, np.append(starts[1:], len(k)), strict=True)]
 
     def add_parts(self, segments: list[tuple[int, int, int]], parts: list, w: int) -> None:
         """Add the Grams of ``segments`` (from ``segments``): parts[j] = (the columns they cover,
@@ -183,7 +183,7 @@ class BlockGrams:
         for b in keys:
             G = self.gram(b)
             if maps is not None:
-                G = np.stack([M.T @ Gj @ M for Gj, M in zip(G, maps)])
+                G = np.stack([M.T @ Gj @ M for Gj, M in zip(G, maps, strict=True)])
             sel = list(columns) + [G.shape[-1] - 1]
             out.append(G[:, sel][:, :, sel])
         return np.array(out), np.array(keys)

@@ -69,7 +69,7 @@ def _factor(design: Design, b: Block, cat: Catalogue, rows: int = 2048) -> list[
             X = design.base_columns(sub)
             sig = design.signals(sub, X)
             A = np.concatenate([X] + [all_joints(e, sig, n, h) for e, h in cat.sources] + [sub.tau[:, :, None]], axis=2)
-            T = list(pool.map(lambda j: np.linalg.qr(np.vstack([T[j], A[:, j]]), mode="r"), range(n)))  # type: ignore[arg-type,return-value]  # numpy stubs: qr() gives QRResult for every mode; mode="r" returns R
+            T = list(pool.map(lambda j, T=T, A=A: np.linalg.qr(np.vstack([T[j], A[:, j]]), mode="r"), range(n)))  # type: ignore[arg-type,return-value]  # numpy stubs: qr() gives QRResult for every mode; mode="r" returns R
     return [np.hstack([Tj, np.zeros((Tj.shape[0], 1))]) for Tj in T]
 
 
@@ -112,14 +112,14 @@ class Compressed:
     def stack(self, sel: np.ndarray, sigma: np.ndarray, hold: bool = False) -> tuple[np.ndarray, np.ndarray]:
         """Weighted design and torque, stacked over the joints (rows of joint j divided by σ_j)."""
         Ts = self.Th if hold else self.T
-        M = np.vstack([T[:, s] / w for T, s, w in zip(Ts, sel, sigma)])
-        y = np.concatenate([T[:, self.cat.y] / w for T, w in zip(Ts, sigma)])
+        M = np.vstack([T[:, s] / w for T, s, w in zip(Ts, sel, sigma, strict=True)])
+        y = np.concatenate([T[:, self.cat.y] / w for T, w in zip(Ts, sigma, strict=True)])
         return M, y
 
     def joint_rss(self, sel: np.ndarray, theta: np.ndarray, hold: bool = False) -> np.ndarray:
         """Unweighted residual sum of squares of each joint for the design columns ``sel`` and ``theta``."""
         Ts = self.Th if hold else self.T
-        return np.array([float(np.sum((T[:, self.cat.y] - T[:, s] @ theta) ** 2)) for T, s in zip(Ts, sel)])
+        return np.array([float(np.sum((T[:, self.cat.y] - T[:, s] @ theta) ** 2)) for T, s in zip(Ts, sel, strict=True)])
 
     def joint_sigma(self, sel: np.ndarray, weighted: bool = True) -> np.ndarray:
         """Gautier's weights: each joint's residual standard deviation after OLS (1 where it is zero);

@@ -147,20 +147,20 @@ def _basis(Xw: np.ndarray, rows: int) -> tuple[np.ndarray, np.ndarray]:
 
 def _good_joints(t: Term, c: np.ndarray, new: np.ndarray) -> tuple[int, ...]:
     """The joints of ``t`` on which it adds something and its coefficients are physical."""
-    return tuple(j for j, row, fresh in zip(t.joints, c, new) if fresh and in_bounds(t.effect, row))
+    return tuple(j for j, row, fresh in zip(t.joints, c, new, strict=True) if fresh and in_bounds(t.effect, row))
 
 
 def _physical(cands: list[Term], scores) -> np.ndarray:
     """Candidates that add something on every joint of the term, with physical coefficients there."""
     return np.array([c is not None and len(_good_joints(t, c, nw)) == len(t.joints)
-                     for t, c, nw in zip(cands, scores.coefficients, scores.new)], dtype=bool)
+                     for t, c, nw in zip(cands, scores.coefficients, scores.new, strict=True)], dtype=bool)
 
 
 def _restricted(cands: list[Term], scores, ok: np.ndarray) -> list[Term]:
     """Group terms that add nothing, or have coefficients outside the physical range, on some joints:
     the same terms on the other joints."""
     out, seen = [], set(cands)
-    for i, (t, c) in enumerate(zip(cands, scores.coefficients)):
+    for i, (t, c) in enumerate(zip(cands, scores.coefficients, strict=True)):
         if not ok[i] or c is None or len(t.joints) < 2:
             continue
         good = _good_joints(t, c, scores.new[i])
@@ -230,8 +230,8 @@ def diagnose(design: Design, train: Block, hold: Block, opts: DiagnosisOptions, 
         plain = (scores.rssh1_joint * sigma**2).sum(axis=1)  # unweighted selection RSS
         strong = ok & (dbic < opts.bic_threshold) & (gain >= opts.min_gain) & (plain < rssh0_plain)
         physical = _physical(cands, scores)
-        wrong_sign = np.array([c is not None and not all(in_bounds(t.effect, row) for row, fresh in zip(c, nw) if fresh)
-                               for t, c, nw in zip(cands, scores.coefficients, scores.new)], dtype=bool)
+        wrong_sign = np.array([c is not None and not all(in_bounds(t.effect, row) for row, fresh in zip(c, nw, strict=True) if fresh)
+                               for t, c, nw in zip(cands, scores.coefficients, scores.new, strict=True)], dtype=bool)
         qualifies = strong & physical
         best_any = int(np.argmin(np.where(ok & physical, dbic, np.inf))) if np.any(ok & physical) else None
         if not np.any(qualifies):
@@ -293,7 +293,7 @@ def _selection_score(data: Compressed, design: Design, sigma: np.ndarray) -> tup
     rssh = float(np.sum((yhw - Xhw @ theta) ** 2))
     Nh = data.Nh * data.n
     plain = float(data.joint_rss(sel, theta, hold=True).sum())
-    physical = all(in_bounds(t.effect, c) for t, c in zip(design.terms, term_coefficients(design, theta)))
+    physical = all(in_bounds(t.effect, c) for t, c in zip(design.terms, term_coefficients(design, theta), strict=True))
     return Nh * np.log(rssh) + rank * np.log(Nh), plain, theta, data.selection_errors(sel, theta), physical
 
 

@@ -77,7 +77,7 @@ def explain(term: Term, c: np.ndarray, design: Design, motion=None) -> str:
                 f"negative direction on {on}")
     if e == "spring":
         swings = [_spring_swing(row, motion.lo[j], motion.hi[j]) if motion is not None else float("nan")
-                  for j, row in zip(term.joints, c)]
+                  for j, row in zip(term.joints, c, strict=True)]
         return (f"a torque that depends on position, varying by {_list(swings)} {T} over the fitted motion on {on} "
                 "(Kq·q + Ks·sin q + Kc·cos q): a spring, cable, gravity compensator or a gravity model error")
     if e == "cogging":
@@ -96,10 +96,10 @@ def explain(term: Term, c: np.ndarray, design: Design, motion=None) -> str:
 def describe_terms(design: Design, fit, motion=None) -> list[dict]:
     """The final model's added effects: ids, joints, coefficients and a line written from them."""
     out = []
-    for t, c in zip(design.terms, term_coefficients(design, full_theta(fit, design.p))):
+    for t, c in zip(design.terms, term_coefficients(design, full_theta(fit, design.p)), strict=True):
         names = t.names()
         out.append({"effect": t.effect, "joints": [j + 1 for j in t.joints], "hyper": t.hyper,
-                    "coefficients": {nm: float(v) for nm, v in zip(names, c.reshape(-1))},
+                    "coefficients": {nm: float(v) for nm, v in zip(names, c.reshape(-1), strict=True)},
                     "explanation": explain(t, c, design, motion)})
     return out
 
@@ -112,7 +112,7 @@ def describe_rejected(r: Rejected, data_reports: list[dict]) -> dict:
     e = EFFECTS[r.term.effect]
     assert e.bounds is not None  # a candidate is rejected for a coefficient outside its bounds
     lo, hi = e.bounds
-    bad = [(j, row) for j, row in zip(r.term.joints, r.coefficients) if not in_bounds(r.term.effect, row)]
+    bad = [(j, row) for j, row in zip(r.term.joints, r.coefficients, strict=True) if not in_bounds(r.term.effect, row)]
     shown = ", ".join(f"{e.column_names[0]}{j + 1} = {row[0]:.3g}" for j, row in bad)
     rng = f"≥ {lo:g}" if math.isinf(hi) else f"in [{lo:g}, {hi:g}]"
     share = (data_reports[0].get("still_share") or []) if data_reports else []
@@ -125,7 +125,7 @@ def describe_rejected(r: Rejected, data_reports: list[dict]) -> dict:
         text += f" ({_on([j for j, _ in still])} still {pct} of the time)"
     return {"effect": r.term.effect, "joints": [j + 1 for j in r.term.joints], "hyper": r.term.hyper,
             "selection_gain": r.gain, "delta_bic_selection": r.delta_bic,
-            "coefficients": {nm: float(v) for nm, v in zip(r.term.names(), np.asarray(r.coefficients).reshape(-1))},
+            "coefficients": {nm: float(v) for nm, v in zip(r.term.names(), np.asarray(r.coefficients).reshape(-1), strict=True)},
             "reading": text}
 
 

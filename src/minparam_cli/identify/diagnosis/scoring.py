@@ -90,7 +90,7 @@ def score(data: Compressed, sel: np.ndarray, sigma: np.ndarray, Q: np.ndarray, b
             coef[i] = g[k].reshape(len(cands[i].joints), -1)
             new[i] = share[k].reshape(len(cands[i].joints), -1).max(axis=1) > NEW_TOL
 
-    cand, Jall, Call, gall = (np.concatenate(x) for x in zip(*entries)) if entries else (np.zeros(0, int),) * 4
+    cand, Jall, Call, gall = (np.concatenate(x) for x in zip(*entries, strict=True)) if entries else (np.zeros(0, int),) * 4
     rssh1 = np.zeros((nc, n))
     for j in range(n):
         Z = np.zeros((K, nc))

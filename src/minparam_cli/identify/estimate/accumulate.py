@@ -162,7 +162,7 @@ class Accumulator:
     @property
     def R(self) -> list[np.ndarray]:
         out = []
-        for Rc, cols in zip(self._R, self._cols):
+        for Rc, cols in zip(self._R, self._cols, strict=True):
             R = np.zeros((Rc.shape[0], self.p + 1))
             R[:, cols] = Rc
             out.append(R)
@@ -179,7 +179,7 @@ class Accumulator:
 
     def rss(self, theta: np.ndarray) -> np.ndarray:
         v = np.concatenate([theta, [-1.0]])
-        return np.array([float(np.sum((R @ v[cols]) ** 2)) for R, cols in zip(self._R, self._cols)])
+        return np.array([float(np.sum((R @ v[cols]) ** 2)) for R, cols in zip(self._R, self._cols, strict=True)])
 
     def y_norm2(self) -> np.ndarray:
         """‖y_j‖² from the factors: the last column of R_j carries it."""
@@ -187,7 +187,7 @@ class Accumulator:
 
     def transform(self, maps: list[np.ndarray]) -> "Accumulator":
         """The same rows with new columns [X_j | y_j] M_j (M_j: (p + 1) x (p' + 1), re-triangularised)."""
-        return Accumulator.from_factors([np.linalg.qr(R @ M, mode="r") for R, M in zip(self.R, maps)], self.rows)  # type: ignore[misc]  # numpy stubs: qr() gives QRResult for every mode; mode="r" returns R
+        return Accumulator.from_factors([np.linalg.qr(R @ M, mode="r") for R, M in zip(self.R, maps, strict=True)], self.rows)  # type: ignore[misc]  # numpy stubs: qr() gives QRResult for every mode; mode="r" returns R
 
     def restrict(self, cols: list[int]) -> "Accumulator":
         """The same data with only the columns ``cols`` of X (re-triangularised)."""
@@ -196,4 +196,4 @@ class Accumulator:
         return self.transform([M] * self.n)
 
     def stacked(self, weights: np.ndarray) -> np.ndarray:
-        return np.vstack([R / w for R, w in zip(self.R, weights)])
+        return np.vstack([R / w for R, w in zip(self.R, weights, strict=True)])

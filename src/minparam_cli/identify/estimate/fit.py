@@ -49,7 +49,7 @@ def independent_columns(acc: Accumulator) -> list[int]:
     An = A[:, ok] / norms[ok]
     r = np.abs(np.diagonal(np.linalg.qr(An, mode="r"))) if An.shape[1] else np.array([])
     cols = np.flatnonzero(ok)
-    return [int(c) for c, ri in zip(cols, r) if ri > DEPENDENCE_TOL]
+    return [int(c) for c, ri in zip(cols, r, strict=True) if ri > DEPENDENCE_TOL]
 
 
 def solve(acc: Accumulator, names: tuple[str, ...], weighted: bool = True) -> Fit:

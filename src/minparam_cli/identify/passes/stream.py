@@ -120,7 +120,7 @@ def _rows(state: dict, sources: list[Source], n: int, data: DataOptions, slots, 
                 state["design"] = replace(state["design"], t0=float(b.t[0]))
             design = state["design"]
             edges = [0] + [int(np.searchsorted(b.t, c)) for c in cuts] + [len(b)]  # times increase
-            for piece, k0, k1 in zip(src.pieces, edges[:-1], edges[1:]):
+            for piece, k0, k1 in zip(src.pieces, edges[:-1], edges[1:], strict=True):
                 if k1 <= k0:
                     continue
                 sub_block = b.take(slice(k0, k1))

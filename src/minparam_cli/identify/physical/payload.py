@@ -159,7 +159,7 @@ def fit_payload(design, unloaded, loaded, spec: PayloadSpec, gains_unknown: bool
         tau = np.concatenate([gain_columns(chain, unloaded), gain_columns(chain, loaded)]) @ g
     rel = float(np.linalg.norm(r) / np.linalg.norm(tau)) if np.linalg.norm(tau) > 0 else float("nan")
     sigma_j = np.sqrt(np.mean(r**2, axis=0))
-    full = dict(zip([names[i] for i in keep], zip(x, std)))
+    full = dict(zip([names[i] for i in keep], zip(x, std, strict=True), strict=True))
 
     params = {k: Entry.of(*full[f"{k}L"]) for k in unknown if f"{k}L" in full}
     mass = spec.mass if spec.mass is not None else (params["M"].value if "M" in params else None)

@@ -79,7 +79,7 @@ def octahedral_pattern(model: PlatformModel):
         return None
     joined = np.zeros((3, 3), dtype=int)
     index = -np.ones((3, 3), dtype=int)
-    for k, (b, p) in enumerate(zip(model.leg_base, model.leg_platform)):
+    for k, (b, p) in enumerate(zip(model.leg_base, model.leg_platform, strict=True)):
         joined[b, p] += 1
         index[b, p] = k
     if np.any(joined.sum(axis=0) != 2) or np.any(joined.sum(axis=1) != 2) or np.any(joined > 1):
@@ -145,7 +145,7 @@ def _exact(model, target, pattern, tol, rtol) -> FKResult:
     found = []
     poses = pose_from_points(model, sol.points[:, inverse]) if len(sol.points) else np.zeros((0, 6))
     residuals = np.max(np.abs(leg_lengths(model, poses) - target), axis=-1) if len(poses) else []
-    for x, res in zip(poses, residuals):
+    for x, res in zip(poses, residuals, strict=True):
         if res > tol / 4:  # round-off from the frame fit: a few Gauss-Newton steps on the legs
             x = newton_polish(model, target, x)
             res = np.max(np.abs(leg_lengths(model, x) - target))

@@ -17,7 +17,7 @@ def to_unit(angle: float, unit: str) -> float:
 
 
 def pose_dict(pose, angle_unit: str) -> dict:
-    return {k: (float(v) if i < 3 else to_unit(v, angle_unit)) for i, (k, v) in enumerate(zip(POSE_NAMES, pose))}
+    return {k: (float(v) if i < 3 else to_unit(v, angle_unit)) for i, (k, v) in enumerate(zip(POSE_NAMES, pose, strict=True))}
 
 
 def _units(length_unit: str, angle_unit: str | None = None) -> dict:
@@ -51,7 +51,7 @@ def ik_dict(model: PlatformModel, pose, lengths, ok) -> dict:
             {"name": name, "nodes": [model.base_names[b], model.platform_names[p]], "length": float(length),
              "limits": None if not np.all(np.isfinite(lim)) else [float(v) for v in lim], "within_limits": bool(k)}
             for name, b, p, length, lim, k in zip(
-                model.leg_names, model.leg_base, model.leg_platform, lengths, model.limits, ok)
+                model.leg_names, model.leg_base, model.leg_platform, lengths, model.limits, ok, strict=True)
         ],
         "units": _units(model.length_unit, model.angle_unit),
     }
@@ -77,12 +77,12 @@ def truss_ik_dict(model: TrussModel, coords, lengths) -> dict:
     lim = model.limits
     return {
         "model": model.name,
-        "nodes": {n: [float(v) for v in c] for n, c in zip(model.node_names, coords)},
+        "nodes": {n: [float(v) for v in c] for n, c in zip(model.node_names, coords, strict=True)},
         "lengths": [float(v) for v in lengths],
         "legs": [
             {"name": name, "nodes": [model.node_names[a], model.node_names[b]], "length": float(length),
              "within_limits": bool(not np.all(np.isfinite(lim[k])) or lim[k, 0] <= length <= lim[k, 1])}
-            for k, (name, (a, b), length) in enumerate(zip(model.leg_names, model.legs, lengths))
+            for k, (name, (a, b), length) in enumerate(zip(model.leg_names, model.legs, lengths, strict=True))
         ],
         "units": _units(model.length_unit),
     }
@@ -178,7 +178,7 @@ def fk_table(d: dict) -> str:
 
 def truss_fk_dict(model: TrussModel, result: TrussFKResult, seed: int, elapsed: float) -> dict:
     out = {
-        "solutions": [{"nodes": {n: [float(v) for v in c] for n, c in zip(model.node_names, s.nodes)},
+        "solutions": [{"nodes": {n: [float(v) for v in c] for n, c in zip(model.node_names, s.nodes, strict=True)},
                        "residual": float(s.residual), "starts": None} for s in result.solutions],
         "seed": seed,
         "elapsed_s": round(float(elapsed), 6),
@@ -229,9 +229,9 @@ def workspace_dict(model: PlatformModel, result: WorkspaceResult, elapsed: float
         "volume": vol,
         "volume_se": se,
         "box": {k: [float(lo), float(hi)] if i < 3 else [to_unit(lo, model.angle_unit), to_unit(hi, model.angle_unit)]
-                for i, (k, (lo, hi)) in enumerate(zip(POSE_NAMES, result.box))},
+                for i, (k, (lo, hi)) in enumerate(zip(POSE_NAMES, result.box, strict=True))},
         "legs": [{"name": n, "limits": [float(v) for v in lim], "too_short": int(s), "too_long": int(lg)}
-                 for n, lim, s, lg in zip(model.leg_names, model.limits, result.too_short, result.too_long)],
+                 for n, lim, s, lg in zip(model.leg_names, model.limits, result.too_short, result.too_long, strict=True)],
         "centroid": [float(v) for v in result.reachable[:, :3].mean(axis=0)] if result.count else None,
         "units": _units(model.length_unit, model.angle_unit),
         "seed": result.seed,

@@ -126,7 +126,7 @@ def workspace_figure(model: PlatformModel, result: WorkspaceResult, length_unit:
     unit = f" [{length_unit}]" if length_unit else ""
     axes = fig.subplots(1, 3)
     sc = None
-    for ax, (i, j, depth) in zip(axes, ((0, 1, 2), (0, 2, 1), (1, 2, 0))):
+    for ax, (i, j, depth) in zip(axes, ((0, 1, 2), (0, 2, 1), (1, 2, 0)), strict=True):
         if len(pts):
             order = np.argsort(pts[:, depth])  # draw the far points first
             sc = ax.scatter(pts[order, i], pts[order, j], c=pts[order, 2], s=2, cmap="viridis", linewidths=0,
