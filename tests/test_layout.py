@@ -80,7 +80,6 @@ LAYERS = (
     ("identify",),
     ("model",),
     ("render",),
-    ("pipeline",),
     ("api",),
     ("cli", "__main__"),
 )
