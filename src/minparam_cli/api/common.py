@@ -106,8 +106,9 @@ def friction_option(text: str | Iterable[str] | None) -> tuple[str, ...]:
     return kinds
 
 
-def float_option(value: Any, n: int, option: str) -> tuple[float, ...]:
-    """n finite numbers from the CLI's "X,Y,Z" text or a sequence (the CLI's parse_floats messages)."""
+def float_option(value: Any, n: int | None, option: str) -> tuple[float, ...]:
+    """Finite numbers (``n`` of them, or any number for None) from the command line's "X,Y,Z" text or a
+    sequence (a numpy array too), with the command line's messages."""
     import math
 
     if isinstance(value, str):
@@ -117,10 +118,11 @@ def float_option(value: Any, n: int, option: str) -> tuple[float, ...]:
             raise OptionError(option, f"expected comma-separated numbers, got {value!r}") from None
     else:
         try:
-            vals = tuple(float(x) for x in value)
+            vals = tuple(float(x) for x in (value.tolist() if hasattr(value, "tolist") else value))
         except (TypeError, ValueError):
-            raise OptionError(option, f"expected {n} numbers, got {value!r}") from None
-    if len(vals) != n:
+            expected = "comma-separated numbers" if n is None else f"{n} numbers"
+            raise OptionError(option, f"expected {expected}, got {value!r}") from None
+    if n is not None and len(vals) != n:
         raise OptionError(option, f"expected {n} comma-separated numbers, got {len(vals)}")
     if not all(math.isfinite(v) for v in vals):
         raise OptionError(option, f"expected finite numbers, got {value!r}")

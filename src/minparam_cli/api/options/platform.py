@@ -11,7 +11,6 @@ from pathlib import Path
 from typing import Any
 
 from minparam_cli.api.common import OptionError, choice_option, float_option
-from minparam_cli.api.options.singular import _floats
 
 METHODS = ("auto", "exact", "pso", "multistart")
 SIDES = ("both", "above", "below")
@@ -35,7 +34,7 @@ class IKOptions:
     def __post_init__(self) -> None:
         put = object.__setattr__  # normalising a field of this record while it is being built
         if self.coords is not None:  # 18 of them for a truss: checked where the file says it is one
-            put(self, "coords", _floats(self.coords, "--coords"))
+            put(self, "coords", float_option(self.coords, None, "--coords"))
         put(self, "pose", _maybe(self.pose, "--pose", 6))
         put(self, "normal", _maybe(self.normal, "--normal", 3))
         if self.normal is not None and not any(self.normal):
@@ -63,7 +62,7 @@ class FKOptions:
 
     def __post_init__(self) -> None:
         put = object.__setattr__  # normalising a field of this record while it is being built
-        put(self, "lengths", _floats(self.lengths, "--lengths"))
+        put(self, "lengths", float_option(self.lengths, None, "--lengths"))
         put(self, "method", choice_option(self.method, METHODS, "--method"))
         put(self, "side", choice_option(self.side, SIDES, "--side"))
         if self.starts is not None and self.starts < 1:

@@ -7,28 +7,9 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from minparam_cli.api.common import OptionError
+from minparam_cli.api.common import OptionError, float_option
 from minparam_cli.errors import InputError
 from minparam_cli.kinematics.defaults import DEFAULT_DAMPING, DEFAULT_EPSILON, DEFAULT_STEP_DEG
-
-
-def _floats(value: Any, option: str, count: int | None = None) -> tuple[float, ...]:
-    """Numbers from the command line's "1,2,3" or a sequence (the command line's messages)."""
-    if isinstance(value, str):
-        try:
-            vals = tuple(float(x) for x in value.replace(" ", "").split(",") if x != "")
-        except ValueError:
-            raise OptionError(option, f"expected comma-separated numbers, got {value!r}") from None
-    else:
-        try:
-            vals = tuple(float(x) for x in (value.tolist() if hasattr(value, "tolist") else value))
-        except (TypeError, ValueError):
-            raise OptionError(option, f"expected comma-separated numbers, got {value!r}") from None
-    if count is not None and len(vals) != count:
-        raise OptionError(option, f"expected {count} comma-separated numbers, got {len(vals)}")
-    if not all(math.isfinite(v) for v in vals):
-        raise OptionError(option, f"expected finite numbers, got {value!r}")
-    return vals
 
 
 def _joints(value: Any, option: str, count: int | None = None) -> tuple[int, ...]:
@@ -70,9 +51,9 @@ class SingularOptions:
     def __post_init__(self) -> None:
         put = object.__setattr__  # normalising a field of this record while it is being built
         if self.q is not None:
-            put(self, "q", _floats(self.q, "--q"))
+            put(self, "q", float_option(self.q, None, "--q"))
         if self.twist is not None:
-            put(self, "twist", _floats(self.twist, "--twist", 6))
+            put(self, "twist", float_option(self.twist, 6, "--twist"))
         if not (math.isfinite(self.epsilon) and 0 < self.epsilon < 1):
             raise OptionError("--epsilon", f"expected a number between 0 and 1 (exclusive), got {self.epsilon:g}")
         if self.hold is not None:
