@@ -122,7 +122,8 @@ def run_evaluate(model: Model | str | Path, data: Sequence[Any], opts: EvaluateO
     else:
         saved, robot_path_, design = open_model(model, opts.robot)
         robot_file, source = str(robot_path_), str(model)
-    names, records = [], []
+    names: list[str | Path] = []
+    records = []
     for k, x in enumerate(data):
         if is_in_memory(x):
             records.append(as_record(x, f"<data{k + 1}>"))

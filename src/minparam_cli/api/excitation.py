@@ -10,7 +10,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING, Any, Iterable
+from typing import TYPE_CHECKING, Any, Iterable, cast
 
 from minparam_cli.api.common import ProgressArg, close, progress_callback, robot_path, warn
 from minparam_cli.api.excitation_result import Excitation
@@ -118,9 +118,10 @@ def excite(robot: Robot | str | Path, *, harmonics: int = 5, base_frequency: flo
     given here.  ``to_dict()`` is the ``--json`` record, ``to_csv()`` the CSV of ``-o``.
     """
     own = robot.options if isinstance(robot, Robot) else None
+    # cast(Any, ...): raw values (text, sequences, mappings) that the record normalises on construction (its fields: the stored types)
     opts = ExciteOptions(harmonics=harmonics, base_frequency=base_frequency, rate=rate, periods=periods, criterion=criterion,
                          scaling=scaling, rest=rest, margin=margin,
-                         friction=friction if friction is not None else (own.friction if own else ()),
+                         friction=cast(Any, friction if friction is not None else (own.friction if own else ())),
                          rotor_inertia=bool(rotor_inertia) if rotor_inertia is not None else (own.rotor_inertia if own else False),
                          box=box, point=point, starts=starts, max_iterations=max_iterations, seed=seed,
                          mimic=mimic if mimic is not None else (own.mimic if own else "coupled"))

@@ -9,7 +9,7 @@ result holds the same text the command writes (the comment block names the equiv
 from __future__ import annotations
 
 from pathlib import Path
-from typing import TYPE_CHECKING, Any, Iterable
+from typing import TYPE_CHECKING, Any, Iterable, cast
 
 from minparam_cli.api.common import robot_path, warn
 from minparam_cli.api.generated import GeneratedCode
@@ -99,8 +99,9 @@ def codegen(robot: Robot | str | Path, lang: str, *, model: Any = None, paramete
         gravity = gravity if gravity is not None else o.gravity
         mimic = mimic if mimic is not None else o.mimic
         floating_base = floating_base if floating_base is not None else o.floating_base
-    opts = CodegenOptions(lang=lang, output=output, model=model, parameters=parameters, full=full, name=name,
-                          method=method, friction=friction if friction is not None else "",
+    # cast(Any, ...): raw values (text, sequences, mappings) that the record normalises on construction (its fields: the stored types)
+    opts = CodegenOptions(lang=lang, output=cast(Any, output), model=model, parameters=parameters, full=full, name=name,
+                          method=method, friction=cast(Any, friction if friction is not None else ""),
                           rotor_inertia=bool(rotor_inertia), gravity=gravity, samples=int(samples), seed=int(seed),
                           mimic=mimic or "coupled", floating_base=bool(floating_base))
     gen, stem = generate(path, opts)

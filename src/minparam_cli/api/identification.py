@@ -14,7 +14,7 @@ from __future__ import annotations
 
 from dataclasses import replace
 from pathlib import Path
-from typing import TYPE_CHECKING, Any, Iterable, Sequence
+from typing import TYPE_CHECKING, Any, Iterable, Sequence, cast
 
 from minparam_cli.api.common import ProgressArg, close, progress_callback, robot_path
 from minparam_cli.api.identified import Identification, Model
@@ -189,20 +189,21 @@ def identify(robot: Robot | str | Path, data: Any, *, validate: Any = None, test
     """
     path = robot_path(robot)
     base = robot.options if isinstance(robot, Robot) else None
+    # cast(Any, ...): raw values (text, sequences, mappings) that the record normalises on construction (its fields: the stored types)
     opts = IdentifyOptions(
-        robot=path, validate=validate, test=test, split=tuple(split), columns=columns, time_unit=time_unit,
+        robot=path, validate=validate, test=test, split=cast(Any, tuple(split)), columns=cast(Any, columns), time_unit=time_unit,
         topic=topic, cutoff=cutoff, force_filter=filter, rate=rate, decimate=decimate, trim_still=trim_still,
         still_speed=still_speed, rest_below_still=rest_below_still,
-        friction=friction if friction is not None else (base.friction if base else ()),
+        friction=cast(Any, friction if friction is not None else (base.friction if base else ())),
         rotor_inertia=bool(rotor_inertia) if rotor_inertia is not None else (base.rotor_inertia if base else False),
         coulomb_smoothing=float(coulomb_smoothing) if coulomb_smoothing is not None else (base.coulomb_smoothing if base else 0.0),
         gravity=gravity if gravity is not None else (base.gravity if base else None),
-        effects=effects, diagnose=diagnose, min_gain=min_gain, physical=physical, prior=prior,
+        effects=cast(Any, effects), diagnose=diagnose, min_gain=min_gain, physical=physical, prior=prior,
         prior_weight=prior_weight, sigma=sigma, block_length=block_length, replicates=replicates,
         essential=essential is not None, essential_bound=10.0 if essential is None else float(essential),
         ols=ols, seed=seed, mimic=mimic if mimic is not None else (base.mimic if base else "coupled"),
         side=side, current=bool(current), payload_data=payload_data, payload_mass=payload_mass,
-        payload_com=payload_com, payload_inertia=payload_inertia,
+        payload_com=cast(Any, payload_com), payload_inertia=cast(Any, payload_inertia),
     )
     bar = progress_callback(progress, 1, "diagnosis")
     try:

@@ -119,7 +119,7 @@ def check_batch(opts: IdentifyOptions, single_run: dict[str, Any], output) -> No
 
     chain = load_identify_chain(opts)
     motor_side_spec(chain, opts.side, opts.current)
-    refuse_single_run_options(*single_run.values(), output)
+    refuse_single_run_options(**single_run, output=output)
 
 
 def refuse_single_run_options(validate, test, plot, save_model, export_urdf, export_yaml, output) -> None:

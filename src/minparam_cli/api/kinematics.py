@@ -7,7 +7,7 @@ caller's to write): the CLI and ``singular`` both call it.  The platforms' are i
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Sequence
+from typing import Any, Sequence, cast
 
 from minparam_cli.api.common import ProgressArg, close, progress_callback, robot_path
 from minparam_cli.api.options.singular import SingularOptions
@@ -111,7 +111,8 @@ def singular(robot: Robot | str | Path, q: Sequence[float] | None = None, *, twi
     ``step`` (rad, or degrees with ``degrees=True``; default 15°); ``symbolic=True`` adds the
     vanishing minors.
     """
-    opts = SingularOptions(q=q, twist=twist, degrees=degrees, epsilon=epsilon, hold=hold, damping=damping, scan=scan,
+    # cast(Any, ...): raw values (text, sequences, mappings) that the record normalises on construction (its fields: the stored types)
+    opts = SingularOptions(q=cast(Any, q), twist=cast(Any, twist), degrees=degrees, epsilon=epsilon, hold=cast(Any, hold), damping=damping, scan=scan,
                            step=step, symbolic=symbolic, seed=seed, tool=tool)
     path = robot_path(robot)
     bar = progress_callback(progress, 1, "scanning") if scan else None

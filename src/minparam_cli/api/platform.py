@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import time
 from pathlib import Path
-from typing import Sequence
+from typing import Any, Sequence, cast
 
 from minparam_cli.api.common import OptionError, ProgressArg, close, progress_callback, warn
 from minparam_cli.api.options.platform import FKOptions, IKOptions, WorkspaceOptions
@@ -149,7 +149,8 @@ def platform_ik(platform: str | Path, pose: Sequence[float] | None = None, *, po
     """Inverse kinematics (``minparam platform ik``): leg lengths from a pose x,y,z,roll,pitch,yaw, or
     from a position and the platform normal (with a fixed ``yaw``), in the file's units; a 12-leg
     truss takes node coordinates (18 numbers; default: the file's)."""
-    return inverse(platform, IKOptions(pose=pose, position=position, normal=normal, yaw=yaw, coords=coords))
+    # cast(Any, ...): raw values (text, sequences, mappings) that the record normalises on construction (its fields: the stored types)
+    return inverse(platform, IKOptions(pose=cast(Any, pose), position=cast(Any, position), normal=cast(Any, normal), yaw=yaw, coords=cast(Any, coords)))
 
 
 def platform_fk(platform: str | Path, lengths: Sequence[float], *, method: str = "auto", starts: int | None = None,
@@ -159,8 +160,9 @@ def platform_fk(platform: str | Path, lengths: Sequence[float], *, method: str =
     ``method``: "auto", "exact" (degree-16 elimination, octahedral 3-3 pattern), "pso" (the paper's
     particle swarm) or "multistart".  A free 12-leg truss gives node coordinates (in ``to_dict()``),
     in the frame of the three nodes ``frame`` (default: the first face in node order)."""
-    opts = FKOptions(lengths=lengths, method=method, starts=starts, particles=particles, iterations=iterations, seed=seed,
-                     side=side, rtol=rtol, frame=frame)
+    # cast(Any, ...): raw values (text, sequences, mappings) that the record normalises on construction (its fields: the stored types)
+    opts = FKOptions(lengths=cast(Any, lengths), method=method, starts=starts, particles=particles, iterations=iterations, seed=seed,
+                     side=side, rtol=rtol, frame=cast(Any, frame))
     bar = progress_callback(progress, 1, f"fk {Path(platform).name}")
     try:
         result = forward(platform, opts, progress=bar)
@@ -175,7 +177,8 @@ def platform_workspace(platform: str | Path, *, samples: int = 20000, orientatio
                        seed: int = 0, progress: ProgressArg = False) -> PlatformResult:
     """Workspace (``minparam platform workspace``): ``samples`` poses from ``seed`` in the file's box,
     those with every leg within its limits counted (``reachable``: their share)."""
-    opts = WorkspaceOptions(samples=samples, orientation=orientation, seed=seed)
+    # cast(Any, ...): raw values (text, sequences, mappings) that the record normalises on construction (its fields: the stored types)
+    opts = WorkspaceOptions(samples=samples, orientation=cast(Any, orientation), seed=seed)
     bar = progress_callback(progress, samples, f"workspace {Path(platform).name}")
     try:
         return workspace(platform, opts, progress=bar)

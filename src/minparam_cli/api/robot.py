@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from pathlib import Path
-from typing import TYPE_CHECKING, Any, Iterable
+from typing import TYPE_CHECKING, Any, Iterable, cast
 
 from minparam_cli.api.common import ProgressArg, choice, close, friction_kinds, gravity3, progress_callback, robot_path, warn
 from minparam_cli.api.check_result import CheckResult
@@ -87,8 +87,9 @@ def derive(robot: Robot | str | Path, *, method: str = "qr", friction: str | Ite
     from minparam_cli.api.options.derive import DeriveOptions
 
     own = robot.options if isinstance(robot, Robot) else LoadOptions()
+    # cast(Any, ...): raw values (text, sequences, mappings) that the record normalises on construction (its fields: the stored types)
     opts = DeriveOptions(
-        method=method, friction=friction if friction is not None else own.friction,
+        method=method, friction=cast(Any, friction if friction is not None else own.friction),
         rotor_inertia=rotor_inertia if rotor_inertia is not None else own.rotor_inertia,
         gravity=gravity if gravity is not None else own.gravity, samples=samples, seed=seed, symbolic=symbolic,
         symbolic_numbers=symbolic_numbers, snap_angles=snap_angles, mimic=mimic if mimic is not None else own.mimic,

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Callable, Iterable, Mapping
+from typing import Any, Callable, Iterable, Mapping, cast
 
 from minparam_cli.api.common import robot_path, warn
 from minparam_cli.api.options.simulate import SimulateOptions
@@ -176,10 +176,11 @@ def simulate(robot: Robot | str | Path, *, effects: str | Iterable[str] = "", st
     """
     import numpy as np
 
-    opts = SimulateOptions(trajectory=trajectory, effects=effects, strength=strength, noise=noise, noise_q=noise_q,
+    # cast(Any, ...): raw values (text, sequences, mappings) that the record normalises on construction (its fields: the stored types)
+    opts = SimulateOptions(trajectory=cast(Any, trajectory), effects=cast(Any, effects), strength=strength, noise=noise, noise_q=noise_q,
                            seed=seed, duration=duration, rate=rate, harmonics=harmonics, base_frequency=base_frequency,
                            random_inertia=random_inertia, ddq=ddq, coulomb_smoothing=coulomb_smoothing, mimic=mimic,
-                           side=side, current=current, motor_params=motor_params, payload_mass=payload_mass,
+                           side=side, current=current, motor_params=cast(Any, motor_params), payload_mass=payload_mass,
                            payload_com=payload_com, payload_inertia=payload_inertia)
     setup = prepare_simulation(robot, opts)
     warn(setup.notes)

@@ -7,9 +7,10 @@ import functools
 import math
 import os
 import sys
+from collections.abc import Sequence
 from enum import Enum
 from pathlib import Path
-from typing import Callable
+from typing import Any, Callable, cast
 
 import click
 import typer
@@ -71,10 +72,10 @@ def warning_line(message: str) -> None:
     print(f"minparam: warning: {text}", file=sys.stderr)
 
 
-class _FiniteFloat:
-    """Mixed into a click float type (FLOAT, FloatRange): 'nan', 'inf' and '1e999' are refused."""
+class _FiniteFloat(click.ParamType):
+    """Mixed into a click float type (FLOAT, FloatRange), before it: 'nan', 'inf' and '1e999' are refused."""
 
-    def convert(self, value, param, ctx):
+    def convert(self, value: Any, param: click.Parameter | None, ctx: click.Context | None) -> Any:
 
         x = super().convert(value, param, ctx)
         if x is not None and not math.isfinite(x):
@@ -82,13 +83,13 @@ class _FiniteFloat:
         return x
 
 
-def _finite_float_type(t):
+def _finite_float_type(t: click.ParamType) -> click.ParamType:
     """A copy of click float type ``t`` that refuses non-finite values (same name, range and help)."""
     import copy
 
     if isinstance(t, _FiniteFloat) or not isinstance(t, click.types.FloatParamType):
         return t
-    cls = type(f"Finite{type(t).__name__}", (_FiniteFloat, type(t)), {})
+    cls = cast("type[click.types.FloatParamType]", type(f"Finite{type(t).__name__}", (_FiniteFloat, type(t)), {}))
     new = cls.__new__(cls)
     new.__dict__.update(copy.copy(t.__dict__))
     return new
@@ -114,12 +115,15 @@ class OneLineGroup(typer.core.TyperGroup):
         super().__init__(*args, **kwargs)
         _validate_params(self)
 
-    def main(self, args=None, prog_name=None, complete_var=None, standalone_mode=True, **extra):
+    def main(self, args: Sequence[str] | None = None, prog_name: str | None = None, complete_var: str | None = None,
+             standalone_mode: bool = True, windows_expand_args: bool = True, **extra: Any) -> Any:
         if not standalone_mode:
-            return super().main(args, prog_name, complete_var, standalone_mode=False, **extra)
+            return super().main(args, prog_name, complete_var, standalone_mode=False,
+                                windows_expand_args=windows_expand_args, **extra)
         no_args = getattr(click.exceptions, "NoArgsIsHelpError", ())
         try:
-            rv = super().main(args, prog_name, complete_var, standalone_mode=False, **extra)
+            rv = super().main(args, prog_name, complete_var, standalone_mode=False,
+                              windows_expand_args=windows_expand_args, **extra)
         except no_args as e:  # 'minparam' alone prints the help
             e.show()
             sys.exit(e.exit_code)

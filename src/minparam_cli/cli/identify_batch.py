@@ -14,6 +14,7 @@ import csv
 import io
 import json
 from pathlib import Path
+from typing import Any
 
 from minparam_cli.api.identify_batch import Recording, batch_recordings, check_batch, identify_recording
 from minparam_cli.errors import InputError
@@ -60,7 +61,7 @@ def _rel(e) -> float | None:
 
 def summary_row(rec: Recording, res: dict) -> dict:
     """One row of the fleet table: the errors are relative RMS torque errors (``relative_error``)."""
-    row = {k: None for k in SUMMARY_COLUMNS}
+    row: dict[str, Any] = {k: None for k in SUMMARY_COLUMNS}
     row.update(recording=str(rec.data), robot=str(rec.robot))
     if not res["ok"]:
         row.update(status=res["status"], error=res["error"])

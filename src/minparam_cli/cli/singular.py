@@ -9,6 +9,7 @@ from __future__ import annotations
 import json
 from enum import Enum
 from pathlib import Path
+from typing import Any, cast
 
 import typer
 
@@ -73,8 +74,9 @@ def singular(
     from minparam_cli.render.singular_text import singular_text
 
     with option_errors():
-        opts = SingularOptions(q=q, twist=twist, degrees=not rad, epsilon=epsilon, hold=hold, damping=damping, scan=scan,
-                               step=step, plot=plot, joints=joints, symbolic=symbolic, seed=seed, tool=tool)
+        # cast(Any, ...): raw values (text, sequences, mappings) that the record normalises on construction (its fields: the stored types)
+        opts = SingularOptions(q=cast(Any, q), twist=cast(Any, twist), degrees=not rad, epsilon=epsilon, hold=cast(Any, hold), damping=damping, scan=scan,
+                               step=step, plot=plot, joints=cast(Any, joints), symbolic=symbolic, seed=seed, tool=tool)
     bar = Progress(1, "scanning", quiet=quiet) if scan else None
     try:
         result = analyse_singular(robot, opts, progress=bar)

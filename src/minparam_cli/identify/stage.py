@@ -27,13 +27,13 @@ from minparam_cli.identify.diagnosis.diagnose import DiagnosisOptions, diagnose
 from minparam_cli.identify.estimate.fit import Errors, errors, full_theta, solve
 from minparam_cli.identify.estimate.records import Estimate, Step, TestFigures, TestFile
 from minparam_cli.identify.diagnosis.explain import describe_rejected, describe_terms, nominal_notes
-from minparam_cli.identify.physical.convex import PhysicalOptions
+from minparam_cli.identify.physical.convex import PhysicalFit, PhysicalOptions
 from minparam_cli.identify.physical.report import PhysicalReport
 from minparam_cli.identify.assess.quality import COND_LIMIT, check_excitation, flags, keep_physical
 from minparam_cli.identify.passes.roles import DEFAULT_SPLIT, FIT, SELECTION, TEST, describe, plan
 from minparam_cli.identify.passes.slots import final_maps, slot_sources
 from minparam_cli.identify.passes.stream import stream
-from minparam_cli.identify.assess.uncertainty import BlockGrams, UncertaintyOptions, block_length, estimate, relative_percent
+from minparam_cli.identify.assess.uncertainty import BlockGrams, Uncertainty, UncertaintyOptions, block_length, estimate, relative_percent
 from minparam_cli.identify.result import IdentifyResult
 
 DIAGNOSIS_CAP = 12_000  # samples kept for the diagnosis (fit part; half as many of the selection part)
@@ -66,8 +66,8 @@ class Artifacts:
     theta: np.ndarray | None = None  # its parameters, every column (0 where regrouped on this data)
     std_percent: np.ndarray | None = None  # their relative σ (inf where regrouped)
     base: object | None = None  # the BaseSet the design's base columns come from
-    physical: object | None = None  # PhysicalFit, with --physical
-    uncertainty: object | None = None  # uncertainty.Uncertainty of the final fit (its covariance feeds prediction bands)
+    physical: PhysicalFit | None = None  # with --physical
+    uncertainty: Uncertainty | None = None  # of the final fit (its covariance feeds prediction bands)
     grams: object | None = None  # uncertainty.BlockGrams of the fit data, with the map to the final fit's columns
 
 
@@ -128,6 +128,7 @@ def _identify(chain: Chain, data_path: Path, opts: IdentifyOptions, progress) ->
                      "bic_threshold": opts.diagnosis.bic_threshold, "min_gain": opts.diagnosis.min_gain}
         steps_out[0] = replace(steps_out[0], statistic=d.steps[0].statistic)
         for s_ in d.steps[1:]:
+            assert s_.term is not None  # only the first step (the rigid body) has no term
             steps_out.append(Step(s_.term.effect, tuple(j + 1 for j in s_.term.joints), s_.statistic, s_.errors,
                                   s_.term.hyper, s_.term.label()))
         if d.design.terms:

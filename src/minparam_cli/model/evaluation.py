@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import copy
 from dataclasses import dataclass
-from typing import Any, Callable, Mapping
+from typing import TYPE_CHECKING, Any, Callable, Mapping
 
 import numpy as np
 
@@ -19,6 +19,9 @@ from minparam_cli.measured.blocks import iter_blocks
 from minparam_cli.measured.records import DataOptions, DataReport
 from minparam_cli.identify.estimate.errors import Errors
 from minparam_cli.identify.passes.design import Design
+
+if TYPE_CHECKING:
+    from minparam_cli.model.bands import Band, BandCounts
 
 REGRESSOR_ROWS = 4096  # samples per regressor evaluation: the full regressor is n·10n numbers a sample
 
@@ -64,10 +67,10 @@ class Evaluation:
     which: str  # "fit" | "physical"
     files: tuple[tuple[str, Sums, DataReport], ...]
     pooled: Sums
-    bands: tuple | None = None  # per file, bands.BandCounts (with a Band)
-    band: object | None = None  # the bands.Band
+    bands: tuple[BandCounts, ...] | None = None  # per file (with a band)
+    band: Band | None = None  # set with ``bands``
 
-    def pooled_band(self):
+    def pooled_band(self) -> BandCounts | None:
         """The band counts of all files together (None without a band)."""
         if self.bands is None:
             return None
@@ -77,15 +80,17 @@ class Evaluation:
         return pooled
 
     def to_dict(self) -> dict:
-        out = {
+        out: dict[str, Any] = {
             "model": self.which,
             "files": [{"path": p, **s.as_dict(), "preprocessing": rep.as_dict()} for p, s, rep in self.files],
             "pooled": self.pooled.as_dict(),
         }
         if self.bands is not None:
+            pooled = self.pooled_band()
+            assert pooled is not None and self.band is not None  # ``evaluate`` sets bands and band together
             for f, c in zip(out["files"], self.bands, strict=True):
                 f["band"] = c.as_dict()
-            out["pooled"]["band"] = self.pooled_band().as_dict()
+            out["pooled"]["band"] = pooled.as_dict()
             out["band"] = {"level": self.band.level, "z": self.band.z, "sigma": self.band.kind,
                            "residual_sigma_per_joint": [float(x) for x in self.band.sigma]}
         return out

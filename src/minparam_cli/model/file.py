@@ -26,7 +26,7 @@ import json
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -100,7 +100,7 @@ class SavedModel:
     uncertainty: dict | None = None  # {"sigma", "columns", "covariance", "residual_sigma_per_joint"}: prediction bands
 
     def to_dict(self) -> dict:
-        out = {
+        out: dict[str, Any] = {
             "format": FORMAT,
             "version": VERSION,
             "robot": {"path": self.robot, "sha256": self.robot_sha256},

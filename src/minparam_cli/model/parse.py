@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import json
 import math
+from typing import Literal, NoReturn, overload
 
 import numpy as np
 
@@ -18,7 +19,7 @@ class _Reader:
     def __init__(self, source: str):
         self.source = source
 
-    def fail(self, where: str, what: str):
+    def fail(self, where: str, what: str) -> NoReturn:
         raise ModelError(f"{self.source}: {where}: {what}")
 
     def get(self, d, key: str, where: str):
@@ -27,6 +28,11 @@ class _Reader:
         if key not in d:
             self.fail(where, f"missing key '{key}'")
         return d[key]
+
+    @overload
+    def number(self, v, where: str, allow_none: Literal[False] = False) -> float: ...
+    @overload
+    def number(self, v, where: str, allow_none: bool) -> float | None: ...
 
     def number(self, v, where: str, allow_none: bool = False) -> float | None:
         if v is None and allow_none:

@@ -133,8 +133,8 @@ def _render(r: IdentifyResult) -> str:
     if phys:
         out += _physical_lines(phys) + [""]
         both = {**phys.base_parameters, **phys.effect_coefficients}
-        prows = [(v.name, f"{v.value:.6g}", "-" if v.std_percent is None else f"{v.std_percent:.3g}",
-                  f"{both[v.name]:.6g}" if v.name in both else "-") for v in r.parameters]
+        prows: list[tuple[str, ...]] = [(v.name, f"{v.value:.6g}", "-" if v.std_percent is None else f"{v.std_percent:.3g}",
+                                         f"{both[v.name]:.6g}" if v.name in both else "-") for v in r.parameters]
         out.append(columns(prows, ("parameter", "value", sig, "physical"), right=(1, 2, 3)))
     else:
         prows = [(v.name, f"{v.value:.6g}", "-" if v.std_percent is None else f"{v.std_percent:.3g}") for v in r.parameters]

@@ -7,6 +7,7 @@ from typing import TYPE_CHECKING
 if TYPE_CHECKING:
     from minparam_cli.identify.assess.essential import EssentialReport
     from minparam_cli.identify.estimate.records import SigmaSummary
+    from minparam_cli.model.bands import BandCounts
     from minparam_cli.model.evaluation import EvaluateResult
 
 WHAT = {
@@ -59,10 +60,14 @@ def band_lines(r: EvaluateResult) -> list[str]:
 
     ev = r.evaluation
     b = ev.band
+    assert ev.bands is not None and b is not None  # called for an evaluation with a band only
     n = len(ev.pooled.rows)
     rows = []
-    bands = ev.bands or ()
-    entries = [(f[0], c) for f, c in zip(ev.files, bands, strict=True)] + ([("pooled", ev.pooled_band())] if len(ev.files) > 1 else [])
+    entries: list[tuple[str, BandCounts]] = [(f[0], c) for f, c in zip(ev.files, ev.bands, strict=True)]
+    if len(ev.files) > 1:
+        pooled = ev.pooled_band()
+        assert pooled is not None  # ev.bands is not None
+        entries.append(("pooled", pooled))
     for label, e in entries:
         rows.append((label, *[f"{100 * x:.1f} %" for x in e.inside_per_joint()],
                      *[f"{h:.3g} ({hp:.2g})" for h, hp in zip(e.half_width_per_joint(), e.parameter_half_width_per_joint(), strict=True)]))

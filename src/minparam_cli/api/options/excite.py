@@ -47,7 +47,9 @@ class ExciteOptions:
         put(self, "friction", friction_option(self.friction if isinstance(self.friction, str) or self.friction is None
                                               else [str(k) for k in self.friction]))
         if self.box is not None:
-            put(self, "box", tuple(tuple(float(v) for v in row) for row in box_option(self.box)))
+            box = box_option(self.box)
+            assert box is not None  # None only for a None box
+            put(self, "box", tuple(tuple(float(v) for v in row) for row in box))
         if self.point is not None:
             p = float_option(self.point, 3, "--point")
             put(self, "point", (p[0], p[1], p[2]))

@@ -137,16 +137,25 @@ def keep_physical(design: Design, fit, acc: dict, weighted: bool):
 
 
 class Figures(Protocol):
-    """What the flags read of an identification (``identify.result.IdentifyResult``)."""
+    """What the flags read of an identification (``identify.result.IdentifyResult``, a frozen record:
+    hence read-only members)."""
 
-    data: str
-    validate: str | None
-    roles: Mapping[str, Any]
-    files: tuple[Mapping[str, Any], ...]
-    steps: tuple[Step, ...]
-    before: Errors
-    after: Errors
-    test: TestFigures
+    @property
+    def data(self) -> str: ...
+    @property
+    def validate(self) -> str | None: ...
+    @property
+    def roles(self) -> Mapping[str, Any]: ...
+    @property
+    def files(self) -> tuple[Mapping[str, Any], ...]: ...
+    @property
+    def steps(self) -> tuple[Step, ...]: ...
+    @property
+    def before(self) -> Errors: ...
+    @property
+    def after(self) -> Errors: ...
+    @property
+    def test(self) -> TestFigures: ...
 
 
 def flags(result: Figures, fit) -> list[str]:
@@ -179,12 +188,12 @@ def flags(result: Figures, fit) -> list[str]:
             if share is not None and share > STILL_PART_FLAG:
                 out.append(f"the {role} data ({span_text(entry)}) stand still in {100 * share:.0f} % of their samples "
                            "(every joint): their figures measure standstill more than motion")
-    for f in result.files:
-        still = [(j, s) for j, s in enumerate(f.get("still_share") or []) if s > STILL_FLAG]
+    for file in result.files:
+        still = [(j, s) for j, s in enumerate(file.get("still_share") or []) if s > STILL_FLAG]
         if still:
             js = ", ".join(str(j + 1) for j, _ in still)
             shares = ", ".join(f"{100 * s:.0f}" for _, s in still)
-            out.append(f"{f['path']}: joint{'s' if len(still) > 1 else ''} {js} stand{'' if len(still) > 1 else 's'} "
+            out.append(f"{file['path']}: joint{'s' if len(still) > 1 else ''} {js} stand{'' if len(still) > 1 else 's'} "
                        f"still in {shares} % of the samples: the torque at standstill (static friction) is not in the "
                        "model (sign(0) = 0); --trim-still SECONDS cuts long still segments")
     return out

@@ -28,8 +28,10 @@ gives a 4.2 s test block), so each figure names its source and time span.
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 from minparam_cli.errors import DataError
 
@@ -140,7 +142,7 @@ def describe(sources: list[Source]) -> dict:
     return out
 
 
-def span_text(entry: dict) -> str:
+def span_text(entry: Mapping[str, Any]) -> str:
     """'data.csv, 12 ≤ t < 16.8 s' for an entry of ``describe`` (the file alone when it is whole)."""
     span = entry.get("time_s")
     if not span:
