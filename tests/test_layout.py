@@ -121,15 +121,20 @@ def test_every_room_is_on_the_map_and_no_import_runs_up_it():
     assert not _upward_imports()
 
 
-def test_the_map_check_sees_an_upward_import(monkeypatch):
-    """The check can fail: a stage importing the command line is found."""
+def _pretend_import(monkeypatch, importer: str, imported: str) -> None:
+    """Make the checks see ``importer`` import ``imported`` (to show that a check can fail)."""
     real = _imports
 
-    def with_upward(name, path, modules):
+    def with_extra(name, path, modules):
         found = real(name, path, modules)
-        return found | {"minparam_cli.cli.app"} if name == "minparam_cli.dynamics.regressor" else found
+        return found | {imported} if name == importer else found
 
-    monkeypatch.setattr(__import__(__name__), "_imports", with_upward)
+    monkeypatch.setattr(__import__(__name__), "_imports", with_extra)
+
+
+def test_the_map_check_sees_an_upward_import(monkeypatch):
+    """The check can fail: a stage importing the command line is found."""
+    _pretend_import(monkeypatch, "minparam_cli.dynamics.regressor", "minparam_cli.cli.app")
     assert _upward_imports() == ["minparam_cli.dynamics.regressor -> minparam_cli.cli.app"]
 
 
@@ -169,11 +174,5 @@ def test_the_commands_import_only_the_api_the_renderers_and_output():
 
 def test_the_cli_check_sees_a_stage_import(monkeypatch):
     """The check can fail: a command importing a stage module is found."""
-    real = _imports
-
-    def with_stage(name, path, modules):
-        found = real(name, path, modules)
-        return found | {"minparam_cli.identify.stage"} if name == "minparam_cli.cli.evaluate" else found
-
-    monkeypatch.setattr(__import__(__name__), "_imports", with_stage)
+    _pretend_import(monkeypatch, "minparam_cli.cli.evaluate", "minparam_cli.identify.stage")
     assert _cli_strays() == {"minparam_cli.cli.evaluate": ["minparam_cli.identify.stage"]}
