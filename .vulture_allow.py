@@ -16,7 +16,8 @@ _.dependent_names  # BaseSet.dependent_names (docs/api.md)
 _.unidentifiable_names  # BaseSet.unidentifiable_names (docs/api.md)
 
 # PEP 562: `minparam_cli.cli.app.app` is built on first access
-__getattr__  # cli/app.py
+__getattr__  # cli/app.py; minparam/__init__.py (the API loads on first use)
+__dir__  # minparam/__init__.py: dir(minparam) lists the names loaded on first use
 
 # members of the commands' str Enums: typer picks them by value from the command line
 _.python  # codegen --lang python
