@@ -13,8 +13,6 @@ from typing import cast
 
 from minparam_cli.params import EXTRA_ORDER
 
-METHODS = ("qr", "projection")
-
 
 @dataclass(frozen=True)
 class DeriveOptions:

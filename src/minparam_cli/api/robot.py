@@ -9,12 +9,11 @@ from minparam_cli.api.common import ProgressArg, choice, close, friction_kinds, 
 from minparam_cli.api.check_result import CheckResult
 from minparam_cli.api.results import BaseSet, LoadOptions, Robot
 from minparam_cli.errors import InputError
+from minparam_cli.describe.records import MIMIC_MODES
 
 if TYPE_CHECKING:
     import numpy as np
 
-METHODS = ("qr", "projection")
-MIMIC_MODES = ("coupled", "fixed")
 
 
 def load_options(robot: Any, friction: str | Iterable[str] | None = None, rotor_inertia: bool | None = None,

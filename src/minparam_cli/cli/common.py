@@ -29,7 +29,7 @@ class Format(str, Enum):
 
 
 class MimicMode(str, Enum):
-    """What a command does with URDF mimic joints (``describe.urdf.MIMIC_MODES``)."""
+    """What a command does with URDF mimic joints (``describe.records.MIMIC_MODES``)."""
 
     coupled = "coupled"
     fixed = "fixed"

@@ -10,6 +10,9 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from fractions import Fraction
 
+# what a loader does with URDF <mimic> joints: move them with their master, or freeze them at their offset
+MIMIC_MODES = ("coupled", "fixed")
+
 
 @dataclass(frozen=True)
 class GeomValue:

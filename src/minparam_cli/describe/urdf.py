@@ -44,13 +44,11 @@ from pathlib import Path
 
 import numpy as np
 
-from minparam_cli.describe.records import RobotDescription
+from minparam_cli.describe.records import MIMIC_MODES, RobotDescription
 from minparam_cli.safety import parse_xml_safely, read_bounded
 from minparam_cli.describe.urdf_elements import ACTUATED, read_elements
 from minparam_cli.describe.urdf_tree import build_description
 from minparam_cli.errors import DescriptionError
-# what to do with <mimic> joints: move with their master, or freeze them at their offset
-MIMIC_MODES = ("coupled", "fixed")
 
 
 def load_urdf(path: Path, snap_angles: float | None = None, mimic: str = "coupled", floating_base: bool = False) -> RobotDescription:

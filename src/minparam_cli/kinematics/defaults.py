@@ -1,4 +1,7 @@
-"""Default settings of the singularity stage, importable without numpy (the CLI shows them in --help)."""
+"""Default settings of the kinematics stages, importable without numpy (the CLI shows them in --help)."""
+
+PLATFORM_FK_METHODS = ("auto", "exact", "pso", "multistart")
+"""Forward kinematics of a platform: the methods ``platform fk --method`` accepts."""
 
 DEFAULT_EPSILON = 1e-3
 """Relative cut on σ_min/σ_max of the normalised screw matrix."""

@@ -7,12 +7,12 @@ from pathlib import Path
 from typing import Any
 
 from minparam_cli.api.common import OptionError, choice_option, float_option, friction_option
+from minparam_cli.api.options.derive import METHODS
 from minparam_cli.errors import InputError
+from minparam_cli.describe.records import MIMIC_MODES
 
 LANGS = ("c", "python", "casadi")
-METHODS = ("qr", "projection")
 PARAMETERS = ("physical", "fit")
-MIMIC_MODES = ("coupled", "fixed")
 
 
 def number_text(value: float) -> str:

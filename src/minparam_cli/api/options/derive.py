@@ -6,9 +6,9 @@ from dataclasses import dataclass
 from typing import Any, Iterable
 
 from minparam_cli.api.common import OptionError, choice_option, float_option, friction_option
+from minparam_cli.describe.records import MIMIC_MODES
 
 METHODS = ("qr", "projection")
-MIMIC_MODES = ("coupled", "fixed")
 
 
 @dataclass(frozen=True)

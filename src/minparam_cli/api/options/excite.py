@@ -7,10 +7,10 @@ from typing import Any
 
 from minparam_cli.api.common import choice_option, float_option, friction_option
 from minparam_cli.errors import InputError
+from minparam_cli.describe.records import MIMIC_MODES
 
 CRITERIA = ("cond", "logdet")
 SCALINGS = ("si", "columns")
-MIMIC_MODES = ("coupled", "fixed")
 
 
 @dataclass(frozen=True)

@@ -20,12 +20,13 @@ from typing import Any, Iterable, Mapping
 
 from minparam_cli.api.common import OptionError, float_option
 from minparam_cli.errors import InputError
+from minparam_cli.describe.records import MIMIC_MODES
+from minparam_cli.measured.columns import TIME_UNITS as UNIT_SCALES
 
-TIME_UNITS = ("s", "ms", "us", "ns")
+TIME_UNITS = tuple(UNIT_SCALES)  # the units the readers convert (measured.columns)
 PRIORS = ("none", "nominal")
 SIGMAS = ("hac", "bootstrap", "textbook")
 SIDES = ("joint", "motor")
-MIMIC_MODES = ("coupled", "fixed")
 DEFAULT_SPLIT = (0.6, 0.2, 0.2)
 
 

@@ -11,8 +11,8 @@ from pathlib import Path
 from typing import Any
 
 from minparam_cli.api.common import OptionError, choice_option, float_option
+from minparam_cli.kinematics.defaults import PLATFORM_FK_METHODS
 
-METHODS = ("auto", "exact", "pso", "multistart")
 SIDES = ("both", "above", "below")
 
 
@@ -63,7 +63,7 @@ class FKOptions:
     def __post_init__(self) -> None:
         put = object.__setattr__  # normalising a field of this record while it is being built
         put(self, "lengths", float_option(self.lengths, None, "--lengths"))
-        put(self, "method", choice_option(self.method, METHODS, "--method"))
+        put(self, "method", choice_option(self.method, PLATFORM_FK_METHODS, "--method"))
         put(self, "side", choice_option(self.side, SIDES, "--side"))
         if self.starts is not None and self.starts < 1:
             raise OptionError("--starts", f"must be >= 1, got {self.starts}")

@@ -7,9 +7,9 @@ from typing import Any, Mapping
 
 from minparam_cli.api.common import choice_option
 from minparam_cli.errors import InputError
+from minparam_cli.describe.records import MIMIC_MODES
+from minparam_cli.api.options.identify import SIDES
 
-MIMIC_MODES = ("coupled", "fixed")
-SIDES = ("joint", "motor")
 
 
 @dataclass(frozen=True)

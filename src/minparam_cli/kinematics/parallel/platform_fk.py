@@ -21,11 +21,11 @@ from typing import Callable
 
 import numpy as np
 
+from minparam_cli.kinematics.defaults import PLATFORM_FK_METHODS
 from minparam_cli.kinematics.parallel.platform import PlatformModel, leg_lengths, platform_points, pose_from_points
 from minparam_cli.kinematics.parallel.platform_exact import BEZOUT_BOUND, solve_octahedral
 from minparam_cli.kinematics.parallel.platform_pso import PSOSettings, newton_polish, polish, pso_search, random_starts
 
-METHODS = ("auto", "exact", "pso", "multistart")
 DEFAULT_RTOL = 1e-12  # accepted max |l - l*| relative to max l*
 DEDUP_RTOL = 1e-6  # two modes are one when their platform nodes agree to this, relative to the size
 
@@ -111,8 +111,8 @@ def forward_kinematics(
     target = np.asarray(target, dtype=float)
     if target.shape != (model.n_legs,):
         raise ValueError(f"expected {model.n_legs} lengths, got {target.size}")
-    if method not in METHODS:
-        raise ValueError(f"unknown method {method!r}; expected one of {', '.join(METHODS)}")
+    if method not in PLATFORM_FK_METHODS:
+        raise ValueError(f"unknown method {method!r}; expected one of {', '.join(PLATFORM_FK_METHODS)}")
     pattern = octahedral_pattern(model)
     if method == "auto":
         method = "exact" if pattern is not None else "pso"
