@@ -122,13 +122,13 @@ def test_panda_physical_costs_at_most_10_percent_test_error():
 @pytest.mark.parametrize("args, needle", [
     (["--prior", "nominal"], "needs --physical"),
     (["--physical", "--prior-weight", "-1"], "positive"),
-    (["--physical", "--prior", "nominal", "--robot-panda"], None),
+    (["--physical", "--prior", "nominal", "--robot-scara"], None),
 ])
 def test_bad_physical_options(tmp_path, args, needle):
-    if needle is None:  # the Panda description has no inertial values to pull toward
+    if needle is None:  # the SCARA description has no inertial values to pull toward
         data = tmp_path / "p.csv"
-        cli_ok("simulate", "robots/panda.yaml", "--random-inertia", "-o", data, "-q", "--seed", 1)
-        r = cli("identify", "robots/panda.yaml", data, "--physical", "--prior", "nominal")
+        cli_ok("simulate", "robots/scara.yaml", "--random-inertia", "-o", data, "-q", "--seed", 1)
+        r = cli("identify", "robots/scara.yaml", data, "--physical", "--prior", "nominal")
         assert r.exit_code == 2 and "no inertial values" in r.output and len(r.output.strip().splitlines()) == 1
         return
     data = tmp_path / "d.csv"
