@@ -208,3 +208,24 @@ def test_a_yaml_key_that_is_a_list_or_a_mapping_is_one_line(tmp_path):
         p.write_text("name: x\n" + key)
         r = CliRunner().invoke(app, ["derive", str(p)])
         assert r.exit_code == 2 and "a key must be a plain value" in r.output and len(r.output.strip().splitlines()) == 1
+
+
+@pytest.mark.parametrize("prolog", ['<?xml version="0.0" ?>\n', '\n\n<?xml version="1.0"?>\n',
+                                    '\ufeff <?xml version="1.0" encoding="not-a-codec"?>\n'],
+                         ids=["version-0.0", "blank-lines-first", "bom-unknown-encoding"])
+def test_xml_declarations_urdfdom_reads_are_read(tmp_path, prolog):
+    """urdfdom (TinyXML2) reads these prologs (pybullet's minitaur and diff_ring files); so does minparam,
+    and a malformed body still reports its own line number."""
+    body = LINK.format(n="base") + LINK.format(n="l1") + JOINT.format(n="j1", t="revolute", p="base", c="l1")
+    p = write(tmp_path, "r.urdf", prolog + URDF_HEAD.split("?>", 1)[1].lstrip("\n") + body + "</robot>\n")
+    r = run_cli("derive", p)
+    assert r.exit_code == 0, r.output
+    bad = write(tmp_path, "bad.urdf", prolog + '<robot name="x">\n<link name="a">\n</robot>\n')
+    r = run_cli("derive", bad)
+    n_line = (prolog.count("\n") + 3)
+    assert r.exit_code == 2 and "malformed XML" in r.output and f"line {n_line}" in r.output, r.output
+
+
+def test_doctype_after_a_lenient_prolog_is_still_refused(tmp_path):
+    p = write(tmp_path, "r.urdf", '\n<?xml version="0.0"?>\n<!DOCTYPE r [<!ENTITY a "b">]>\n<robot name="x"/>\n')
+    assert_cli_rejects(p, "DOCTYPE")

@@ -13,6 +13,7 @@ from __future__ import annotations
 import functools
 import math
 import os
+import re
 import stat
 from pathlib import Path
 
@@ -141,6 +142,35 @@ def _small(v, budget: int = 64) -> bool:
     return True
 
 
+_DECLARATION = re.compile(rb"<\?xml(\s[^>]*?)?\?>")
+_ENCODING = re.compile(rb"""encoding\s*=\s*["']([A-Za-z0-9._-]{1,40})["']""")
+
+
+def lenient_prolog(data: bytes) -> bytes:
+    """The XML declaration as urdfdom (TinyXML2) reads it: blank lines (and a byte-order mark) before it
+    are dropped, and its version, which TinyXML2 never checks, becomes 1.0 (pybullet's minitaur files
+    say "0.0").  An encoding Python knows is kept; another one is dropped (TinyXML2 reads UTF-8 whatever
+    the declaration says); the dropped line breaks follow it, so that line numbers do not move.  Nothing
+    after the declaration changes: DOCTYPEs are still refused."""
+    body = data[3:] if data.startswith(b"\xef\xbb\xbf") else data
+    stripped = body.lstrip(b" \t\r\n")
+    m = _DECLARATION.match(stripped)
+    if m is None:
+        return data
+    enc = _ENCODING.search(m.group(0))
+    keep = b""
+    if enc is not None:
+        import codecs
+
+        try:
+            codecs.lookup(enc.group(1).decode("ascii"))
+            keep = b' encoding="' + enc.group(1) + b'"'
+        except LookupError:
+            pass
+    lines = b"\n" * body[: len(body) - len(stripped)].count(b"\n")  # error messages keep the file's line numbers
+    return b'<?xml version="1.0"' + keep + b"?>" + lines + stripped[m.end():]
+
+
 def parse_xml_safely(data: bytes, source: str):
     """Parse XML with lxml, refusing DTDs, entities and network access.
 
@@ -153,7 +183,7 @@ def parse_xml_safely(data: bytes, source: str):
         resolve_entities=False, no_network=True, load_dtd=False, huge_tree=False, remove_comments=True
     )
     try:
-        root = etree.fromstring(data, parser=parser)
+        root = etree.fromstring(lenient_prolog(data), parser=parser)
     except etree.XMLSyntaxError as e:
         raise DescriptionError(f"malformed XML ({e.msg}, line {e.lineno})", source) from e
     doc = root.getroottree().docinfo
