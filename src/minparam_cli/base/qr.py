@@ -21,7 +21,9 @@
    documented order, so the order is fixed here and the pivot's job, the
    rank, is confirmed by the singular values.)
 4. The count is confirmed independently by the singular values of the same
-   matrix, cut at RANK_RTOL times the largest.
+   matrix, cut at RANK_RTOL times the largest column (the scan's scale).  Where
+   they disagree, ``RankUndecided.explained`` names the parameters at the cut
+   and the near-special geometry to write exactly (``--snap-angles``).
 5. A second QR of the kept columns, W_kept = Q1 R1, gives β = R1⁻¹ Q1ᵀ W_dropped
    (paper 003: β = R1⁻¹ R2), so that W φ = W_kept (φ_kept + β φ_dropped).
    Column scaling does not change β's relations, so it is computed on
@@ -42,6 +44,35 @@ from minparam_cli.errors import ComputationError, InputError
 
 DEFAULT_SAMPLES = 100
 DEFAULT_SEED = 0
+# the scan and the singular values can disagree only for columns within this factor of the cut
+BAND = 100.0
+
+
+class RankUndecided(ComputationError):
+    """The ordered scan and the singular values disagree: columns sit at the cut (RANK_RTOL)."""
+
+    def __init__(self, source: str, kept: int, rank_svd: int, near: list[tuple[int, float]]):
+        self.source, self.kept, self.rank_svd, self.near = source, kept, rank_svd, near
+        super().__init__(f"{source}: the ordered scan keeps {kept} columns but the singular values give rank "
+                         f"{rank_svd}: the rank decision is too close to call")
+
+    def explained(self, chain: Chain) -> ComputationError:
+        """The same error naming the parameters at the cut and the near-special geometry to write exactly."""
+        from minparam_cli.base.weak import near_special_relations
+
+        names = chain.layout.names
+        at_cut = ", ".join(f"{names[i]} ({r:.2g})" for i, r in sorted(self.near, key=lambda x: -x[1])[:6])
+        relations = sorted(near_special_relations(chain), key=lambda c: c["delta"])
+        text = f"{self.args[0]} (parameters at the cut {RANK_RTOL:g}: {at_cut or 'none found'})"
+        close = [c for c in relations if c["delta"] < RANK_RTOL * BAND * 10]
+        if close:
+            worst = max(c["delta"] for c in close)
+            tol = 10.0 ** np.ceil(np.log10(worst * 10))
+            text += (f"; {close[0]['text']}: write it exactly (a DH/MDH angle: --snap-angles {tol:g}; "
+                     "gravity: --gravity)")
+        else:
+            text += "; no near-special geometry found: check the description's angles and offsets"
+        return ComputationError(text)
 def sample_rng(seed: int) -> random.Random:
     """The seeded generator of the random states (stdlib: see dynamics.regressor.random_states)."""
     return random.Random(seed)
@@ -64,7 +95,10 @@ def derive_qr(chain: Chain, samples: int = DEFAULT_SAMPLES, seed: int = DEFAULT_
             f"{samples} samples give {rows} equations for {P} parameters; use at least {-(-P // chain.dof)} samples"
         )
     W = stacked_regressor(chain, samples, sample_rng(seed))
-    kept, K, unident, margin = base_from_regressor(W, chain.source, *chain_scales(chain))
+    try:
+        kept, K, unident, margin = base_from_regressor(W, chain.source, *chain_scales(chain))
+    except RankUndecided as e:
+        raise e.explained(chain) from None
     return BaseSet(
         standard_names=chain.layout.names,
         kept=tuple(kept),
@@ -112,14 +146,13 @@ def base_from_regressor(W: np.ndarray, source: str = "", col_scale: np.ndarray |
     kept = [int(cols[i]) for i in kept_c]
     unident = [i for i in range(P) if not effect[i]]
 
-    # independent confirmation of the count: singular values of the same matrix, same relative cut
+    # independent confirmation of the count: singular values of the same matrix, cut against the same
+    # scale as the scan (the largest column, not the largest singular value, which can be up to √P larger)
     sv = np.linalg.svd(R * rel, compute_uv=False) if cols.size else np.zeros(0)
-    rank_svd = int(np.sum(sv > sv[0] * RANK_RTOL)) if sv.size else 0
+    rank_svd = int(np.sum(sv > RANK_RTOL * float(rel.max()))) if sv.size else 0
     if rank_svd != len(kept):
-        raise ComputationError(
-            f"{source}: the ordered scan keeps {len(kept)} columns but the singular values give rank {rank_svd}; "
-            "the rank decision is too close to call (try more --samples or another --seed)"
-        )
+        near = [i for i in range(P) if effect[i] and RANK_RTOL / BAND < r[i] < RANK_RTOL * BAND]
+        raise RankUndecided(source, len(kept), rank_svd, [(i, float(r[i])) for i in near])
     kept_set = set(kept)
     dropped = [i for i in range(P) if i not in kept_set]
     # paper 003: a second QR of the kept columns, R[:, kept] = Q1 R1, beta = R1^-1 Q1^T R[:, dropped]
