@@ -137,10 +137,17 @@ def run_identify(opts: IdentifyOptions, data: Any, progress: Any = None, robot: 
     if any(p is not None for p in (opts.save_model, opts.export_urdf, opts.export_yaml, opts.export_mjcf)):
         side_notes = write_identify_outputs(path, chain, robot_bytes, saved, result.data,
                                             None if art.physical is None else art.physical.phi,
-                                            opts.save_model, opts.export_urdf, opts.export_yaml, opts.export_mjcf)
+                                            opts.save_model, opts.export_urdf, opts.export_yaml, opts.export_mjcf,
+                                            _identified_gains(result))
         result = replace(result, flags=result.flags + side_notes)
     model = Model(saved=saved, design=art.design, robot=str(path), names=tuple(saved.names))
     return Identification(result=result, model=model, artifacts=art)
+
+
+def _identified_gains(result) -> list[float] | None:
+    """The drive gains ``--payload-data`` identified (one per motor), or None."""
+    gains = None if result.payload is None else result.payload.drive_gains
+    return None if gains is None else [float(e.value) for e in gains.values()]
 
 
 def run_consistency(opts: IdentifyOptions, paths: Sequence[Path], progress: Any = None,

@@ -41,11 +41,12 @@ def read_robot_bytes(robot: str | Path) -> bytes:
 
 def write_identify_outputs(robot: Path, chain, robot_bytes: bytes, saved: SavedModel, data_name: str, physical_phi,
                            save_model: Path | None, export_urdf: Path | None, export_yaml: Path | None,
-                           export_mjcf: Path | None = None) -> tuple[str, ...]:
+                           export_mjcf: Path | None = None, drive_gains=None) -> tuple[str, ...]:
     """Write the files of one identify run beside its report, atomically: the model file (--save-model)
     and the robot with the physical fit's inertials and joint terms (--export-urdf, --export-mjcf,
     --export-yaml; the first two with their side file FILE.extra.yaml of what the format cannot
-    express).  Returns the report's lines naming what went into each side file."""
+    express).  ``drive_gains``: gains identified in this run (``--payload-data``), else the declared
+    ones are used.  Returns the report's lines naming what went into each side file."""
     from minparam_cli.output import write_output
 
     if save_model is not None:
@@ -56,7 +57,7 @@ def write_identify_outputs(robot: Path, chain, robot_bytes: bytes, saved: SavedM
         return ()
     from minparam_cli.model import export_robot
 
-    terms = _joint_terms(chain, saved, physical_phi)
+    terms = _joint_terms(chain, saved, physical_phi, drive_gains)
     note = f"inertials: physical fit of minparam identify on {data_name} (robot file {robot})"
     notes = []
     if export_urdf is not None:
@@ -79,12 +80,15 @@ def write_identify_outputs(robot: Path, chain, robot_bytes: bytes, saved: SavedM
     return tuple(n for n in notes if n)
 
 
-def _joint_terms(chain, saved: SavedModel, phi):
+def _joint_terms(chain, saved: SavedModel, phi, identified=None):
     """The physical fit's per-joint terms (``model.export_extra.joint_terms``): φ's extras and the
-    diagnosed effects' coefficients (the tail of the physical θ), with the declared drive gains."""
+    diagnosed effects' coefficients (the tail of the physical θ), with the drive gains (identified, or
+    declared)."""
     from minparam_cli.model.export_extra import joint_terms
 
     tail = () if saved.physical is None else saved.physical.theta[len(saved.kept):]
+    if identified is not None:
+        return joint_terms(chain, phi, saved.terms, tail, identified, "drive gains identified with --payload-data")
     gains = None
     if saved.data.motor_side is not None and saved.data.motor_side[2] is not None:
         gains = saved.data.motor_side[2]

@@ -8,8 +8,8 @@ of the design (their coefficients are the tail of the physical fit's θ, term by
   uncoupled motor k on joint j (row k of N has the one entry r): MJCF ``armature``;
 * viscous friction ``Fv_j`` (+ ``viscous``, + ``r²·Fvm_k``): URDF ``damping``, MJCF ``damping``;
 * Coulomb friction ``Fc_j`` (+ ``coulomb``, + ``|r|·Fcm_k``): URDF ``friction``, MJCF ``frictionloss``;
-* drive gains: the gear from control to joint torque, ``N_kk·g_k`` with a declared transmission's
-  ``drive_gains`` (uncoupled motors), ``1/(1 + G_j)`` with a diagnosed ``gain`` (the measured torque
+* drive gains: the gear from control to joint torque, ``N_kk·g_k`` with drive gains g (uncoupled
+  motors; the transmission's declared ``drive_gains``, or those ``--payload-data`` identified), ``1/(1 + G_j)`` with a diagnosed ``gain`` (the measured torque
   is (1 + G)·τ, so a control in measured-torque units gives τ = ctrl/(1 + G)), else 1: MJCF
   ``<motor gear>``.
 
@@ -50,10 +50,12 @@ class JointTerms:
     has_friction: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=bool))  # a viscous or Coulomb term
 
 
-def joint_terms(chain, phi: np.ndarray, terms=(), coefficients=(), drive_gains=None) -> JointTerms:
+def joint_terms(chain, phi: np.ndarray, terms=(), coefficients=(), drive_gains=None,
+                gains_source: str = "declared drive gains") -> JointTerms:
     """The per-joint terms of the full parameters ``phi`` (chain.layout order) and of the diagnosed
     ``terms`` (``identify.passes.design.Term``) with their ``coefficients`` (θ's tail, in term order).
-    ``drive_gains``: the transmission's declared gains (the data's motor-side conversion), or None."""
+    ``drive_gains``: the drive gains per motor (declared, or identified with a payload; ``gains_source``
+    says which), or None."""
     from minparam_cli.dynamics.effects import EFFECTS
 
     n, layout = chain.n, chain.layout
@@ -104,7 +106,7 @@ def joint_terms(chain, phi: np.ndarray, terms=(), coefficients=(), drive_gains=N
             row = np.flatnonzero(N[k])
             if len(row) == 1:
                 out.gear[row[0]] = float(N[k, row[0]]) * float(g)
-        out.gear_source = "declared drive gains"
+        out.gear_source = gains_source
     return out
 
 
