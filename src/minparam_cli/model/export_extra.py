@@ -25,12 +25,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from minparam_cli.params import N_LINK_PARAMS
-
 SIDE_SUFFIX = ".extra.yaml"
 SIDE_FORMAT = "minparam-export-extra"
-# diagnosed effects a joint of MJCF (and, but for rotor inertia, URDF) holds: effect -> the JointTerms field
-JOINT_EFFECTS = {"rotor_inertia": "armature", "viscous": "damping", "coulomb": "friction"}
 
 
 @dataclass
@@ -108,11 +104,6 @@ def joint_terms(chain, phi: np.ndarray, terms=(), coefficients=(), drive_gains=N
                 out.gear[row[0]] = float(N[k, row[0]]) * float(g)
         out.gear_source = gains_source
     return out
-
-
-def inertial_phi(chain, phi: np.ndarray) -> np.ndarray:
-    """φ's inertial part only (10 per link with columns)."""
-    return np.asarray(phi[: N_LINK_PARAMS * len(chain.layout.links_with_columns)], dtype=float)
 
 
 def side_path(path) -> str:

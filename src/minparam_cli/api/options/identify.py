@@ -214,7 +214,10 @@ class IdentifyOptions:
                 raise InputError(f"{flag} -: an export is a file (with its side file beside it); give a file name")
             names = [(flag, Path(path))] + ([(f"{flag}'s side file", Path(side_path(path)))] if flag != "--export-yaml" else [])
             for what, p in names:
-                target, regular = output_target(p)
+                try:
+                    target, regular = output_target(p)
+                except InputError as e:
+                    raise InputError(f"{flag} {e}") from None
                 if not regular:
                     raise InputError(f"{flag} {path}: {p} is not a regular file; an export replaces only a regular file")
                 key = str(target.resolve())
