@@ -214,3 +214,43 @@ def test_quaternion_round_trip():
         w, x, y, z = export_mjcf.quaternion(R)
         back = Rotation.from_quat([x, y, z, w]).as_matrix()
         assert np.allclose(back, R, atol=1e-14)
+
+
+def test_uncoupled_motor_terms_become_joint_terms_and_coupled_ones_go_to_the_side_file(tmp_path):
+    """TX40 (a transmission; motor 6 turns joints 5 and 6), with motor-side columns on every motor: the
+    motor-side inertia and viscous friction of motors 1-5 become armature r²·Iam and damping r²·Fvm of their
+    joint, and MuJoCo reproduces them; motor 6's go to the side file (left out of the comparison)."""
+    robot = tmp_path / "tx40_all_motors.yaml"
+    text = (ROOT / "robots" / "tx40.yaml").read_text()
+    assert "  motors: [6]\n" in text
+    robot.write_text(text.replace("  motors: [6]\n", ""))
+    _, chain = load_chain(robot, DeriveOptions())
+    assert "Iam1" in chain.layout.names
+    rng = np.random.default_rng(4)
+    phi = np.zeros(chain.layout.size)
+    phi[: chain.layout.n_inertial] = random_inertia(chain.n, chain.length_scale, rng).phi
+    phi[chain.layout.n_inertial :] = rng.uniform(1e-4, 1e-3, chain.layout.size - chain.layout.n_inertial)
+    gains = [0.5, 0.6, 0.7, 0.8, 0.9, 1.1]
+    terms = export_extra.joint_terms(chain, phi, drive_gains=gains)
+    N = np.asarray(chain.transmission.matrix, dtype=float)
+    assert [m["motor"] for m in terms.motors if m["term"] != "drive_gain"] == [6, 6, 6]
+    assert [m["motor"] for m in terms.motors if m["term"] == "drive_gain"] == [6]
+    assert np.allclose(terms.gear[:5], np.diag(N)[:5] * gains[:5], rtol=1e-15)
+    model = mujoco.MjModel.from_xml_string(export_mjcf.mjcf_from_chain(chain, phi, terms))
+    compared = without(chain, phi, "Fc", "Fcm")
+    compared[[i for i, name in enumerate(chain.layout.names) if name in ("Iam6", "Fvm6")]] = 0.0
+    assert_same_torques(model, chain, compared)
+    doc = export_extra.side_document("mjcf", "x.xml", "tx40.yaml", terms)
+    assert "coupled-motor terms" in export_extra.side_summary(doc)
+
+
+def test_a_diagnosed_gain_is_the_motor_gear():
+    """The gain effect: measured torque (1 + G)·τ, so a control in measured-torque units is τ·(1 + G): gear 1/(1 + G)."""
+    from minparam_cli.identify.passes.design import Term
+
+    chain, phi = chain_and_phi("puma560_mdh.yaml")
+    terms = export_extra.joint_terms(chain, phi, (Term("gain", (1, 3)), Term("spring", (2,))), [0.25, -0.2, 1.0, 2.0, 3.0])
+    assert terms.gear.tolist() == [1.0, 0.8, 1.0, 1.25, 1.0, 1.0] and terms.gear_source == "identified gain effect"
+    assert terms.effects[0]["coefficients"] == {"Kq3": 1.0, "Ks3": 2.0, "Kc3": 3.0}
+    model = mujoco.MjModel.from_xml_string(export_mjcf.mjcf_from_chain(chain, phi, terms))
+    assert np.allclose(model.actuator_gear[:, 0], terms.gear, rtol=1e-15)

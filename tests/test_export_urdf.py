@@ -127,3 +127,16 @@ def test_a_batch_refuses_export_mjcf(tmp_path, data):
     (folder / "a.csv").write_bytes(data.read_bytes())
     refused(["identify", str(ROBOT), str(folder), "--physical", "--export-mjcf", str(tmp_path / "x.xml"), "-o", str(tmp_path / "o")],
             "--export-mjcf applies to one recording")
+
+
+def test_export_mjcf_refuses_coupled_mimic_joints_before_the_fit(tmp_path):
+    """A gripper whose right finger mimics the left (--mimic coupled): MJCF would need an equality
+    constraint, which the writer does not write; refused in one line before any data is read."""
+    from test_mimic import gripper_arm
+
+    robot = gripper_arm(tmp_path)
+    data = tmp_path / "none.csv"
+    data.write_text("t,q1\n")
+    out = tmp_path / "g.xml"
+    refused(["identify", str(robot), str(data), "--physical", "--export-mjcf", str(out)], "coupled mimic joints")
+    assert not out.exists()

@@ -102,6 +102,8 @@ def joint_terms(chain, phi: np.ndarray, terms=(), coefficients=(), drive_gains=N
             row = np.flatnonzero(N[k])
             if len(row) == 1:
                 out.gear[row[0]] = float(N[k, row[0]]) * float(g)
+            else:  # a coupled motor's control moves several joints: no joint actuator holds it
+                out.motors.append({"motor": k + 1, "term": "drive_gain", "value": float(g), "row": [float(x) for x in N[k]]})
         out.gear_source = gains_source
     return out
 
