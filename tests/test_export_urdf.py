@@ -140,3 +140,19 @@ def test_export_mjcf_refuses_coupled_mimic_joints_before_the_fit(tmp_path):
     out = tmp_path / "g.xml"
     refused(["identify", str(robot), str(data), "--physical", "--export-mjcf", str(out)], "coupled mimic joints")
     assert not out.exists()
+
+
+def test_a_side_file_is_always_rewritten(tmp_path):
+    """An export with nothing left out still rewrites its side file (header only), so a stale one from an
+    earlier run cannot be read as this export's, and the report names no side file for it."""
+    from minparam_cli.api.model_file import _write_with_side
+    from minparam_cli.model.export_extra import SIDE_FORMAT, joint_terms
+    from minparam_cli.robot import DeriveOptions, load_chain
+
+    _, chain = load_chain(ROBOT, DeriveOptions())
+    terms = joint_terms(chain, np.ones(chain.layout.size))
+    out = tmp_path / "x.xml"
+    (tmp_path / "x.xml.extra.yaml").write_text("stale: true\n")
+    assert _write_with_side("<mujoco/>", out, "mjcf", "r.yaml", terms, None, ()) == ""
+    doc = yaml.safe_load((tmp_path / "x.xml.extra.yaml").read_text())
+    assert doc["format"] == SIDE_FORMAT and "stale" not in doc and "joints" not in doc

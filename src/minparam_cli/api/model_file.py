@@ -98,15 +98,12 @@ def _joint_terms(chain, saved: SavedModel, phi, identified=None):
 
 
 def _write_with_side(text: str, path: Path, fmt: str, robot: str, terms, gravity, lacks: tuple[str, ...]) -> str:
-    """Write an export and, when it leaves something out, its side file, together; the report line."""
+    """Write an export and its side file together (always, so that no side file of an earlier run is left
+    beside it); the report line naming what went there, empty when nothing did."""
     from minparam_cli.model.export_extra import dumps_side, side_document, side_path, side_summary
     from minparam_cli.output import write_outputs
 
     doc = side_document(fmt, Path(path).name, robot, terms, gravity, lacks)
     summary = side_summary(doc)
-    side = Path(side_path(path))
-    if not summary:
-        write_outputs({Path(path): text})
-        return ""
-    write_outputs({Path(path): text, side: dumps_side(doc)})
-    return f"{side}: what {fmt.upper()} cannot express: {summary}"
+    write_outputs({Path(path): text, Path(side_path(path)): dumps_side(doc)})
+    return f"{side_path(path)}: what {fmt.upper()} cannot express: {summary}" if summary else ""
