@@ -137,6 +137,40 @@ def write_output(text: str, output: Path | None) -> None:
     atomic_write(Path(output), lambda tmp: Path(tmp).write_text(text, encoding="utf-8"))
 
 
+def write_outputs(files: dict[Path, str]) -> None:
+    """Write several regular files together (an export and its side file): every one is written to a
+    temporary file in its folder first, and only when all are written are they renamed into place,
+    so that a failure leaves none of them changed."""
+    import tempfile
+
+    done: list[tuple[str, Path]] = []
+    try:
+        for path, text in files.items():
+            target, regular = output_target(Path(path))
+            if not regular:
+                raise InputError(f"{path}: not a regular file; an export and its side file are replaced together")
+            fd, tmp = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".tmp", dir=target.parent if str(target.parent) else ".")
+            done.append((tmp, target))
+            with os.fdopen(fd, "w", encoding="utf-8") as fh:
+                fh.write(text if text.endswith("\n") else text + "\n")
+            mode = target.stat().st_mode & 0o7777 if target.exists() else 0o666 & ~_umask()
+            os.chmod(tmp, mode)
+        for tmp, target in done:
+            os.replace(tmp, target)
+    except OSError as e:
+        raise ComputationError(f"cannot write {', '.join(str(p) for p in files)} ({e.strerror})") from None
+    finally:
+        for tmp, _ in done:
+            if os.path.exists(tmp):
+                os.unlink(tmp)
+
+
+def _umask() -> int:
+    umask = os.umask(0)
+    os.umask(umask)
+    return umask
+
+
 class Progress:
     """A minimal progress bar on stderr.
 

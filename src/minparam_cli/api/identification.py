@@ -105,6 +105,10 @@ def run_identify(opts: IdentifyOptions, data: Any, progress: Any = None, robot: 
 
     path = opts.robot if robot is None else Path(robot)
     chain = load_identify_chain(opts, path) if chain is None else chain
+    if opts.export_mjcf is not None:  # before the fit: a chain the MJCF writer cannot write
+        from minparam_cli.model.export_mjcf import check_mjcf_chain
+
+        check_mjcf_chain(chain)
     motor_side, scale_note = motor_side_spec(chain, opts.side, opts.current)
     payload = opts.payload_spec()
     data_name, validate_name, test_names, records = _sources(data, opts.validate, opts.test)
@@ -130,12 +134,20 @@ def run_identify(opts: IdentifyOptions, data: Any, progress: Any = None, robot: 
     robot_bytes = read_robot_bytes(path)
     saved = saved_model(str(path), robot_bytes, opts.load_settings(), sopts.data, sopts.seed, art, result)
     assert art.design is not None  # the stage always sets the final design
-    if opts.save_model is not None or opts.export_urdf is not None or opts.export_yaml is not None:
-        write_identify_outputs(path, chain, robot_bytes, saved, result.data,
-                               None if art.physical is None else art.physical.phi,
-                               opts.save_model, opts.export_urdf, opts.export_yaml)
+    if any(p is not None for p in (opts.save_model, opts.export_urdf, opts.export_yaml, opts.export_mjcf)):
+        side_notes = write_identify_outputs(path, chain, robot_bytes, saved, result.data,
+                                            None if art.physical is None else art.physical.phi,
+                                            opts.save_model, opts.export_urdf, opts.export_yaml, opts.export_mjcf,
+                                            _identified_gains(result))
+        result = replace(result, flags=result.flags + side_notes)
     model = Model(saved=saved, design=art.design, robot=str(path), names=tuple(saved.names))
     return Identification(result=result, model=model, artifacts=art)
+
+
+def _identified_gains(result) -> list[float] | None:
+    """The drive gains ``--payload-data`` identified (one per motor), or None."""
+    gains = None if result.payload is None else result.payload.drive_gains
+    return None if gains is None else [float(e.value) for e in gains.values()]
 
 
 def run_consistency(opts: IdentifyOptions, paths: Sequence[Path], progress: Any = None,

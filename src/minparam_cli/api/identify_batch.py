@@ -122,10 +122,11 @@ def check_batch(opts: IdentifyOptions, single_run: dict[str, Any], output) -> No
     refuse_single_run_options(**single_run, output=output)
 
 
-def refuse_single_run_options(validate, test, plot, save_model, export_urdf, export_yaml, output) -> None:
+def refuse_single_run_options(validate, test, plot, save_model, export_urdf, export_yaml, output, export_mjcf=None) -> None:
     """Options of one recording that a batch cannot take, refused in one line before any work."""
     for flag, value in (("--validate", validate), ("--test", test), ("--plot", plot), ("--save-model", save_model),
-                        ("--export-urdf", export_urdf), ("--export-yaml", export_yaml)):
+                        ("--export-urdf", export_urdf), ("--export-yaml", export_yaml),
+                        ("--export-mjcf", export_mjcf)):
         if value:
             raise InputError(f"{flag} applies to one recording; a batch (a folder or a manifest of recordings) takes "
                              "the fit, selection and test shares of each recording from --split")

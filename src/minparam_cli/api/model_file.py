@@ -40,27 +40,70 @@ def read_robot_bytes(robot: str | Path) -> bytes:
 
 
 def write_identify_outputs(robot: Path, chain, robot_bytes: bytes, saved: SavedModel, data_name: str, physical_phi,
-                           save_model: Path | None, export_urdf: Path | None, export_yaml: Path | None) -> None:
+                           save_model: Path | None, export_urdf: Path | None, export_yaml: Path | None,
+                           export_mjcf: Path | None = None, drive_gains=None) -> tuple[str, ...]:
     """Write the files of one identify run beside its report, atomically: the model file (--save-model)
-    and the robot with the physical fit's inertials (--export-urdf, --export-yaml)."""
+    and the robot with the physical fit's inertials and joint terms (--export-urdf, --export-mjcf,
+    --export-yaml; the first two with their side file FILE.extra.yaml of what the format cannot
+    express).  ``drive_gains``: gains identified in this run (``--payload-data``), else the declared
+    ones are used.  Returns the report's lines naming what went into each side file."""
     from minparam_cli.output import write_output
 
     if save_model is not None:
         from minparam_cli.model.file import dumps
 
         write_output(dumps(saved), save_model)
-    if export_urdf is None and export_yaml is None:
-        return
+    if export_urdf is None and export_yaml is None and export_mjcf is None:
+        return ()
     from minparam_cli.model import export_robot
 
+    terms = _joint_terms(chain, saved, physical_phi, drive_gains)
     note = f"inertials: physical fit of minparam identify on {data_name} (robot file {robot})"
+    notes = []
     if export_urdf is not None:
+        from minparam_cli.model import export_urdf as urdf
+
         if robot.suffix.lower() == ".urdf":
-            text = export_robot.urdf_with_inertials(robot_bytes, chain, physical_phi, note)
+            text = urdf.urdf_with_inertials(robot_bytes, chain, physical_phi, note, terms)
         else:
-            text = export_robot.urdf_from_chain(chain, physical_phi, note)
-        write_output(text, export_urdf)
+            text = urdf.urdf_from_chain(chain, physical_phi, note, terms)
+        notes.append(_write_with_side(text, export_urdf, "urdf", str(robot), terms, chain.gravity, ("armature", "gear")))
+    if export_mjcf is not None:
+        from minparam_cli.model.export_mjcf import mjcf_from_chain
+
+        text = mjcf_from_chain(chain, physical_phi, terms, note)
+        notes.append(_write_with_side(text, export_mjcf, "mjcf", str(robot), terms, None, ()))
     if export_yaml is not None:
         from minparam_cli.safety import read_yaml
 
-        write_output(export_robot.yaml_with_inertials(read_yaml(robot), chain, physical_phi, note), export_yaml)
+        write_output(export_robot.yaml_with_inertials(read_yaml(robot), chain, physical_phi, note, terms), export_yaml)
+    return tuple(n for n in notes if n)
+
+
+def _joint_terms(chain, saved: SavedModel, phi, identified=None):
+    """The physical fit's per-joint terms (``model.export_extra.joint_terms``): φ's extras and the
+    diagnosed effects' coefficients (the tail of the physical θ), with the drive gains (identified, or
+    declared)."""
+    from minparam_cli.model.export_extra import joint_terms
+
+    tail = () if saved.physical is None else saved.physical.theta[len(saved.kept):]
+    if identified is not None:
+        return joint_terms(chain, phi, saved.terms, tail, identified, "drive gains identified with --payload-data")
+    gains = None
+    if saved.data.motor_side is not None and saved.data.motor_side[2] is not None:
+        gains = saved.data.motor_side[2]
+    elif chain.transmission is not None and chain.transmission.drive_gains is not None:
+        gains = chain.transmission.drive_gains
+    return joint_terms(chain, phi, saved.terms, tail, gains)
+
+
+def _write_with_side(text: str, path: Path, fmt: str, robot: str, terms, gravity, lacks: tuple[str, ...]) -> str:
+    """Write an export and its side file together (always, so that no side file of an earlier run is left
+    beside it); the report line naming what went there, empty when nothing did."""
+    from minparam_cli.model.export_extra import dumps_side, side_document, side_path, side_summary
+    from minparam_cli.output import write_outputs
+
+    doc = side_document(fmt, Path(path).name, robot, terms, gravity, lacks)
+    summary = side_summary(doc)
+    write_outputs({Path(path): text, Path(side_path(path)): dumps_side(doc)})
+    return f"{side_path(path)}: what {fmt.upper()} cannot express: {summary}" if summary else ""

@@ -121,6 +121,7 @@ def identify(
     save_model: Optional[Path] = typer.Option(None, "--save-model", help="Write the identified model as JSON (robot file and its hash, base set, design, parameters, data settings) for 'minparam evaluate'."),
     export_urdf: Optional[Path] = typer.Option(None, "--export-urdf", help="With --physical: write the robot as URDF with the identified masses, centres of mass and inertias."),
     export_yaml: Optional[Path] = typer.Option(None, "--export-yaml", help="With --physical, for a YAML (DH/MDH) robot: write its YAML with the identified inertials."),
+    export_mjcf: Optional[Path] = typer.Option(None, "--export-mjcf", help="With --physical: write the robot as a MuJoCo MJCF model (identified bodies, armature, damping, frictionloss, gravity, motors); what MJCF cannot express goes into FILE.extra.yaml."),
     mimic: MimicMode = mimic_option(),
     side: Side = typer.Option(Side.joint, "--side", help="Which side of the gears the q and tau columns were measured on: joint, or motor (converted with the robot's transmission: q = N⁻¹θ + zero, τ = Nᵀτ_m)."),
     current: bool = typer.Option(False, "--current", help="With --side motor: the tau columns are motor currents, scaled by the transmission's drive_gains (without them the torque unit is arbitrary)."),
@@ -140,7 +141,7 @@ def _identify(robot, data, validate, test, split, columns, time_unit, topic, cut
               rest_below_still,
               friction, rotor_inertia, coulomb_smoothing, gravity, effects, no_diagnose, min_gain, physical, prior,
               prior_weight, sigma, block_length, replicates, consistency, essential, essential_bound, ols, fmt, output, plot, seed, save_model, export_urdf, export_yaml, mimic, quiet, jobs=1, scheduler=None,
-              side="joint", current=False, payload_data=None, payload_mass=None, payload_com=None, payload_inertia=None):
+              side="joint", export_mjcf=None, current=False, payload_data=None, payload_mass=None, payload_com=None, payload_inertia=None):
     """Parse, call the API (``api.identification``), render, write."""
     from minparam_cli.api.options.identify import IdentifyOptions
 
@@ -155,7 +156,9 @@ def _identify(robot, data, validate, test, split, columns, time_unit, topic, cut
             essential_bound=essential_bound, ols=ols, seed=seed, mimic=MimicMode(mimic).value, side=Side(side).value,
             current=current, payload_data=payload_data, payload_mass=payload_mass, payload_com=payload_com,
             payload_inertia=payload_inertia, save_model=save_model, export_urdf=export_urdf, export_yaml=export_yaml,
+            export_mjcf=export_mjcf,
         )
+        opts.check_report_path(output)
     if plot is not None:
         from minparam_cli.output import output_folder
 
@@ -163,7 +166,8 @@ def _identify(robot, data, validate, test, split, columns, time_unit, topic, cut
     if len(data) == 1:
         from minparam_cli.cli.identify_batch import maybe_batch
 
-        single = {"validate": validate, "test": test, "plot": plot, "save_model": save_model, "export_urdf": export_urdf, "export_yaml": export_yaml}
+        single = {"validate": validate, "test": test, "plot": plot, "save_model": save_model, "export_urdf": export_urdf, "export_yaml": export_yaml,
+                  "export_mjcf": export_mjcf}
         if maybe_batch(opts, data[0], single, fmt == Fmt.json, output, jobs, scheduler, quiet):
             return  # a folder or a manifest of recordings: cli/identify_batch.py
     if consistency or len(data) > 1:

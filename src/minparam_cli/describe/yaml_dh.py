@@ -35,7 +35,7 @@ ANGLE_UNITS = ("deg", "rad")
 CONVENTIONS = ("dh", "mdh")
 JOINT_TYPES = ("revolute", "prismatic")
 TOP_KEYS = {"kind", "name", "convention", "units", "gravity", "friction", "rotor_inertia", "tool", "joints", "description",
-            "transmission"}
+            "transmission", "identified"}
 JOINT_KEYS = {"name", "type", "alpha", "a", "d", "theta", "friction", "rotor_inertia", "limits", "velocity", "acceleration",
               "effort", "inertial"}
 
@@ -55,6 +55,8 @@ def description_from_mapping(doc: Any, src: str) -> RobotDescription:
     unknown = set(doc) - TOP_KEYS
     if unknown:
         raise DescriptionError(f"unknown key(s) {key_list(unknown)}", src)
+    if "identified" in doc and not isinstance(doc["identified"], dict):  # identify --export-yaml's record, not read
+        raise DescriptionError("expected a mapping (the values identify --export-yaml found)", src, "identified")
     for key in ("convention", "joints"):
         if key not in doc:
             raise DescriptionError(f"missing required field '{key}'", src)

@@ -73,7 +73,7 @@ class IdentifyOptions:
 
     ``robot``: the robot file; ``validate``, ``test``, ``payload_data``: data files or records held in
     memory (see ``minparam.identify``); ``essential``: report the essential parameters, with relative σ
-    below ``essential_bound`` %; ``save_model``, ``export_urdf``, ``export_yaml``: files to write.
+    below ``essential_bound`` %; ``save_model``, ``export_urdf``, ``export_yaml``, ``export_mjcf``: files to write.
     The data to identify from are not an option: ``run_identify(options, data)``."""
 
     robot: Path
@@ -117,6 +117,7 @@ class IdentifyOptions:
     save_model: Path | None = None
     export_urdf: Path | None = None
     export_yaml: Path | None = None
+    export_mjcf: Path | None = None
 
     def __post_init__(self) -> None:
         from minparam_cli.dynamics.effects import EFFECT_IDS
@@ -188,12 +189,54 @@ class IdentifyOptions:
 
     def _check_exports(self) -> None:
         """Refuse an export the run cannot make before the fit runs."""
-        for flag, path in (("--export-urdf", self.export_urdf), ("--export-yaml", self.export_yaml)):
+        exports = (("--export-urdf", self.export_urdf), ("--export-yaml", self.export_yaml), ("--export-mjcf", self.export_mjcf))
+        for flag, path in exports:
             if path is not None and not self.physical:
                 raise InputError(f"{flag} needs --physical: the exported inertias are the bodies of the physical fit")
+        self._check_export_paths(exports)
         if self.export_yaml is not None and self.robot.suffix.lower() not in (".yaml", ".yml"):
             raise InputError(f"--export-yaml needs a YAML (DH/MDH) robot; {self.robot} is a URDF, whose joints are not DH rows "
                              "(use --export-urdf)")
+
+    def _check_export_paths(self, exports) -> None:
+        """Every export names a regular file (new or existing) in an existing folder, not stdout, and no two
+        outputs (with the URDF and MJCF side files FILE.extra.yaml) are the same file."""
+        from minparam_cli.model.export_extra import side_path
+        from minparam_cli.output import is_stdout, output_target
+
+        seen: dict[str, str] = {}
+        if self.save_model is not None and not is_stdout(self.save_model):
+            seen[str(output_target(Path(self.save_model))[0].resolve())] = "--save-model"
+        for flag, path in exports:
+            if path is None:
+                continue
+            if is_stdout(path):
+                raise InputError(f"{flag} -: an export is a file (with its side file beside it); give a file name")
+            names = [(flag, Path(path))] + ([(f"{flag}'s side file", Path(side_path(path)))] if flag != "--export-yaml" else [])
+            for what, p in names:
+                try:
+                    target, regular = output_target(p)
+                except InputError as e:
+                    raise InputError(f"{flag} {e}") from None
+                if not regular:
+                    raise InputError(f"{flag} {path}: {p} is not a regular file; an export replaces only a regular file")
+                key = str(target.resolve())
+                if key in seen:
+                    raise InputError(f"{flag} {path}: {what} is the same file as {seen[key]}")
+                seen[key] = what
+
+    def check_report_path(self, output) -> None:
+        """The report (-o) is not one of the files the exports write."""
+        from minparam_cli.model.export_extra import side_path
+        from minparam_cli.output import is_stdout
+
+        if output is None or is_stdout(output):
+            return
+        report = Path(output).resolve()
+        for flag, path in (("--export-urdf", self.export_urdf), ("--export-yaml", self.export_yaml),
+                           ("--export-mjcf", self.export_mjcf), ("--save-model", self.save_model)):
+            if path is not None and report in (Path(path).resolve(), Path(side_path(path)).resolve()):
+                raise InputError(f"-o {output}: is a file {flag} {path} writes; give the report another name")
 
     def _check_payload(self) -> None:
         """The known payload's options: all need --payload-data, and make a payload (payload.check_spec)."""
