@@ -149,10 +149,10 @@ def test_mujoco_reads_the_exported_urdf_with_the_same_torques(robot):
 
 
 def test_limits_only_where_the_description_had_them():
-    """panda.yaml gives position limits and no effort or velocity limits; puma560.yaml none."""
+    """puma560_mdh.yaml gives position limits and no effort or velocity limits; puma560.yaml none."""
     import xml.etree.ElementTree as ET
 
-    for robot, limited in (("panda.yaml", True), ("puma560.yaml", False)):
+    for robot, limited in (("puma560_mdh.yaml", True), ("puma560.yaml", False)):
         chain, phi = chain_and_phi(robot)
         model = mujoco.MjModel.from_xml_string(mjcf(chain, phi))
         order = [model.joint(n).id for n in chain.joint_names]
