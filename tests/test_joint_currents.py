@@ -99,9 +99,9 @@ def test_gains_and_base_parameters_from_a_known_payload_mass(robots, seed):
     assert set(est) == set(truth)
     names = sorted(truth)
     x, t = np.array([est[k]["value"] for k in names]), np.array([truth[k] for k in names])
-    assert float(x @ t / (t @ t)) == pytest.approx(1.0, abs=0.005)  # the common scale: N·m, not the currents' unit
+    assert float(x @ t / (t @ t)) == pytest.approx(1.0, abs=1e-3)  # the common scale: N·m, not the currents' unit
     z = [(est[k]["value"] - truth[k]) / est[k]["std"] for k in names]
-    assert max(map(abs, z)) < 4.5, sorted(zip(z, names), key=lambda v: -abs(v[0]))[:3]
+    assert max(map(abs, z)) < 3, sorted(zip(z, names, strict=True), key=lambda v: -abs(v[0]))[:3]
     for name, value in zip(("MX", "MY", "MZ"), COM, strict=True):
         assert p["parameters"][name]["value"] == pytest.approx(MASS * value, rel=0.03, abs=1e-3)
 
