@@ -126,8 +126,8 @@ def run_identify(opts: IdentifyOptions, data: Any, progress: Any = None, robot: 
             result = replace(result, payload=payload_report(art.design, data_name, payload_name, sopts.data, payload,
                                                             gains_unknown, motor))
             scale_note = None if gains_unknown else scale_note  # the known mass fixed the scale
-    if scale_note:
-        result = replace(result, flags=result.flags + (scale_note,))
+    if scale_note:  # the nominal values are in N·m, the fit in the currents' unit: no comparison to make
+        result = replace(result, flags=result.flags + (scale_note,), nominal_notes=())
     if opts.current:
         result = replace(result, current=_current_section(opts, motor_side, scale_note, result.payload))
     robot_bytes = read_robot_bytes(path)
