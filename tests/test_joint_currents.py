@@ -178,3 +178,20 @@ def test_bad_inputs_are_one_line_exit_2(robots, tmp_path, case, needle):
     lines = [ln for ln in r.output.strip().splitlines() if ln.strip()]
     assert len(lines) == 1 and needle in lines[0] and "Traceback" not in r.output, r.output
     assert not out.exists()
+
+
+def test_saved_model_reads_joint_currents_through_the_gains(robots):
+    """--save-model records the joint-side conversion (N = I, the gains): evaluate reads a current file
+    of another seed through them, as the torque model reads that seed's torque file."""
+    tmp, with_gains, without = robots
+    model, model_t = tmp / "m9.json", tmp / "m9t.json"
+    identify(without, simulate(with_gains, tmp / "c9.csv", "--seed", "9", "--current"), "--current",
+             "--drive-gains", ",".join(map(str, GAINS)), "--save-model", model)
+    identify(without, simulate(with_gains, tmp / "t9.csv", "--seed", "9"), "--save-model", model_t)
+    assert json.loads(model.read_text())["data"]["motor_side"]["gains"] == GAINS
+    cur = simulate(with_gains, tmp / "c10.csv", "--seed", "10", "--current")
+    tau = simulate(with_gains, tmp / "t10.csv", "--seed", "10")
+    a = json.loads(ok("evaluate", model, cur, "-f", "json").output)["pooled"]
+    b = json.loads(ok("evaluate", model_t, tau, "-f", "json").output)["pooled"]
+    assert a["relative_error"] < 0.01
+    assert a["rms_per_joint"] == pytest.approx(b["rms_per_joint"], rel=1e-5)
