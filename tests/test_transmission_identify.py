@@ -107,7 +107,8 @@ def test_currents_with_declared_gains(tmp_path, motor_data):
 
 @pytest.mark.parametrize("args,needle", [
     (("identify", ROBOTS / "puma560.yaml", "DATA", "--side", "motor"), "needs a transmission"),
-    (("identify", ROBOTS / "tx40.yaml", "DATA", "--current"), "--current needs --side motor"),
+    # joint-side currents are read now (tests/test_joint_currents.py); simulating them needs gains
+    (("simulate", ROBOTS / "tx40.yaml", "--current", "-o", "OUT"), "--current needs drive gains"),
     (("simulate", ROBOTS / "tx40.yaml", "--side", "motor", "--current", "-o", "OUT"), "needs drive_gains"),
     (("simulate", ROBOTS / "tx40.yaml", "--motor-params", "Fcm5=1", "-o", "OUT"), "not a motor-side parameter"),
     (("simulate", ROBOTS / "tx40.yaml", "--motor-params", "Fcm6=abc", "-o", "OUT"), "not a finite number"),

@@ -112,6 +112,8 @@ class Chain:
     floating_base: bool = False
     # motors and gears (theta_m = N (q - zero)): the motor-side columns of dynamics/transmission.py
     transmission: Transmission | None = None
+    # joint-side drive gains (tau_j = k_j i_j, YAML ``drive_gains:``): identify/simulate --current without --side motor
+    drive_gains: tuple[float, ...] | None = None
 
     @property
     def n(self) -> int:
@@ -269,6 +271,7 @@ def build_chain(
         length_scale=float(max(lengths)) if lengths else 1.0,
         exact_source=None if values else desc,
         transmission=tr,
+        drive_gains=desc.drive_gains,
     )
 
 

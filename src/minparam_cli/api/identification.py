@@ -109,7 +109,7 @@ def run_identify(opts: IdentifyOptions, data: Any, progress: Any = None, robot: 
         from minparam_cli.model.export_mjcf import check_mjcf_chain
 
         check_mjcf_chain(chain)
-    motor_side, scale_note = motor_side_spec(chain, opts.side, opts.current)
+    motor_side, scale_note = motor_side_spec(chain, opts.side, opts.current, opts.drive_gains)
     payload = opts.payload_spec()
     data_name, validate_name, test_names, records = _sources(data, opts.validate, opts.test)
     payload_name = None
@@ -126,11 +126,14 @@ def run_identify(opts: IdentifyOptions, data: Any, progress: Any = None, robot: 
             from minparam_cli.identify.physical.payload import payload_report
 
             gains_unknown = scale_note is not None
+            motor = _current_matrix(chain.dof) if opts.side == "joint" else None  # joint-side currents: N = I
             result = replace(result, payload=payload_report(art.design, data_name, payload_name, sopts.data, payload,
-                                                            gains_unknown))
+                                                            gains_unknown, motor))
             scale_note = None if gains_unknown else scale_note  # the known mass fixed the scale
-    if scale_note:
-        result = replace(result, flags=result.flags + (scale_note,))
+    if scale_note:  # the nominal values are in N·m, the fit in the currents' unit: no comparison to make
+        result = replace(result, flags=result.flags + (scale_note,), nominal_notes=())
+    if opts.current:
+        result = replace(result, current=_current_section(opts, motor_side, scale_note, result.payload))
     robot_bytes = read_robot_bytes(path)
     saved = saved_model(str(path), robot_bytes, opts.load_settings(), sopts.data, sopts.seed, art, result)
     assert art.design is not None  # the stage always sets the final design
@@ -150,6 +153,27 @@ def _identified_gains(result) -> list[float] | None:
     return None if gains is None else [float(e.value) for e in gains.values()]
 
 
+def _current_matrix(n: int):
+    import numpy as np
+
+    return np.eye(n)
+
+
+def _current_section(opts: IdentifyOptions, motor_side, scale_note, payload) -> dict[str, Any]:
+    """The JSON's ``current`` section: which side, the gains the currents were read with and where they
+    came from, and whether the torque unit is arbitrary (no gains, no payload to fix the scale)."""
+    gains = None if motor_side is None else motor_side[2]
+    if gains is not None:
+        source = "--drive-gains" if opts.drive_gains is not None else (
+            "drive_gains" if opts.side == "joint" else "transmission.drive_gains")
+    elif payload is not None and payload.drive_gains is not None:
+        source = "payload"  # identified: payload.drive_gains
+    else:
+        source = None
+    return {"side": opts.side, "drive_gains": None if gains is None else list(gains), "gains_source": source,
+            "torque_unit_arbitrary": scale_note is not None}
+
+
 def run_consistency(opts: IdentifyOptions, paths: Sequence[Path], progress: Any = None,
                     requested: bool = True) -> ConsistencyResult:
     """``identify A B C --consistency``: every recording fitted alone with the declared model, and all
@@ -159,7 +183,7 @@ def run_consistency(opts: IdentifyOptions, paths: Sequence[Path], progress: Any 
     from minparam_cli.identify.consistency import consistency
 
     chain = load_identify_chain(opts)
-    motor_side, _ = motor_side_spec(chain, opts.side, opts.current)
+    motor_side, _ = motor_side_spec(chain, opts.side, opts.current, opts.drive_gains)
     if not requested:
         raise InputError(f"{len(paths)} data files given: compare several recordings with --consistency, "
                          "or give selection and test data with --validate and --test")
@@ -181,7 +205,8 @@ def identify(robot: Robot | str | Path, data: Any, *, validate: Any = None, test
              diagnose: bool = True, min_gain: float = 0.02, physical: bool = False, prior: str = "none",
              prior_weight: float = 1e-3, ols: bool = False, seed: int = 0, mimic: str | None = None,
              sigma: str = "hac", block_length: float | None = None, replicates: int = 200,
-             essential: float | None = None, side: str = "joint", current: bool = False, payload_data: Any = None,
+             essential: float | None = None, side: str = "joint", current: bool = False,
+             drive_gains: Sequence[float] | None = None, payload_data: Any = None,
              payload_mass: float | None = None, payload_com: Sequence[float] | None = None,
              payload_inertia: Sequence[float] | None = None, progress: ProgressArg = False) -> Identification:
     """Identify the base parameters from measured joint data (``minparam identify``).
@@ -195,7 +220,9 @@ def identify(robot: Robot | str | Path, data: Any, *, validate: Any = None, test
     "bootstrap" or "textbook" (docs/methods/uncertainty.md), over time blocks of ``block_length`` s;
     ``essential``: the bound (%) of the essential-parameter reduction (the CLI's ``--essential
     --essential-bound``), None for none.  ``side="motor"``: the data are motor angles and torques
-    (``current=True``: currents), converted with the robot's transmission; ``payload_data`` (a second
+    (``current=True``: currents), converted with the robot's transmission; joint-side currents
+    (``current=True`` alone) are scaled by per-joint gains, tau_j = k_j i_j (the robot's ``drive_gains:``
+    or ``drive_gains``; none: unit gains, the torque unit arbitrary, flagged); ``payload_data`` (a second
     recording with a known payload on the last link, ``payload_mass`` kg, optionally ``payload_com``
     and ``payload_inertia``) adds the payload's identification (docs/methods/transmission.md).
     """
@@ -214,7 +241,7 @@ def identify(robot: Robot | str | Path, data: Any, *, validate: Any = None, test
         prior_weight=prior_weight, sigma=sigma, block_length=block_length, replicates=replicates,
         essential=essential is not None, essential_bound=10.0 if essential is None else float(essential),
         ols=ols, seed=seed, mimic=mimic if mimic is not None else (base.mimic if base else "coupled"),
-        side=side, current=bool(current), payload_data=payload_data, payload_mass=payload_mass,
+        side=side, current=bool(current), drive_gains=cast(Any, drive_gains), payload_data=payload_data, payload_mass=payload_mass,
         payload_com=cast(Any, payload_com), payload_inertia=cast(Any, payload_inertia),
     )
     bar = progress_callback(progress, 1, "diagnosis")

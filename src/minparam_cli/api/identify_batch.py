@@ -118,7 +118,7 @@ def check_batch(opts: IdentifyOptions, single_run: dict[str, Any], output) -> No
     from minparam_cli.dynamics.transmission import motor_side_spec
 
     chain = load_identify_chain(opts)
-    motor_side_spec(chain, opts.side, opts.current)
+    motor_side_spec(chain, opts.side, opts.current, opts.drive_gains)
     refuse_single_run_options(**single_run, output=output)
 
 

@@ -77,10 +77,22 @@ def read_given_trajectory(trajectory: str | Path, n: int):
     return parse_trajectory_csv(content, n, text)
 
 
-def _drive_gains(chain, current: bool):
-    """The drive gains --current divides by (None for torques)."""
+def _drive_gains(chain, current: bool, side: str = "motor", option=None):
+    """The drive gains --current divides by (None for torques): the transmission's on the motor side,
+    on the joint side --drive-gains or the description's ``drive_gains:`` (tau_j = k_j i_j)."""
     if not current:
         return None
+    from minparam_cli.dynamics.transmission import joint_gains
+
+    if side == "joint":
+        gains = joint_gains(chain, option)
+        if gains is None:
+            raise InputError(f"--current needs drive gains: 'drive_gains: [k1, ...]' in {chain.source} or --drive-gains "
+                             "(joint side, tau_j = k_j i_j), or drive_gains in the transmission with --side motor")
+        return gains
+    if option is not None:
+        raise InputError("--drive-gains are joint-side gains (tau_j = k_j i_j): with --side motor declare drive_gains "
+                         "in the transmission")
     tr = chain.transmission
     if tr is None or tr.drive_gains is None:
         raise InputError(f"--current needs drive_gains in the transmission of {chain.source}")
@@ -105,7 +117,7 @@ def prepare_simulation(robot: Robot | str | Path, opts: SimulateOptions) -> Simu
     chain = build_chain(load_description(path, mimic=opts.mimic))
     require_fixed_base(chain, "simulate")
     side = opts.side
-    motor_values, gains = _motor_values(opts.motor_params, chain), _drive_gains(chain, opts.current)
+    motor_values, gains = _motor_values(opts.motor_params, chain), _drive_gains(chain, opts.current, side, opts.drive_gains)
     payload = opts.payload()
     try:
         specs = parse_effects(opts.effects, chain.dof)
@@ -147,9 +159,21 @@ def prepare_simulation(robot: Robot | str | Path, opts: SimulateOptions) -> Simu
             transforms.append(lambda c: to_motor_side(c, chain, gains))
         extra["motor_side"] = {"side": side, "current": opts.current, "drive_gains": list(gains) if gains else None,
                                "motor_parameters": motor_values}
+    if side == "joint" and gains is not None:  # joint-side currents i_j = tau_j / k_j
+        transforms.append(lambda c: _to_currents(c, gains))
+        extra["current"] = {"side": "joint", "drive_gains": list(gains)}
     return SimulationSetup(robot=path, chain=chain, options=sim, seed=opts.seed, samples=samples, given=given,
                            trajectory_label=None if given is None else opts.trajectory, transforms=tuple(transforms),
                            notes=tuple(notes), extra_record=extra)
+
+
+def _to_currents(sim, gains):
+    """The simulation with its joint torques as joint-side currents, i_j = tau_j / k_j."""
+    from dataclasses import replace
+
+    import numpy as np
+
+    return replace(sim, tau=sim.tau / np.asarray(gains, dtype=float))
 
 
 def effort_notes(limits) -> list[str]:
@@ -163,7 +187,7 @@ def simulate(robot: Robot | str | Path, *, effects: str | Iterable[str] = "", st
              noise: float = 0.0, noise_q: float = 0.0, seed: int = 0, duration: float = 20.0, rate: float = 200.0,
              harmonics: int = 5, base_frequency: float = 0.1, random_inertia: bool = False, ddq: bool = True,
              coulomb_smoothing: float = 0.0, mimic: str = "coupled", trajectory: str | Path = "fourier",
-             side: str = "joint", current: bool = False, motor_params: str | Mapping[str, float] = "",
+             side: str = "joint", current: bool = False, drive_gains: Any = None, motor_params: str | Mapping[str, float] = "",
              payload_mass: float | None = None, payload_com: Any = None, payload_inertia: Any = None) -> Simulation:
     """Synthetic joint data (``minparam simulate``): a random Fourier excitation (Swevers et al. 1997)
     inside the joint limits from one generator seeded with ``seed`` (or ``trajectory``, an excite
@@ -171,7 +195,8 @@ def simulate(robot: Robot | str | Path, *, effects: str | Iterable[str] = "", st
     injected ``effects`` (the CLI's syntax, e.g. "coulomb,viscous,spring@2") and Gaussian noise; a
     payload on the last link (``payload_mass``, ``payload_com`` X,Y,Z, ``payload_inertia`` about its
     centre of mass), motor-side parameters (``motor_params``, e.g. {"Fcm6": 0.06}) and motor-side
-    signals (``side="motor"``, ``current=True`` for currents through the drive gains).
+    signals (``side="motor"``, ``current=True`` for currents through the drive gains); on the joint
+    side ``current=True`` writes i_j = tau_j / k_j with the description's ``drive_gains:`` or ``drive_gains``.
     ``to_dict()`` is the truth record (``--truth``); the arrays are those the CLI writes, bit for bit.
     """
     import numpy as np
@@ -180,7 +205,7 @@ def simulate(robot: Robot | str | Path, *, effects: str | Iterable[str] = "", st
     opts = SimulateOptions(trajectory=cast(Any, trajectory), effects=cast(Any, effects), strength=strength, noise=noise, noise_q=noise_q,
                            seed=seed, duration=duration, rate=rate, harmonics=harmonics, base_frequency=base_frequency,
                            random_inertia=random_inertia, ddq=ddq, coulomb_smoothing=coulomb_smoothing, mimic=mimic,
-                           side=side, current=current, motor_params=cast(Any, motor_params), payload_mass=payload_mass,
+                           side=side, current=current, drive_gains=drive_gains, motor_params=cast(Any, motor_params), payload_mass=payload_mass,
                            payload_com=payload_com, payload_inertia=payload_inertia)
     setup = prepare_simulation(robot, opts)
     warn(setup.notes)

@@ -58,7 +58,7 @@ class RankUndecided(ComputationError):
 
     def explained(self, chain: Chain) -> ComputationError:
         """The same error naming the parameters at the cut and the near-special geometry to write exactly."""
-        from minparam_cli.base.weak import near_special_relations
+        from minparam_cli.base.near_special import near_special_relations
 
         names = chain.layout.names
         at_cut = ", ".join(f"{names[i]} ({r:.2g})" for i, r in sorted(self.near, key=lambda x: -x[1])[:6])

@@ -124,7 +124,8 @@ def identify(
     export_mjcf: Optional[Path] = typer.Option(None, "--export-mjcf", help="With --physical: write the robot as a MuJoCo MJCF model (identified bodies, armature, damping, frictionloss, gravity, motors); what MJCF cannot express goes into FILE.extra.yaml."),
     mimic: MimicMode = mimic_option(),
     side: Side = typer.Option(Side.joint, "--side", help="Which side of the gears the q and tau columns were measured on: joint, or motor (converted with the robot's transmission: q = N⁻¹θ + zero, τ = Nᵀτ_m)."),
-    current: bool = typer.Option(False, "--current", help="With --side motor: the tau columns are motor currents, scaled by the transmission's drive_gains (without them the torque unit is arbitrary)."),
+    current: bool = typer.Option(False, "--current", help="The tau columns are currents: with --side motor motor currents scaled by the transmission's drive_gains; on the joint side τ_j = k_j i_j with the robot's drive_gains or --drive-gains (without gains the torque unit is arbitrary)."),
+    drive_gains: Optional[str] = typer.Option(None, "--drive-gains", help="With --current on the joint side: the drive gains k1,k2,... (τ_j = k_j i_j), instead of the robot file's drive_gains."),
     payload_data: Optional[Path] = typer.Option(None, "--payload-data", help="A second recording with a known payload on the last link: identify the payload (and, with --current and no drive_gains, the drive gains) from the difference."),
     payload_mass: Optional[float] = typer.Option(None, "--payload-mass", help="With --payload-data: the payload's mass, kg."),
     payload_com: Optional[str] = typer.Option(None, "--payload-com", help="With --payload-data: the payload's centre of mass X,Y,Z in the last link's frame, m (else identified)."),
@@ -141,7 +142,8 @@ def _identify(robot, data, validate, test, split, columns, time_unit, topic, cut
               rest_below_still,
               friction, rotor_inertia, coulomb_smoothing, gravity, effects, no_diagnose, min_gain, physical, prior,
               prior_weight, sigma, block_length, replicates, consistency, essential, essential_bound, ols, fmt, output, plot, seed, save_model, export_urdf, export_yaml, mimic, quiet, jobs=1, scheduler=None,
-              side="joint", export_mjcf=None, current=False, payload_data=None, payload_mass=None, payload_com=None, payload_inertia=None):
+              side="joint", export_mjcf=None, current=False, payload_data=None, payload_mass=None, payload_com=None, payload_inertia=None,
+              drive_gains=None):
     """Parse, call the API (``api.identification``), render, write."""
     from minparam_cli.api.options.identify import IdentifyOptions
 
@@ -154,7 +156,7 @@ def _identify(robot, data, validate, test, split, columns, time_unit, topic, cut
             min_gain=min_gain, physical=physical, prior=Prior(prior).value, prior_weight=prior_weight,
             sigma=Sigma(sigma).value, block_length=block_length, replicates=replicates, essential=essential,
             essential_bound=essential_bound, ols=ols, seed=seed, mimic=MimicMode(mimic).value, side=Side(side).value,
-            current=current, payload_data=payload_data, payload_mass=payload_mass, payload_com=payload_com,
+            current=current, drive_gains=drive_gains, payload_data=payload_data, payload_mass=payload_mass, payload_com=payload_com,
             payload_inertia=payload_inertia, save_model=save_model, export_urdf=export_urdf, export_yaml=export_yaml,
             export_mjcf=export_mjcf,
         )

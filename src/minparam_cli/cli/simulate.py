@@ -68,7 +68,8 @@ def simulate(
     quiet: bool = typer.Option(False, "--quiet", "-q", help="No summary or notes on stderr."),
     mimic: MimicMode = mimic_option(),
     side: str = typer.Option("joint", "--side", help="joint, or motor: write motor angles, rates and torques through the robot's transmission (θ = N(q − zero), τ_m = N⁻ᵀτ)."),
-    current: bool = typer.Option(False, "--current", help="With --side motor: write currents τ_m / g with the transmission's drive_gains."),
+    current: bool = typer.Option(False, "--current", help="Write currents: with --side motor τ_m / g (the transmission's drive_gains); on the joint side τ_j / k_j (the robot's drive_gains or --drive-gains)."),
+    drive_gains: Optional[str] = typer.Option(None, "--drive-gains", help="With --current on the joint side: the drive gains k1,k2,... (τ_j = k_j i_j), instead of the robot file's drive_gains."),
     motor_params: str = typer.Option("", "--motor-params", help="Values of the robot's motor-side parameters to inject, e.g. Fcm6=0.06,Fvm6=6e-4,Iam6=1e-5 (motor-side units)."),
     payload_mass: Optional[float] = typer.Option(None, "--payload-mass", help="A payload on the last link: its mass, kg."),
     payload_com: Optional[str] = typer.Option(None, "--payload-com", help="Its centre of mass X,Y,Z in the last link's frame, m (default 0,0,0)."),
@@ -76,13 +77,13 @@ def simulate(
 ):
     _simulate(robot, trajectory, effects, strength, noise, noise_q, seed, duration, rate, harmonics, base_frequency,
               random_inertia, no_ddq, output, truth, quiet, coulomb_smoothing, mimic, side, current, motor_params,
-              payload_mass, payload_com, payload_inertia)
+              payload_mass, payload_com, payload_inertia, drive_gains)
 
 
 @guarded
 def _simulate(robot, trajectory, effects, strength, noise, noise_q, seed, duration, rate, harmonics, base_frequency,
               random_inertia, no_ddq, output, truth, quiet, coulomb_smoothing=0.0, mimic=MimicMode.coupled, side="joint",
-              current=False, motor_params="", payload_mass=None, payload_com=None, payload_inertia=None):
+              current=False, motor_params="", payload_mass=None, payload_com=None, payload_inertia=None, drive_gains=None):
     from minparam_cli.api.options.simulate import SimulateOptions
     from minparam_cli.api.simulation import effort_notes, prepare_simulation
     from minparam_cli.api.simulation_files import data_format, write_csv, write_npz
@@ -100,7 +101,7 @@ def _simulate(robot, trajectory, effects, strength, noise, noise_q, seed, durati
             trajectory=trajectory, effects=effects, strength=strength, noise=noise, noise_q=noise_q, seed=seed,
             duration=duration, rate=rate, harmonics=harmonics, base_frequency=base_frequency,
             random_inertia=random_inertia, ddq=not no_ddq, coulomb_smoothing=coulomb_smoothing, mimic=mimic, side=side,
-            current=current, motor_params=motor_params, payload_mass=payload_mass, payload_com=payload_com,
+            current=current, drive_gains=drive_gains, motor_params=motor_params, payload_mass=payload_mass, payload_com=payload_com,
             payload_inertia=payload_inertia)
         setup = prepare_simulation(robot, opts)
     if not quiet:

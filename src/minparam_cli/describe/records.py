@@ -119,6 +119,9 @@ class RobotDescription:
     adjustments: tuple[dict, ...] = ()
     # motors, gears and their coupling (YAML ``transmission:``, or a URDF's side file); None: none declared
     transmission: Transmission | None = None
+    # joint-side drive gains (YAML top-level ``drive_gains:``): tau_j = k_j i_j for currents read with joint
+    # angles (``identify --current`` without --side motor); None: not declared
+    drive_gains: tuple[float, ...] | None = None
 
     @property
     def dof(self) -> int:

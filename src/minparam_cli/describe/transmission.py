@@ -151,6 +151,19 @@ def check_gains(gains, src: str, where: str) -> None:
             raise DescriptionError(f"drive gain of motor {k + 1} is {g:g}: a gain must be positive", src, where)
 
 
+def parse_joint_gains(v: Any, n: int, src: str, where: str) -> tuple[float, ...]:
+    """The top-level ``drive_gains: [k1, ..., kn]`` of a YAML robot: joint torque per unit of current
+    signal, tau_j = k_j i_j (joint angles with motor currents, no transmission needed), each > 0."""
+    items = _list(v, src, where)
+    if len(items) != n:
+        raise DescriptionError(f"expected {n} numbers (one per joint), got {len(items)}", src, where)
+    gains = tuple(finite_number(x, src, where) for x in items)
+    for j, g in enumerate(gains):
+        if not g > 0:
+            raise DescriptionError(f"drive gain of joint {j + 1} is {g:g}: a gain must be positive", src, where)
+    return gains
+
+
 def _list(v: Any, src: str, where: str) -> list:
     if not isinstance(v, list):
         raise DescriptionError(f"expected a list, got {short_repr(v)}", src, where)

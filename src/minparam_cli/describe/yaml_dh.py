@@ -35,7 +35,7 @@ ANGLE_UNITS = ("deg", "rad")
 CONVENTIONS = ("dh", "mdh")
 JOINT_TYPES = ("revolute", "prismatic")
 TOP_KEYS = {"kind", "name", "convention", "units", "gravity", "friction", "rotor_inertia", "tool", "joints", "description",
-            "transmission", "identified"}
+            "transmission", "identified", "drive_gains"}
 JOINT_KEYS = {"name", "type", "alpha", "a", "d", "theta", "friction", "rotor_inertia", "limits", "velocity", "acceleration",
               "effort", "inertial"}
 
@@ -149,8 +149,14 @@ def description_from_mapping(doc: Any, src: str) -> RobotDescription:
         from minparam_cli.describe.transmission import parse_transmission
 
         transmission = parse_transmission(doc["transmission"], tuple(j.type for j in joints), au, float(scale), src)
+    gains = None
+    if doc.get("drive_gains") is not None:  # joint-side drive gains, tau_j = k_j i_j: describe/transmission.py
+        from minparam_cli.describe.transmission import parse_joint_gains
+
+        gains = parse_joint_gains(doc["drive_gains"], len(joints), src, "drive_gains")
     return RobotDescription(
         transmission=transmission,
+        drive_gains=gains,
         name=name,
         source=src,
         convention=convention,

@@ -95,17 +95,42 @@ def motor_torque(tau, N: np.ndarray, gains=None) -> np.ndarray:
 
 ARBITRARY_UNIT = ("the torque columns are currents and no drive gains are declared: the torque unit is arbitrary and "
                   "every parameter is identified up to one common scale")
+ARBITRARY_JOINT_UNIT = ("the torque columns are currents and no drive gains are given (drive_gains: in the YAML or "
+                        "--drive-gains): the torque unit is arbitrary (unit gains assumed; with unequal gains the joints' "
+                        "rows are in different units); identify the gains with --payload-data and --payload-mass")
 
 
-def motor_side_spec(chain, side: str, current: bool) -> tuple[tuple | None, str | None]:
+def joint_gains(chain, gains=None) -> tuple[float, ...] | None:
+    """The joint-side drive gains k (tau_j = k_j i_j) for ``--current`` without ``--side motor``: the
+    option's ``gains`` (``--drive-gains``) when given, else the description's ``drive_gains:``; None: neither."""
+    from minparam_cli.errors import InputError
+
+    if gains is None:
+        return getattr(chain, "drive_gains", None)
+    if len(gains) != chain.dof:
+        raise InputError(f"--drive-gains: expected {chain.dof} gains (one per joint of {chain.source}), got {len(gains)}")
+    return tuple(float(g) for g in gains)
+
+
+def motor_side_spec(chain, side: str, current: bool, gains=None) -> tuple[tuple | None, str | None]:
     """What ``identify --side/--current`` asks of the data reader: (N rows, zero, gains) or None
-    for joint-side data, and a note for the report when the torque unit is arbitrary."""
+    for joint-side data, and a note for the report when the torque unit is arbitrary.  Joint-side
+    currents (``--current`` alone) read with N = I and the joint gains (``joint_gains``; ``gains``:
+    ``--drive-gains``), tau_j = k_j i_j."""
     from minparam_cli.errors import InputError
 
     if side == "joint":
-        if current:
-            raise InputError("--current needs --side motor: currents are motor-side signals")
-        return None, None
+        if not current:
+            return None, None
+        k = joint_gains(chain, gains)
+        if k is None:  # unit gains: the currents are read as torques
+            return None, ARBITRARY_JOINT_UNIT
+        n = len(k)
+        eye = tuple(tuple(float(i == j) for j in range(n)) for i in range(n))
+        return (eye, (0.0,) * n, k), None
+    if gains is not None:
+        raise InputError("--drive-gains are joint-side gains (tau_j = k_j i_j): with --side motor declare drive_gains "
+                         "in the transmission")
     tr = chain.transmission
     if tr is None:
         raise InputError(f"--side motor needs a transmission in {chain.source} (YAML 'transmission:' or a URDF's "

@@ -62,6 +62,8 @@ class IdentifyResult:
     flags: tuple[str, ...] = ()
     elapsed_s: float = 0.0
     payload: PayloadReport | None = None
+    # --current: the side, the gains the currents were read with, their source, whether the torque unit is arbitrary
+    current: Mapping[str, Any] | None = None
 
     @property
     def sigma_kind(self) -> str:
@@ -111,4 +113,6 @@ class IdentifyResult:
         out["elapsed_s"] = self.elapsed_s
         if self.payload is not None:
             out["payload"] = self.payload.to_dict()
+        if self.current is not None:
+            out["current"] = copy.deepcopy(dict(self.current))
         return out

@@ -67,6 +67,18 @@ def _columns(columns: str | Mapping[str, str] | None) -> dict[str, str]:
     return out
 
 
+def drive_gains_option(value: Any, current: bool) -> tuple[float, ...] | None:
+    """``--drive-gains k1,k2,...``: positive joint-side gains (their count is checked against the robot)."""
+    if value is None:
+        return None
+    gains = float_option(value, None, "--drive-gains")
+    if not current:
+        raise InputError("--drive-gains needs --current: the gains turn current columns into joint torques")
+    if not gains or any(g <= 0 for g in gains):
+        raise OptionError("--drive-gains", f"expected positive gains, one per joint, got {value!r}")
+    return gains
+
+
 @dataclass(frozen=True)
 class IdentifyOptions:
     """Every option of ``minparam identify`` (same names as the flags, same defaults), checked.
@@ -110,6 +122,7 @@ class IdentifyOptions:
     mimic: str = "coupled"
     side: str = "joint"
     current: bool = False
+    drive_gains: tuple[float, ...] | None = None  # joint-side gains, tau_j = k_j i_j (--current without --side motor)
     payload_data: Any = field(default=None, compare=False)
     payload_mass: float | None = None
     payload_com: tuple[float, float, float] | None = None
@@ -166,6 +179,7 @@ class IdentifyOptions:
         put("side", choice_option(self.side, SIDES, "--side"))
         put("test", self._tests(self.test))
         self._check_payload()
+        put("drive_gains", drive_gains_option(self.drive_gains, self.current))
         put("columns", _columns(self.columns))
         put("sigma", choice_option(self.sigma, SIGMAS, "--sigma"))
         from minparam_cli.identify.assess.uncertainty import check_options

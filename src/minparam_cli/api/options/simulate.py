@@ -8,7 +8,7 @@ from typing import Any, Mapping
 from minparam_cli.api.common import choice_option
 from minparam_cli.errors import InputError
 from minparam_cli.describe.records import MIMIC_MODES
-from minparam_cli.api.options.identify import SIDES
+from minparam_cli.api.options.identify import SIDES, drive_gains_option
 
 
 
@@ -39,6 +39,7 @@ class SimulateOptions:
     mimic: str = "coupled"
     side: str = "joint"
     current: bool = False
+    drive_gains: Any = None  # joint-side gains, tau_j = k_j i_j (--current without --side motor)
     motor_params: str = ""
     payload_mass: float | None = None
     payload_com: Any = None
@@ -53,9 +54,8 @@ class SimulateOptions:
         if side not in SIDES:
             raise InputError(f"--side: expected joint or motor, got {side!r}")
         put(self, "side", side)
-        if self.current and side != "motor":
-            raise InputError("--current needs --side motor: currents are motor-side signals")
         put(self, "current", bool(self.current))
+        put(self, "drive_gains", drive_gains_option(self.drive_gains, self.current))
         if isinstance(self.motor_params, Mapping):
             put(self, "motor_params", ",".join(f"{k}={v}" for k, v in self.motor_params.items()))
         put(self, "motor_params", str(self.motor_params))

@@ -88,18 +88,22 @@ def payload_columns(chain, b) -> np.ndarray:
     return Y[:, :, 10 * (n - 1) : 10 * n]
 
 
-def gain_columns(chain, b) -> np.ndarray:
+def gain_columns(chain, b, motor: np.ndarray | None = None) -> np.ndarray:
     """(N, dof, n motors): C_k = Nᵀ e_k c_k, the joint torques of a unit gain of motor k; the
-    currents c = N⁻ᵀ τ recovered from torques read with unit gains (``identify --current``)."""
+    currents c = N⁻ᵀ τ recovered from torques read with unit gains (``identify --current``).
+    ``motor``: the N the currents were read through (None: the chain's transmission; the identity
+    for joint-side currents, tau_j = k_j i_j)."""
     from minparam_cli.dynamics.transmission import motor_matrix
 
-    N = motor_matrix(chain)
+    N = motor_matrix(chain) if motor is None else motor
     c = np.linalg.solve(N.T, b.tau.T).T
     return np.einsum("sk,kj->sjk", c, N)
 
 
-def fit_payload(design, unloaded, loaded, spec: PayloadSpec, gains_unknown: bool) -> PayloadReport:
-    """Payload parameters (and drive gains when ``gains_unknown``) with σ; see the module docstring."""
+def fit_payload(design, unloaded, loaded, spec: PayloadSpec, gains_unknown: bool,
+                motor: np.ndarray | None = None) -> PayloadReport:
+    """Payload parameters (and drive gains when ``gains_unknown``) with σ; see the module docstring.
+    ``motor``: N of the currents (``gain_columns``; the identity for joint-side currents)."""
     check_spec(spec)
     if gains_unknown and spec.mass is None:
         raise InputError("currents without drive gains: --payload-mass is needed, the known mass fixes the torque scale")
@@ -118,8 +122,8 @@ def fit_payload(design, unloaded, loaded, spec: PayloadSpec, gains_unknown: bool
     blocks_B = [XB, YL[:, :, [idx[k] for k in unknown]]]
     rhs_A, rhs_B = unloaded.tau.copy(), loaded.tau - YL @ phi_k
     if gains_unknown:
-        blocks_A.append(-gain_columns(chain, unloaded))
-        blocks_B.append(-gain_columns(chain, loaded))
+        blocks_A.append(-gain_columns(chain, unloaded, motor))
+        blocks_B.append(-gain_columns(chain, loaded, motor))
         rhs_A, rhs_B = np.zeros_like(rhs_A), -(YL @ phi_k)
     A = np.concatenate([np.concatenate(blocks_A, axis=2), np.concatenate(blocks_B, axis=2)])  # (N, n, P)
     b = np.concatenate([rhs_A, rhs_B])
@@ -144,7 +148,7 @@ def fit_payload(design, unloaded, loaded, spec: PayloadSpec, gains_unknown: bool
 
         lin = [keep.index(i) for i in keep if i < p + len(unknown)]
         gi = [keep.index(i) for i in range(p + len(unknown), A.shape[2])]
-        Ninv = np.linalg.inv(motor_matrix(chain))
+        Ninv = np.linalg.inv(motor_matrix(chain) if motor is None else motor)
         F = A[:, :, keep][:, :, lin]
         f0 = np.concatenate([np.zeros_like(unloaded.tau), YL @ phi_k])
         c = tau @ Ninv  # the currents (torques read with unit gains, back on the motor side)
@@ -156,7 +160,7 @@ def fit_payload(design, unloaded, loaded, spec: PayloadSpec, gains_unknown: bool
             r = (F @ x[lin] + f0) - (c * x[gi]) @ _motor_to_joint(Ninv)
             method = "Gauss–Newton on the motor currents (errors in the currents only), started from weighted least squares"
         g = x[gi]
-        tau = np.concatenate([gain_columns(chain, unloaded), gain_columns(chain, loaded)]) @ g
+        tau = np.concatenate([gain_columns(chain, unloaded, motor), gain_columns(chain, loaded, motor)]) @ g
     rel = float(np.linalg.norm(r) / np.linalg.norm(tau)) if np.linalg.norm(tau) > 0 else float("nan")
     sigma_j = np.sqrt(np.mean(r**2, axis=0))
     full = dict(zip([names[i] for i in keep], zip(x, std, strict=True), strict=True))
@@ -311,14 +315,15 @@ def _wls(A: np.ndarray, b: np.ndarray):
     return x, np.sqrt(np.maximum(np.diag(cov), 0.0)), b - A @ x
 
 
-def payload_report(design, data_path, payload_path, data_opts, spec: PayloadSpec, gains_unknown: bool) -> PayloadReport:
+def payload_report(design, data_path, payload_path, data_opts, spec: PayloadSpec, gains_unknown: bool,
+                   motor: np.ndarray | None = None) -> PayloadReport:
     """Read the whole unloaded and loaded files (same preprocessing as the main fit) and fit the payload."""
     from minparam_cli.measured.blocks import load_all
 
     check_spec(spec)
     n = design.chain.dof
     unloaded, loaded = load_all(data_path, n, data_opts), load_all(payload_path, n, data_opts)
-    return replace(fit_payload(design, unloaded, loaded, spec, gains_unknown), files=(str(data_path), str(payload_path)))
+    return replace(fit_payload(design, unloaded, loaded, spec, gains_unknown, motor), files=(str(data_path), str(payload_path)))
 
 
 def with_payload(sim, chain, spec: PayloadSpec):
