@@ -188,7 +188,7 @@ class Chain:
     def with_extras(self, extras: tuple[tuple[str, ...], ...]) -> "Chain":
         from dataclasses import replace
 
-        return replace(self, layout=ParamLayout(self.n, extras, self.layout.numbers))
+        return replace(self, layout=ParamLayout(self.n, extras, self.layout.numbers, self.layout.massless))
 
     def with_coulomb_smoothing(self, velocity: float) -> "Chain":
         """The same chain with Coulomb columns tanh(qd / velocity) (0: sign(qd))."""
@@ -240,9 +240,11 @@ def build_chain(
     if all(j.inertial is not None for j in bodies):
         phi = np.concatenate([_inertial_to_standard(j.inertial) for j in bodies])
     numbers = None
-    if len(bodies) < desc.dof:  # a floating base: the free link is link 0, massless virtual links have none
-        it = iter(range(len(bodies)))
-        numbers = tuple(None if j.massless else next(it) for j in desc.joints)
+    if any(j.virtual for j in desc.joints):  # a floating base: the free link is link 0, massless virtual links have none
+        it = iter(range(desc.dof))
+        numbers = tuple(None if j.massless and j.virtual else next(it) for j in desc.joints)
+    # MJCF's frames between the joints of one body: numbered (their joints' extras), no columns
+    massless = tuple(k for k, j in enumerate(desc.joints) if j.massless and not j.virtual)
     lengths = [abs(x) for x in np.concatenate([pre[:, :3, 3].ravel(), post[:, :3, 3].ravel()]) if abs(x) > 0]
     return Chain(
         coupling=mimic_coupling(desc),
@@ -259,7 +261,7 @@ def build_chain(
         post=post,
         gravity=np.asarray(desc.gravity, dtype=float),
         gravity_source=desc.gravity_source,
-        layout=ParamLayout(desc.dof, tuple(tuple(e) for e in extras), numbers),
+        layout=ParamLayout(desc.dof, tuple(tuple(e) for e in extras), numbers, massless),
         phi_nominal=phi,
         limits=tuple(j.limits for j in desc.joints),
         velocity_limits=tuple(j.max_velocity for j in desc.joints),

@@ -1,0 +1,208 @@
+"""MJCF (MuJoCo's XML) -> RobotDescription, through MuJoCo's own compiler (docs/mjcf.md).
+
+The file is compiled by ``mujoco.MjModel.from_xml_path`` and only the COMPILED model is read, so
+includes, default classes, ``<compiler angle/eulerseq/inertiafromgeom>``, ``<frame>`` elements and
+meshes mean exactly what MuJoCo makes of them; the XML itself is never interpreted here.  Before
+MuJoCo sees it, the file is size-bounded (``safety.read_bounded``), must have a ``<mujoco>`` root
+(other ``.xml`` files are not robots: ``NotARobotError``, skipped in folders) and must carry no
+DOCTYPE or entity declaration.
+
+* hinge and slide joints move; a body with several joints gets one record per joint, the frames
+  between them massless (``JointRecord.massless``, no columns); bodies without joints are welded
+  to their parent (inertias lumped about the moving body's frame);
+* one free joint on a child of the world body: a floating base, six virtual joints in front of
+  that body as for a URDF (q = 0 puts it at its compiled pose);
+* joint equalities (``eq_type`` JOINT) with polycoef (c0, c1, 0, 0, 0): y - y0 = c0 + c1 (x - x0),
+  a mimic joint (``mimic`` as for URDF); one without a second joint locks its joint at y0 + c0
+  (welded); inactive equalities are ignored;
+* ``armature``, ``damping``, ``frictionloss`` of a joint's dof: its nominal rotor inertia, viscous
+  and Coulomb friction (``JointRecord.nominal_extras``), and their columns (``extras``);
+* gravity from ``<option gravity>``, zero when ``<flag gravity="disable"/>``;
+* refused in one line (exit 2), naming the element: ball joints, a free joint below the world
+  body's children or beside other joints, a second free joint, connect/weld/tendon/flex
+  equalities, joint equalities with nonzero quadratic or higher coefficients.
+
+The joint coordinate is MuJoCo's qpos (not qpos - qpos0): the reference ``ref`` is folded into
+the joint's origin.  The walk over the compiled bodies is ``mjcf_tree``'s.
+"""
+
+from __future__ import annotations
+
+import re
+from pathlib import Path
+
+from minparam_cli.describe.records import MIMIC_MODES, RobotDescription
+from minparam_cli.errors import DescriptionError, NotARobotError, UnsupportedError
+from minparam_cli.safety import read_bounded
+
+# eq_type and jnt_type values of mujoco.mjtEq / mujoco.mjtJoint (checked against the module in tests)
+EQ_CONNECT, EQ_WELD, EQ_JOINT, EQ_TENDON = 0, 1, 2, 3
+JNT_FREE, JNT_BALL, JNT_SLIDE, JNT_HINGE = 0, 1, 2, 3
+DSBL_GRAVITY = 128  # mujoco.mjtDisableBit.mjDSBL_GRAVITY
+EQ_WORDS = {EQ_CONNECT: "a connect equality (a closed kinematic chain)", EQ_WELD: "a weld equality (a closed kinematic chain)",
+            EQ_TENDON: "a tendon equality (a tendon coupling)"}
+
+_DECL = re.compile(rb"<!\s*(DOCTYPE|ENTITY)", re.IGNORECASE)
+_ROOT = re.compile(rb"<([A-Za-z_][\w.\-:]*)")
+
+
+def root_tag(data: bytes) -> str | None:
+    """The name of the first element of an XML text (after the prolog's declaration, comments and
+    processing instructions), or None when there is none."""
+    text = data[3:] if data.startswith(b"\xef\xbb\xbf") else data
+    pos = 0
+    while True:
+        start = text.find(b"<", pos)
+        if start < 0:
+            return None
+        if text.startswith(b"<?", start):
+            pos = text.find(b"?>", start)
+        elif text.startswith(b"<!--", start):
+            pos = text.find(b"-->", start)
+        elif text.startswith(b"<!", start):
+            pos = text.find(b">", start)
+        else:
+            m = _ROOT.match(text, start)
+            return None if m is None else m.group(1).decode("ascii", "replace")
+        if pos < 0:
+            return None
+
+
+def check_mjcf_text(data: bytes, src: str) -> None:
+    """Refuse what must not reach MuJoCo's parser: a DOCTYPE or an entity declaration (TinyXML2 does
+    not expand entities, but a robot file never needs them), and a root other than <mujoco>."""
+    if _DECL.search(data):
+        raise DescriptionError("DOCTYPE and entity declarations are not allowed in an MJCF file", src)
+    tag = root_tag(data)
+    if tag != "mujoco":
+        raise NotARobotError(f"root element is <{tag}>, expected <mujoco> (an MJCF file)" if tag else "no XML element: not an MJCF file", src)
+
+
+def compile_model(path: Path, src: str):
+    """The compiled ``mujoco.MjModel`` of the file, or MuJoCo's message in one line."""
+    from minparam_cli.optional import import_optional
+
+    mujoco = import_optional("mujoco", "mujoco", "reading MJCF (.xml) robot files")
+    try:
+        return mujoco.MjModel.from_xml_path(str(path))
+    except ValueError as e:
+        text = "; ".join(part.strip() for part in str(e).splitlines() if part.strip())
+        raise DescriptionError(f"MuJoCo cannot compile the file: {text}", src) from None
+
+
+def load_mjcf(path: Path, snap_angles: float | None = None, mimic: str = "coupled", floating_base: bool = False) -> RobotDescription:
+    """Read an MJCF file (module docstring).  ``snap_angles`` (rad): joint origin angles within it of a
+    multiple of 15° are rounded to it, each change recorded.  ``mimic``: joint equalities "coupled"
+    (move with their master) or "fixed" (frozen where the master's q = 0 puts them).
+    ``floating_base``: an MJCF says so itself (a free joint); asking for one without it is refused."""
+    if mimic not in MIMIC_MODES:
+        raise ValueError(f"mimic must be one of {MIMIC_MODES}, got {mimic!r}")
+    from minparam_cli.describe.mjcf_tree import build_description
+
+    src = str(path)
+    check_mjcf_text(read_bounded(path), src)
+    m = compile_model(path, src)
+    names = _Names(m)
+    free = _check_joints(m, names, src)
+    if floating_base and free is None:
+        raise DescriptionError("--floating-base: an MJCF file declares its floating base itself (a free joint, <freejoint/>), and this one has none", src)
+    locked, masters = _equalities(m, names, src, mimic)
+    return build_description(m, names, src, free, locked, masters, snap_angles)
+
+
+class _Names:
+    """Names of the compiled model's bodies, joints and equalities; unnamed ones get a made-up, unique
+    name (``body3``, ``<body>_joint2``, ``equality #1``)."""
+
+    def __init__(self, m):
+        import mujoco
+
+        def name(kind, i):
+            return mujoco.mj_id2name(m, kind, i) or ""
+
+        self.body = [name(mujoco.mjtObj.mjOBJ_BODY, b) or (f"body{b}" if b else "world") for b in range(m.nbody)]
+        taken = set(self.body)
+        self.joint = []
+        for j in range(m.njnt):
+            given = name(mujoco.mjtObj.mjOBJ_JOINT, j)
+            b = int(m.jnt_bodyid[j])
+            text = given or (f"{self.body[b]}_joint" + (str(j - int(m.body_jntadr[b]) + 1) if m.body_jntnum[b] > 1 else ""))
+            while not given and text in taken:
+                text += "_"
+            taken.add(text)
+            self.joint.append(text)
+        self.equality = [f"equality[{n}]" if (n := name(mujoco.mjtObj.mjOBJ_EQUALITY, e)) else f"equality #{e + 1}" for e in range(m.neq)]
+        self.model = bytes(m.names).split(b"\0", 1)[0].decode("utf-8", "replace") or "mjcf"
+        self.site = [name(mujoco.mjtObj.mjOBJ_SITE, s) for s in range(m.nsite)]
+
+
+def _check_joints(m, names: _Names, src: str) -> int | None:
+    """The body with the free joint of a floating base (None: a fixed base); refuses ball joints and
+    free joints anywhere else."""
+    free = None
+    for j in range(m.njnt):
+        kind, b = int(m.jnt_type[j]), int(m.jnt_bodyid[j])
+        where = f"joint[{names.joint[j]}]"
+        if kind == JNT_BALL:
+            raise UnsupportedError(f"ball joints are not supported yet (body '{names.body[b]}')", src, where)
+        if kind != JNT_FREE:
+            continue
+        if int(m.body_parentid[b]) != 0:
+            raise UnsupportedError(f"a free joint not at the root (body '{names.body[b]}' hangs on '{names.body[int(m.body_parentid[b])]}') is not supported yet",
+                                   src, where)
+        if m.body_jntnum[b] > 1:
+            raise UnsupportedError(f"body '{names.body[b]}' has a free joint and other joints: not supported", src, where)
+        if free is not None:
+            raise UnsupportedError(f"a second free joint (bodies '{names.body[free]}' and '{names.body[b]}'): only one floating base is supported",
+                                   src, where)
+        free = b
+    return free
+
+
+def _equalities(m, names: _Names, src: str, mimic: str) -> tuple[dict[int, float], dict[int, tuple[int, float, float]]]:
+    """({locked joint: its value}, {mimic joint: (independent joint, multiplier, offset)}) from the
+    active joint equalities, q_mimic = multiplier·q_master + offset in qpos units; refuses the others."""
+    locked: dict[int, float] = {}
+    direct: dict[int, tuple[int, float, float]] = {}
+    for e in range(m.neq):
+        if not m.eq_active0[e]:
+            continue  # switched off at the start (it may be switched on by a controller: not modelled)
+        kind, where = int(m.eq_type[e]), names.equality[e]
+        if kind != EQ_JOINT:
+            word = EQ_WORDS.get(kind, f"an equality of type {kind} (flex)")
+            raise UnsupportedError(f"{word} is not supported yet", src, where)
+        y, x = int(m.eq_obj1id[e]), int(m.eq_obj2id[e])
+        c = [float(v) for v in m.eq_data[e, :5]]
+        if any(c[2:]):
+            raise UnsupportedError(f"a polynomial joint coupling (polycoef {' '.join(f'{v:g}' for v in c)}: quadratic or higher terms) is not supported yet",
+                                   src, where)
+        for jnt in (y, x):
+            if jnt >= 0 and int(m.jnt_type[jnt]) not in (JNT_HINGE, JNT_SLIDE):
+                raise UnsupportedError(f"a joint equality on joint '{names.joint[jnt]}', which is not a hinge or slide joint, is not supported", src, where)
+        if y in direct or y in locked:
+            raise UnsupportedError(f"joint '{names.joint[y]}' is constrained by two joint equalities: not supported", src, where)
+        y0 = float(m.qpos0[m.jnt_qposadr[y]])
+        if x < 0 or c[1] == 0.0:
+            locked[y] = y0 + c[0]
+            continue
+        if x == y:
+            raise DescriptionError("a joint equality couples a joint with itself", src, where)
+        x0 = float(m.qpos0[m.jnt_qposadr[x]])
+        direct[y] = (x, c[1], y0 + c[0] - c[1] * x0)
+    masters: dict[int, tuple[int, float, float]] = {}
+    for y, (x, k, o) in direct.items():  # a mimic of a mimic: followed to the independent joint
+        seen = [y]
+        while x in direct:
+            if x in seen:
+                raise UnsupportedError("joint equalities form a loop: " + " -> ".join(names.joint[i] for i in [*seen, x]), src, f"joint[{names.joint[y]}]")
+            seen.append(x)
+            x2, k2, o2 = direct[x]
+            x, k, o = x2, k * k2, k * o2 + o
+        if x in locked:
+            locked[y] = k * locked[x] + o
+        else:
+            masters[y] = (x, k, o)
+    if mimic == "fixed":  # frozen where the master's q = 0 puts them, as for URDF's --mimic fixed
+        locked.update({y: o for y, (_, _, o) in masters.items()})
+        masters = {}
+    return locked, masters
