@@ -112,6 +112,13 @@ class Chain:
     floating_base: bool = False
     # motors and gears (theta_m = N (q - zero)): the motor-side columns of dynamics/transmission.py
     transmission: Transmission | None = None
+    # per joint, the nominal values of extras the file gives (MJCF armature, frictionloss, damping)
+    nominal_extras: tuple[tuple[tuple[str, float], ...], ...] = ()
+
+    def nominal_extra_values(self) -> np.ndarray:
+        """The file's nominal value of every extra column of the layout, in column order (0 where none)."""
+        given = [dict(v) for v in self.nominal_extras] or [{} for _ in range(self.n)]
+        return np.array([given[k].get(kind, 0.0) for k, kind in self.layout.extra_columns])
 
     @property
     def n(self) -> int:
@@ -271,6 +278,7 @@ def build_chain(
         length_scale=float(max(lengths)) if lengths else 1.0,
         exact_source=None if values else desc,
         transmission=tr,
+        nominal_extras=tuple(j.nominal_extras for j in desc.joints),
     )
 
 

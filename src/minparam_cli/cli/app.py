@@ -115,8 +115,30 @@ def __getattr__(name: str):
     raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
+def _one_line_warnings() -> None:
+    """The library's MinparamWarning notes (e.g. MuJoCo's compiler warnings on an MJCF file) printed as
+    'minparam: warning: ...', one line; every other warning as Python shows it.  Our own process only."""
+    import warnings
+
+    from minparam_cli.errors import MinparamWarning
+
+    shown = warnings.showwarning
+    if getattr(shown, "minparam", False):  # main() run again in the same process
+        return
+
+    def show(message, category, filename, lineno, file=None, line=None):
+        if issubclass(category, MinparamWarning):
+            print(f"minparam: warning: {message}", file=sys.stderr)
+        else:
+            shown(message, category, filename, lineno, file, line)
+
+    show.minparam = True  # type: ignore[attr-defined]
+    warnings.showwarning = show
+
+
 def main() -> int:
     runtime.tune_allocator()  # our own process only: see runtime.py
+    _one_line_warnings()
     app = build_app(commands_for(sys.argv[1:]))
     try:
         app(standalone_mode=True)

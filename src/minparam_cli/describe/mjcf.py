@@ -29,10 +29,12 @@ the joint's origin.  The walk over the compiled bodies is ``mjcf_tree``'s.
 from __future__ import annotations
 
 import re
+import threading
+import warnings
 from pathlib import Path
 
 from minparam_cli.describe.records import MIMIC_MODES, RobotDescription
-from minparam_cli.errors import DescriptionError, NotARobotError, UnsupportedError
+from minparam_cli.errors import DescriptionError, MinparamWarning, NotARobotError, UnsupportedError
 from minparam_cli.safety import read_bounded
 
 # eq_type and jnt_type values of mujoco.mjtEq / mujoco.mjtJoint (checked against the module in tests)
@@ -42,6 +44,7 @@ DSBL_GRAVITY = 128  # mujoco.mjtDisableBit.mjDSBL_GRAVITY
 EQ_WORDS = {EQ_CONNECT: "a connect equality (a closed kinematic chain)", EQ_WELD: "a weld equality (a closed kinematic chain)",
             EQ_TENDON: "a tendon equality (a tendon coupling)"}
 
+_WARNING_LOCK = threading.Lock()
 _DECL = re.compile(rb"<!\s*(DOCTYPE|ENTITY)", re.IGNORECASE)
 _ROOT = re.compile(rb"<([A-Za-z_][\w.\-:]*)")
 
@@ -83,11 +86,22 @@ def compile_model(path: Path, src: str):
     from minparam_cli.optional import import_optional
 
     mujoco = import_optional("mujoco", "mujoco", "reading MJCF (.xml) robot files")
-    try:
-        return mujoco.MjModel.from_xml_path(str(path))
-    except ValueError as e:
-        text = "; ".join(part.strip() for part in str(e).splitlines() if part.strip())
-        raise DescriptionError(f"MuJoCo cannot compile the file: {text}", src) from None
+    notes: list[str] = []
+    # MuJoCo's own warning handler would write MUJOCO_LOG.TXT into the working folder and print to
+    # stderr: the compiler's warnings become MinparamWarning notes, the handler before is put back
+    with _WARNING_LOCK:
+        before = mujoco.get_mju_user_warning()
+        mujoco.set_mju_user_warning(notes.append)
+        try:
+            model = mujoco.MjModel.from_xml_path(str(path))
+        except ValueError as e:
+            text = "; ".join(part.strip() for part in str(e).splitlines() if part.strip())
+            raise DescriptionError(f"MuJoCo cannot compile the file: {text}", src) from None
+        finally:
+            mujoco.set_mju_user_warning(before)
+    for note in notes:
+        warnings.warn(f"{src}: MuJoCo: {note}", MinparamWarning, stacklevel=4)
+    return model
 
 
 def load_mjcf(path: Path, snap_angles: float | None = None, mimic: str = "coupled", floating_base: bool = False) -> RobotDescription:

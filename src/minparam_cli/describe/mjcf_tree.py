@@ -155,7 +155,7 @@ def build_description(m, names, src: str, free: int | None, locked: dict[int, fl
         for j in range(first, first + int(m.body_jntnum[b])):
             kind = int(m.jnt_type[j])
             if kind == JNT_FREE:  # a floating base (mjcf._check_joints: the world's child, its only joint)
-                rec = len(records)
+                rec = len(records) + 5  # the sixth virtual joint carries the free body
                 records.extend(_virtual(names.body[b], X, {names.joint[i] for i in range(m.njnt)}, snap, changes))
                 phi.extend([None] * 6)
                 X = np.eye(4)
