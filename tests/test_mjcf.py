@@ -41,7 +41,7 @@ def _moving(m, locked=()) -> list[int]:
 
 
 def test_enum_values_match_mujoco():
-    from minparam_cli.describe import mjcf
+    from minparam_cli.describe import mjcf_tree as mjcf
 
     assert (mjcf.JNT_FREE, mjcf.JNT_BALL, mjcf.JNT_SLIDE, mjcf.JNT_HINGE) == tuple(
         int(getattr(mujoco.mjtJoint, k)) for k in ("mjJNT_FREE", "mjJNT_BALL", "mjJNT_SLIDE", "mjJNT_HINGE"))

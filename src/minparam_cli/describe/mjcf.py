@@ -33,14 +33,12 @@ import threading
 import warnings
 from pathlib import Path
 
+from minparam_cli.describe.mjcf_tree import (EQ_CONNECT, EQ_JOINT, EQ_TENDON, EQ_WELD, JNT_BALL, JNT_FREE,
+                                              JNT_HINGE, JNT_SLIDE, build_description)
 from minparam_cli.describe.records import MIMIC_MODES, RobotDescription
 from minparam_cli.errors import DescriptionError, MinparamWarning, NotARobotError, UnsupportedError
 from minparam_cli.safety import read_bounded
 
-# eq_type and jnt_type values of mujoco.mjtEq / mujoco.mjtJoint (checked against the module in tests)
-EQ_CONNECT, EQ_WELD, EQ_JOINT, EQ_TENDON = 0, 1, 2, 3
-JNT_FREE, JNT_BALL, JNT_SLIDE, JNT_HINGE = 0, 1, 2, 3
-DSBL_GRAVITY = 128  # mujoco.mjtDisableBit.mjDSBL_GRAVITY
 EQ_WORDS = {EQ_CONNECT: "a connect equality (a closed kinematic chain)", EQ_WELD: "a weld equality (a closed kinematic chain)",
             EQ_TENDON: "a tendon equality (a tendon coupling)"}
 
@@ -111,8 +109,6 @@ def load_mjcf(path: Path, snap_angles: float | None = None, mimic: str = "couple
     ``floating_base``: an MJCF says so itself (a free joint); asking for one without it is refused."""
     if mimic not in MIMIC_MODES:
         raise ValueError(f"mimic must be one of {MIMIC_MODES}, got {mimic!r}")
-    from minparam_cli.describe.mjcf_tree import build_description
-
     src = str(path)
     check_mjcf_text(read_bounded(path), src)
     m = compile_model(path, src)

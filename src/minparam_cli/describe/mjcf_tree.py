@@ -17,12 +17,15 @@ from fractions import Fraction
 
 import numpy as np
 
-from minparam_cli.describe.mjcf import DSBL_GRAVITY, JNT_FREE, JNT_HINGE
 from minparam_cli.describe.records import GeomValue, Inertial, JointRecord, RobotDescription
 from minparam_cli.describe.urdf_tool import default_tool
 from minparam_cli.errors import DescriptionError, NotARobotError
 from minparam_cli.safety import MAX_JOINTS
 
+# eq_type and jnt_type values of mujoco.mjtEq / mujoco.mjtJoint (checked against the module in tests)
+EQ_CONNECT, EQ_WELD, EQ_JOINT, EQ_TENDON = 0, 1, 2, 3
+JNT_FREE, JNT_BALL, JNT_SLIDE, JNT_HINGE = 0, 1, 2, 3
+DSBL_GRAVITY = 128  # mujoco.mjtDisableBit.mjDSBL_GRAVITY
 # a compiled angle this close to a multiple of 90° is that multiple (the compiler's own rounding of
 # euler="0 90 0" or a quaternion's cos 45°), so exact geometry stays exact
 RIGHT_ANGLE_TOL = 1e-12
@@ -185,7 +188,7 @@ def build_description(m, names, src: str, free: int | None, locked: dict[int, fl
         if m.body_mass[b] > 0 or np.any(m.body_inertia[b]):
             contribution = _body_phi(m, b, X)
             phi[rec] = contribution if phi[rec] is None else phi[rec] + contribution
-        attached.append((names.body[b], rec, tuple(float(v) + 0.0 for v in X[:3, 3])))
+        attached.append((names.body[b], rec, (float(X[0, 3]) + 0.0, float(X[1, 3]) + 0.0, float(X[2, 3]) + 0.0)))
     _add_sites(m, names, state, attached)
     if not records:
         raise NotARobotError("no hinge, slide or free joint: the model does not move (a scene or a fragment to include?)", src)
@@ -217,7 +220,7 @@ def _add_sites(m, names, state: dict, attached: list) -> None:
         if not name or name in taken or rec < 0:
             continue
         pos = X[:3, :3] @ np.asarray(m.site_pos[s], dtype=float) + X[:3, 3]
-        attached.append((name, rec, tuple(float(v) + 0.0 for v in pos)))
+        attached.append((name, rec, (float(pos[0]) + 0.0, float(pos[1]) + 0.0, float(pos[2]) + 0.0)))
         taken.add(name)
 
 
