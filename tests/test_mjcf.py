@@ -195,3 +195,18 @@ def test_inferred_inertia_is_mujocos(tmp_path):
     desc, chain = load_chain(p, DeriveOptions())
     assert desc.joints[0].inertial.mass == pytest.approx(float(m.body_mass[1]), rel=1e-14)
     assert desc.joints[0].inertial.mass == pytest.approx(500 * 0.2 * 0.4 * 0.6)
+
+
+def test_ur5_mjcf_equals_its_urdf():
+    """robots/ur5.xml, written from robots/ur5.urdf (same numbers): the same regressor, inertials,
+    limits and tool point through two loaders that share no code but chain.py."""
+    root = Path(__file__).resolve().parents[1] / "robots"
+    du, cu = load_chain(root / "ur5.urdf", DeriveOptions())
+    dm, cm = load_chain(root / "ur5.xml", DeriveOptions())
+    rng = np.random.default_rng(0)
+    q, qd, qdd = (rng.uniform(-2, 2, (30, 6)) for _ in range(3))
+    assert cm.layout.names == cu.layout.names and dm.convention == "mjcf"
+    assert np.allclose(regressor(cm, q, qd, qdd), regressor(cu, q, qd, qdd), rtol=0, atol=1e-13)
+    assert np.allclose(cm.phi_nominal, cu.phi_nominal, rtol=0, atol=1e-15)
+    assert cm.limits == cu.limits and cm.effort_limits == cu.effort_limits
+    assert (dm.tool_link, dm.tool) == (du.tool_link, du.tool)
