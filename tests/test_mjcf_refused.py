@@ -158,3 +158,11 @@ def test_folder_mode_skips_xml_that_is_not_mjcf(tmp_path):
     r = _cli("derive", str(tmp_path), "--format", "jsonl")
     assert r.returncode == 0, r.stderr
     assert '"skipped"' in r.stdout and "arm.xml" in r.stdout
+
+
+def test_missing_mujoco_names_the_extra(tmp_path, monkeypatch):
+    from minparam_cli.errors import InputError
+
+    monkeypatch.setitem(sys.modules, "mujoco", None)  # import mujoco raises ImportError
+    with pytest.raises(InputError, match=r"reading MJCF \(\.xml\) robot files needs the mujoco library: pip install 'minparam\[mujoco\]'"):
+        _load(_model(tmp_path, _two_links()))
