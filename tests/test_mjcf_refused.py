@@ -44,10 +44,20 @@ def test_free_joint_not_at_the_root(tmp_path):
         _load(p)
 
 
-def test_second_free_joint(tmp_path):
-    body = '<body name="r1"><freejoint name="f1"/><geom size="0.1"/></body><body name="r2"><freejoint name="f2"/><geom size="0.1"/></body>'
-    with pytest.raises(UnsupportedError, match=r"joint\[f2\]: a second free joint \(bodies 'r1' and 'r2'\)"):
-        _load(_model(tmp_path, body))
+def test_free_objects_beside_the_robot_are_left_out(tmp_path):
+    """Not refused: a second free body, or a free body beside a fixed-base arm with more joints, is a
+    separate object (a ball, a cube): left out with a warning."""
+    from minparam_cli.errors import MinparamWarning
+
+    cube = '<body name="cube" pos="1 0 0"><freejoint name="fc"/><geom type="box" size=".02 .02 .02"/></body>'
+    with pytest.warns(MinparamWarning, match="free bodies 'cube' left out"):
+        desc, chain = _load(_model(tmp_path, _two_links() + cube, name="arm_cube.xml"))
+    assert not chain.floating_base and [j.name for j in desc.joints] == ["ja", "jb"]
+    robot = '<body name="torso"><freejoint name="f1"/><geom size="0.1"/><body name="leg"><joint name="k"/><geom size="0.05"/></body></body>'
+    ball = '<body name="ball"><freejoint name="f2"/><geom size="0.1"/></body>'
+    with pytest.warns(MinparamWarning, match="free bodies 'ball' left out"):
+        desc, chain = _load(_model(tmp_path, ball + robot, name="two_free.xml"))
+    assert chain.floating_base and chain.n == 7 and desc.joints[5].link_name == "torso"
 
 
 @pytest.mark.parametrize("kind, eq, match", [

@@ -18,9 +18,10 @@ DOCTYPE or entity declaration.
 * ``armature``, ``damping``, ``frictionloss`` of a joint's dof: its nominal rotor inertia, viscous
   and Coulomb friction (``JointRecord.nominal_extras``), and their columns (``extras``);
 * gravity from ``<option gravity>``, zero when ``<flag gravity="disable"/>``;
+* other free bodies under the world (a ball, a cube beside the robot) are left out, with a warning;
 * refused in one line (exit 2), naming the element: ball joints, a free joint below the world
-  body's children or beside other joints, a second free joint, connect/weld/tendon/flex
-  equalities, joint equalities with nonzero quadratic or higher coefficients.
+  body's children or beside other joints, connect/weld/tendon/flex equalities, joint equalities
+  with nonzero quadratic or higher coefficients.
 
 The joint coordinate is MuJoCo's qpos (not qpos - qpos0): the reference ``ref`` is folded into
 the joint's origin.  The walk over the compiled bodies is ``mjcf_tree``'s.
@@ -113,11 +114,11 @@ def load_mjcf(path: Path, snap_angles: float | None = None, mimic: str = "couple
     check_mjcf_text(read_bounded(path), src)
     m = compile_model(path, src)
     names = _Names(m)
-    free = _check_joints(m, names, src)
+    free, left_out = _check_joints(m, names, src)
     if floating_base and free is None:
         raise DescriptionError("--floating-base: an MJCF file declares its floating base itself (a free joint, <freejoint/>), and this one has none", src)
-    locked, masters = _equalities(m, names, src, mimic)
-    return build_description(m, names, src, free, locked, masters, snap_angles)
+    locked, masters = _equalities(m, names, src, mimic, left_out)
+    return build_description(m, names, src, free, locked, masters, snap_angles, left_out)
 
 
 class _Names:
@@ -146,10 +147,15 @@ class _Names:
         self.site = [name(mujoco.mjtObj.mjOBJ_SITE, s) for s in range(m.nsite)]
 
 
-def _check_joints(m, names: _Names, src: str) -> int | None:
-    """The body with the free joint of a floating base (None: a fixed base); refuses ball joints and
-    free joints anywhere else."""
-    free = None
+def _check_joints(m, names: _Names, src: str) -> tuple[int | None, frozenset[int]]:
+    """(the body with the free joint of the floating base or None, the world's children left out);
+    refuses ball joints and free joints beside other joints.
+
+    Several free bodies under the world, or free bodies beside a fixed-base tree with more hinge and
+    slide joints: the robot is the tree with the most of them (the first written on a tie), the other
+    free bodies are separate objects (a ball, a cube to push) and are left out, with a warning; their
+    dynamics do not touch the robot's."""
+    frees = []
     for j in range(m.njnt):
         kind, b = int(m.jnt_type[j]), int(m.jnt_bodyid[j])
         where = f"joint[{names.joint[j]}]"
@@ -157,19 +163,31 @@ def _check_joints(m, names: _Names, src: str) -> int | None:
             raise UnsupportedError(f"ball joints are not supported yet (body '{names.body[b]}')", src, where)
         if kind != JNT_FREE:
             continue
-        if int(m.body_parentid[b]) != 0:
+        if int(m.body_parentid[b]) != 0:  # MuJoCo's compiler refuses it too
             raise UnsupportedError(f"a free joint not at the root (body '{names.body[b]}' hangs on '{names.body[int(m.body_parentid[b])]}') is not supported yet",
                                    src, where)
         if m.body_jntnum[b] > 1:
             raise UnsupportedError(f"body '{names.body[b]}' has a free joint and other joints: not supported", src, where)
-        if free is not None:
-            raise UnsupportedError(f"a second free joint (bodies '{names.body[free]}' and '{names.body[b]}'): only one floating base is supported",
-                                   src, where)
-        free = b
-    return free
+        frees.append(b)
+    if not frees:
+        return None, frozenset()
+    moving: dict[int, int] = {}  # world child -> hinge and slide joints of its tree
+    for j in range(m.njnt):
+        if int(m.jnt_type[j]) in (JNT_HINGE, JNT_SLIDE):
+            root = int(m.body_rootid[int(m.jnt_bodyid[j])])
+            moving[root] = moving.get(root, 0) + 1
+    best_free = max(frees, key=lambda b: (moving.get(b, 0), -b))
+    fixed = [r for r in moving if r not in frees]
+    free = None if fixed and max(moving[r] for r in fixed) > moving.get(best_free, 0) else best_free
+    left_out = frozenset(b for b in frees if b != free)
+    if left_out:
+        shown = ", ".join(f"'{names.body[b]}'" for b in sorted(left_out))
+        warnings.warn(f"{src}: free bodies {shown} left out: separate objects beside the robot (one floating base is modelled)",
+                      MinparamWarning, stacklevel=4)
+    return free, left_out
 
 
-def _equalities(m, names: _Names, src: str, mimic: str) -> tuple[dict[int, float], dict[int, tuple[int, float, float]]]:
+def _equalities(m, names: _Names, src: str, mimic: str, left_out: frozenset[int]) -> tuple[dict[int, float], dict[int, tuple[int, float, float]]]:
     """({locked joint: its value}, {mimic joint: (independent joint, multiplier, offset)}) from the
     active joint equalities, q_mimic = multiplier·q_master + offset in qpos units; refuses the others."""
     locked: dict[int, float] = {}
@@ -182,6 +200,8 @@ def _equalities(m, names: _Names, src: str, mimic: str) -> tuple[dict[int, float
             word = EQ_WORDS.get(kind, f"an equality of type {kind} (flex)")
             raise UnsupportedError(f"{word} is not supported yet", src, where)
         y, x = int(m.eq_obj1id[e]), int(m.eq_obj2id[e])
+        if int(m.body_rootid[int(m.jnt_bodyid[y])]) in left_out:
+            continue  # a joint of a free object left out (_check_joints)
         c = [float(v) for v in m.eq_data[e, :5]]
         if any(c[2:]):
             raise UnsupportedError(f"a polynomial joint coupling (polycoef {' '.join(f'{v:g}' for v in c)}: quadratic or higher terms) is not supported yet",

@@ -142,7 +142,8 @@ def _nominal(m, j: int) -> tuple[tuple[str, float], ...]:
     return tuple((kind, float(getattr(m, attr)[dof])) for kind, attr in NOMINAL if getattr(m, attr)[dof] != 0.0)
 
 
-def build_description(m, names, src: str, free: int | None, locked: dict[int, float], masters: dict, snap: float | None) -> RobotDescription:
+def build_description(m, names, src: str, free: int | None, locked: dict[int, float], masters: dict, snap: float | None,
+                      left_out: frozenset[int] = frozenset()) -> RobotDescription:
     """Walk the compiled bodies (parents come first in MuJoCo's numbering) into joint records."""
     records: list[dict] = []
     phi: list[np.ndarray | None] = []
@@ -151,6 +152,8 @@ def build_description(m, names, src: str, free: int | None, locked: dict[int, fl
     index: dict[int, int] = {}  # MuJoCo joint id -> record index
     state: dict[int, tuple[int, np.ndarray]] = {0: (-1, np.eye(4))}  # body -> (record, body frame in the link frame)
     for b in range(1, m.nbody):
+        if int(m.body_rootid[b]) in left_out:
+            continue
         rec, X = state[int(m.body_parentid[b])]
         X = X @ _pose(m.body_pos[b], quat_matrix(m.body_quat[b]))
         first = int(m.body_jntadr[b])
@@ -216,8 +219,8 @@ def _add_sites(m, names, state: dict, attached: list) -> None:
     taken = {a[0] for a in attached}
     for s in range(m.nsite):
         name = names.site[s]
-        rec, X = state[int(m.site_bodyid[s])]
-        if not name or name in taken or rec < 0:
+        rec, X = state.get(int(m.site_bodyid[s]), (-1, None))
+        if not name or name in taken or rec < 0 or X is None:
             continue
         pos = X[:3, :3] @ np.asarray(m.site_pos[s], dtype=float) + X[:3, 3]
         attached.append((name, rec, (float(pos[0]) + 0.0, float(pos[1]) + 0.0, float(pos[2]) + 0.0)))
