@@ -176,3 +176,12 @@ def test_missing_mujoco_names_the_extra(tmp_path, monkeypatch):
     monkeypatch.setitem(sys.modules, "mujoco", None)  # import mujoco raises ImportError
     with pytest.raises(InputError, match=r"reading MJCF \(\.xml\) robot files needs the mujoco library: pip install 'minparam\[mujoco\]'"):
         _load(_model(tmp_path, _two_links()))
+
+
+def test_export_urdf_of_massless_frames_refused_before_the_data(tmp_path):
+    data = tmp_path / "empty.csv"
+    data.write_text("t,q1,q2,q3,q4,q5,tau1,tau2,tau3,tau4,tau5\n")
+    arm = Path(__file__).parent / "data" / "mjcf" / "arm_coupled.xml"
+    r = _cli("identify", str(arm), str(data), "--physical", "--export-urdf", str(tmp_path / "x.urdf"))
+    assert r.returncode == 2 and r.stderr.strip().count("\n") == 0
+    assert "--export-urdf:" in r.stderr and "massless frames the URDF export does not write yet" in r.stderr
