@@ -210,3 +210,17 @@ def test_ur5_mjcf_equals_its_urdf():
     assert np.allclose(cm.phi_nominal, cu.phi_nominal, rtol=0, atol=1e-15)
     assert cm.limits == cu.limits and cm.effort_limits == cu.effort_limits
     assert (dm.tool_link, dm.tool) == (du.tool_link, du.tool)
+
+
+def test_snap_angles_and_right_angles_are_exact(tmp_path):
+    """--snap-angles rounds the UR5's 1.570796325 to π/2 (recorded), which makes the geometry exact;
+    euler="0 90 0" in degrees is exact without it (the compiler's cos 45° read back as 90°)."""
+    root = Path(__file__).resolve().parents[1] / "robots"
+    desc, chain = load_chain(root / "ur5.xml", DeriveOptions(snap_angles=1e-3))
+    assert [a["degrees"] for a in desc.adjustments] == [90, 90]
+    assert chain.exact is not None
+    p = tmp_path / "deg.xml"
+    p.write_text('<mujoco><compiler angle="degree"/><worldbody><body><joint axis="0 0 1"/><geom size=".1"/>'
+                 '<body pos="0.5 0 0" euler="0 90 0"><joint axis="0 0 1"/><geom size=".1"/></body></body></worldbody></mujoco>')
+    desc, chain = load_chain(p, DeriveOptions())
+    assert desc.joints[1].origin["pitch"].exact == 90 and chain.exact is not None and not desc.adjustments
