@@ -14,6 +14,7 @@ _.relative_per_joint  # Errors.relative_per_joint (minparam.Errors): ‖r_j‖/�
 _.kept_names  # BaseSet.kept_names (docs/api.md): the names of the kept columns
 _.dependent_names  # BaseSet.dependent_names (docs/api.md)
 _.unidentifiable_names  # BaseSet.unidentifiable_names (docs/api.md)
+_.nominal_parameters  # Robot.nominal_parameters (docs/mjcf.md): the file's inertials and MJCF armature/friction
 
 # PEP 562: `minparam_cli.cli.app.app` is built on first access
 __getattr__  # cli/app.py; minparam/__init__.py (the API loads on first use)

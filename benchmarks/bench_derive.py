@@ -1,7 +1,8 @@
 """Benchmark of `minparam derive` (issue targets in brackets).
 
 * whole process: `minparam derive robots/puma560.yaml` vs `python -c "import numpy"`
-  [<= 1.6x];
+  [<= 1.6x]; `minparam derive robots/ur5.xml` (MJCF, MuJoCo imported for it) vs the same
+  robot's `robots/ur5.urdf` [<= 1.5x];
 * in process: the QR base-set computation at 100 samples vs pinocchio's
   computeJointTorqueRegressor + the same QR [no slower], with glibc's default
   allocator and with the allocator tuning the CLI applies (runtime.py);
@@ -139,17 +140,22 @@ def main() -> None:
     args = ap.parse_args()
     py = args.python
     rows = []
-    (t_numpy, m_numpy), (t_floor, m_floor), (t_cli, m_cli) = run_processes_alternating(
+    (t_numpy, m_numpy), (t_floor, m_floor), (t_cli, m_cli), (t_urdf, m_urdf), (t_mjcf, m_mjcf) = run_processes_alternating(
         [
             [py, "-c", "import numpy"],
             [py, "-c", "import numpy, typer, yaml"],
             minparam_cmd(py) + ["derive", "robots/puma560.yaml"],
+            minparam_cmd(py) + ["derive", "robots/ur5.urdf"],
+            minparam_cmd(py) + ["derive", "robots/ur5.xml"],
         ],
         repeats=args.repeats,
     )
     rows.append(["python -c 'import numpy'", f"{t_numpy * 1000:.0f} ms", f"{m_numpy:.0f} MB", "1.00"])
     rows.append(["python -c 'import numpy, typer, yaml' (the libraries derive needs)", f"{t_floor * 1000:.0f} ms", f"{m_floor:.0f} MB", f"{t_floor / t_numpy:.2f}"])
     rows.append(["minparam derive robots/puma560.yaml", f"{t_cli * 1000:.0f} ms", f"{m_cli:.0f} MB", f"{t_cli / t_numpy:.2f} (target <= 1.6)"])
+    rows.append(["minparam derive robots/ur5.urdf", f"{t_urdf * 1000:.0f} ms", f"{m_urdf:.0f} MB", f"{t_urdf / t_numpy:.2f}"])
+    rows.append(["minparam derive robots/ur5.xml (MJCF: MuJoCo's compiler)", f"{t_mjcf * 1000:.0f} ms", f"{m_mjcf:.0f} MB",
+                 f"{t_mjcf / t_numpy:.2f}; {t_mjcf / t_urdf:.2f} x the URDF (target <= 1.5)"])
     print(f"Whole process (median of {args.repeats} alternating runs; minparam = {minparam_cmd(py)[0]})")
     print(tabulate(rows, headers=["command", "wall time", "peak RSS", "ratio to numpy import"], tablefmt="github"))
     hooks = startup_hooks(py)

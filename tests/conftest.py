@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import importlib.util
 import sys
 from pathlib import Path
 
@@ -14,6 +15,10 @@ SHARED = ROOT.parent / "shared"
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 
+# robots/*.xml (MJCF) need the [mujoco] extra (looked up, not imported: every test run would pay for it)
+_HAS_MUJOCO = importlib.util.find_spec("mujoco") is not None
+
+
 def robot_files() -> list[Path]:
     """Every robot description in robots/ (platform descriptions excluded)."""
     out = []
@@ -23,7 +28,7 @@ def robot_files() -> list[Path]:
             if isinstance(doc, dict) and doc.get("kind", "robot") != "robot":
                 continue
             out.append(p)
-        elif p.suffix == ".urdf":
+        elif p.suffix == ".urdf" or (p.suffix == ".xml" and _HAS_MUJOCO):
             out.append(p)
     return out
 

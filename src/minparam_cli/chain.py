@@ -114,6 +114,13 @@ class Chain:
     transmission: Transmission | None = None
     # joint-side drive gains (tau_j = k_j i_j, YAML ``drive_gains:``): identify/simulate --current without --side motor
     drive_gains: tuple[float, ...] | None = None
+    # per joint, the nominal values of extras the file gives (MJCF armature, frictionloss, damping)
+    nominal_extras: tuple[tuple[tuple[str, float], ...], ...] = ()
+
+    def nominal_extra_values(self) -> np.ndarray:
+        """The file's nominal value of every extra column of the layout, in column order (0 where none)."""
+        given = [dict(v) for v in self.nominal_extras] or [{} for _ in range(self.n)]
+        return np.array([given[k].get(kind, 0.0) for k, kind in self.layout.extra_columns])
 
     @property
     def n(self) -> int:
@@ -190,7 +197,7 @@ class Chain:
     def with_extras(self, extras: tuple[tuple[str, ...], ...]) -> "Chain":
         from dataclasses import replace
 
-        return replace(self, layout=ParamLayout(self.n, extras, self.layout.numbers))
+        return replace(self, layout=ParamLayout(self.n, extras, self.layout.numbers, self.layout.massless))
 
     def with_coulomb_smoothing(self, velocity: float) -> "Chain":
         """The same chain with Coulomb columns tanh(qd / velocity) (0: sign(qd))."""
@@ -242,9 +249,11 @@ def build_chain(
     if all(j.inertial is not None for j in bodies):
         phi = np.concatenate([_inertial_to_standard(j.inertial) for j in bodies])
     numbers = None
-    if len(bodies) < desc.dof:  # a floating base: the free link is link 0, massless virtual links have none
-        it = iter(range(len(bodies)))
-        numbers = tuple(None if j.massless else next(it) for j in desc.joints)
+    if any(j.virtual for j in desc.joints):  # a floating base: the free link is link 0, massless virtual links have none
+        it = iter(range(desc.dof))
+        numbers = tuple(None if j.massless and j.virtual else next(it) for j in desc.joints)
+    # MJCF's frames between the joints of one body: numbered (their joints' extras), no columns
+    massless = tuple(k for k, j in enumerate(desc.joints) if j.massless and not j.virtual)
     lengths = [abs(x) for x in np.concatenate([pre[:, :3, 3].ravel(), post[:, :3, 3].ravel()]) if abs(x) > 0]
     return Chain(
         coupling=mimic_coupling(desc),
@@ -261,7 +270,7 @@ def build_chain(
         post=post,
         gravity=np.asarray(desc.gravity, dtype=float),
         gravity_source=desc.gravity_source,
-        layout=ParamLayout(desc.dof, tuple(tuple(e) for e in extras), numbers),
+        layout=ParamLayout(desc.dof, tuple(tuple(e) for e in extras), numbers, massless),
         phi_nominal=phi,
         limits=tuple(j.limits for j in desc.joints),
         velocity_limits=tuple(j.max_velocity for j in desc.joints),
@@ -272,6 +281,7 @@ def build_chain(
         exact_source=None if values else desc,
         transmission=tr,
         drive_gains=desc.drive_gains,
+        nominal_extras=tuple(j.nominal_extras for j in desc.joints),
     )
 
 

@@ -51,6 +51,9 @@ class ParamLayout:
     # the number each link (and its joint) has in the names, None for a massless virtual link
     # without columns; None: links 1..n_links
     numbers: tuple[int | None, ...] | None = None
+    # chain indices of links that keep their number (their joint's extras are named by it) but have no
+    # inertial columns: MJCF's massless frames between the joints of one body
+    massless: tuple[int, ...] = ()
 
     @property
     def link_numbers(self) -> tuple[int | None, ...]:
@@ -59,7 +62,7 @@ class ParamLayout:
     @property
     def links_with_columns(self) -> tuple[int, ...]:
         """Chain indices of the links that have inertial columns, in column order (10 each)."""
-        return tuple(j for j, k in enumerate(self.link_numbers) if k is not None)
+        return tuple(j for j, k in enumerate(self.link_numbers) if k is not None and j not in self.massless)
 
     @property
     def inertial_columns(self) -> tuple[int, ...]:
@@ -68,7 +71,7 @@ class ParamLayout:
 
     @property
     def names(self) -> tuple[str, ...]:
-        return standard_names(self.n_links, self.extras, self.numbers)
+        return standard_names(self.n_links, self.extras, self.numbers, self.massless)
 
     @property
     def n_inertial(self) -> int:
@@ -94,9 +97,10 @@ def link_param_name(kind: str, link: int) -> str:
     return f"{kind}{link}"
 
 
-def standard_names(n_links: int, extras: tuple[tuple[str, ...], ...] = (), numbers: tuple[int | None, ...] | None = None) -> tuple[str, ...]:
+def standard_names(n_links: int, extras: tuple[tuple[str, ...], ...] = (), numbers: tuple[int | None, ...] | None = None,
+                   massless: tuple[int, ...] = ()) -> tuple[str, ...]:
     numbers = tuple(range(1, n_links + 1)) if numbers is None else numbers
-    names = [link_param_name(k, number) for number in numbers if number is not None for k in LINK_PARAMS]
+    names = [link_param_name(k, number) for j, number in enumerate(numbers) if number is not None and j not in massless for k in LINK_PARAMS]
     for j, ex in enumerate(extras):
         for kind in EXTRA_ORDER:
             if kind in ex:

@@ -150,7 +150,7 @@ def expand_paths(paths: Iterable[Path], recursive: bool) -> tuple[list[Path], bo
             pattern = "**/*" if recursive else "*"
             found = sorted(f for f in p.glob(pattern) if f.is_file() and f.suffix.lower() in ROBOT_SUFFIXES)
             if not found:
-                raise InputError(f"{p}: no robot files (*.yaml, *.yml, *.urdf) in this folder")
+                raise InputError(f"{p}: no robot files (*.yaml, *.yml, *.urdf, *.xml) in this folder")
             files.extend(found)
         elif p.exists():
             files.append(p)

@@ -58,6 +58,9 @@ def load_identify_chain(opts: IdentifyOptions, robot: Path | None = None):
     _, chain = load_chain(path, DeriveOptions(friction=opts.friction, rotor_inertia=opts.rotor_inertia,
                                               gravity=opts.gravity, mimic=opts.mimic))
     require_fixed_base(chain, "identify")
+    if opts.export_urdf is not None and chain.layout.massless:  # before any data are read
+        raise InputError(f"--export-urdf: {path} has bodies with several joints (MJCF), whose massless frames the URDF export "
+                         "does not write yet")
     if opts.nominal_prior:
         from minparam_cli.dynamics.bodies import nominal_problems, nominal_problems_text
 

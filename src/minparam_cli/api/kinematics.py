@@ -19,9 +19,9 @@ from minparam_cli.kinematics.defaults import DEFAULT_DAMPING, DEFAULT_EPSILON
 
 def tool_point(desc) -> ToolPoint:
     """Which tool point O_c the analysis uses."""
-    frame = desc.joints[-1].link_name if desc.convention == "urdf" else "last link"
+    frame = desc.joints[-1].link_name if desc.convention in ("urdf", "mjcf") else "last link"
     point = (0.0, 0.0, 0.0) if desc.tool is None else tuple(float(v) for v in desc.tool)
-    where = f"{frame} frame" if desc.convention == "urdf" else "last link frame"
+    where = f"{frame} frame" if desc.convention in ("urdf", "mjcf") else "last link frame"
     xyz = "(" + ", ".join(f"{v:.6g}" for v in point) + ") m"
     if desc.tool_link is not None:
         source, line = f"link {desc.tool_link}", f"link {desc.tool_link}: {xyz} in the {where}"

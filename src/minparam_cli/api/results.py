@@ -38,7 +38,7 @@ class LoadOptions:
 
 @dataclass(frozen=True)
 class Robot:
-    """A robot loaded from a file (YAML DH/MDH or URDF): its chain, ready for every computation.
+    """A robot loaded from a file (YAML DH/MDH, URDF or MJCF): its chain, ready for every computation.
 
     ``standard_names``: the standard parameters in column order (XXj XYj XZj YYj YZj ZZj MXj MYj MZj Mj
     per link, then the per-joint extras of ``options``).
@@ -53,3 +53,14 @@ class Robot:
     options: LoadOptions
     chain: Chain = field(repr=False)
     description: RobotDescription = field(repr=False)
+
+    @property
+    def nominal_parameters(self):
+        """The file's nominal value of each of ``standard_names`` (numpy array): the inertials, then the
+        extras (an MJCF's armature, frictionloss, damping; 0 where the file gives none); None when the
+        file gives no inertials."""
+        import numpy as np
+
+        if self.chain.phi_nominal is None:
+            return None
+        return np.concatenate([self.chain.phi_nominal, self.chain.nominal_extra_values()])

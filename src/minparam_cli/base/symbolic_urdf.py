@@ -66,7 +66,7 @@ def is_frame_axis(axis) -> bool:
 
 def symbolic_description(desc, right_angle_tol: float):
     """The description with every URDF joint's geometry in its origin symbols (see module doc)."""
-    if desc.convention != "urdf":
+    if desc.convention not in ("urdf", "mjcf"):
         return desc
     joints = []
     for jr in desc.joints:
@@ -106,7 +106,7 @@ def symbolic_description(desc, right_angle_tol: float):
 def axes_at(desc, values: dict):
     """The rewritten description with each oblique axis at the values of its angle symbols and each
     mimic joint's offset at the value of its symbol."""
-    if desc.convention != "urdf" or not any(jr.origin and (AXIS_THETA in jr.origin or MIMIC_OFFSET in jr.origin)
+    if desc.convention not in ("urdf", "mjcf") or not any(jr.origin and (AXIS_THETA in jr.origin or MIMIC_OFFSET in jr.origin)
                                             for jr in desc.joints):
         return desc
     joints = []

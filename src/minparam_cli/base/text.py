@@ -91,7 +91,7 @@ def _joint_rows(b) -> list[tuple]:
     A YAML arm numbers its rows itself; a URDF's order comes from walking its tree, so it is named.
     With a floating base, j = 0 is the free root body."""
     a = b.derivation.about
-    if a.convention != "urdf":
+    if a.convention not in ("urdf", "mjcf"):
         return []
     rows = []
     for link in a.links:

@@ -18,6 +18,7 @@ the command line, so every command is registered for it.
 from __future__ import annotations
 
 import importlib
+import os
 import sys
 
 from minparam_cli import runtime
@@ -85,7 +86,7 @@ def build_app(names: tuple[str, ...] | None = None) -> typer.Typer:
     app = typer.Typer(
         cls=OneLineGroup,
         name="minparam",
-        help="Base inertial parameters, identification and kinematics of robot arms from DH/MDH tables or URDF.",
+        help="Base inertial parameters, identification and kinematics of robot arms from DH/MDH tables, URDF or MJCF.",
         no_args_is_help=True,
         add_completion=True,
         pretty_exceptions_enable=False,
@@ -115,8 +116,33 @@ def __getattr__(name: str):
     raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
+def _one_line_warnings() -> None:
+    """The library's MinparamWarning notes (e.g. MuJoCo's compiler warnings on an MJCF file) printed as
+    'minparam: warning: ...', one line; every other warning as Python shows it.  Our own process only."""
+    import warnings
+
+    from minparam_cli.errors import MinparamWarning
+
+    shown = warnings.showwarning
+    if getattr(shown, "minparam", False):  # main() run again in the same process
+        return
+
+    def show(message, category, filename, lineno, file=None, line=None):
+        if issubclass(category, MinparamWarning):
+            print(f"minparam: warning: {message}", file=sys.stderr)
+        else:
+            shown(message, category, filename, lineno, file, line)
+
+    show.minparam = True  # type: ignore[attr-defined]
+    warnings.showwarning = show
+
+
 def main() -> int:
     runtime.tune_allocator()  # our own process only: see runtime.py
+    _one_line_warnings()
+    # a command never renders: MuJoCo (imported for an MJCF file) then skips loading its OpenGL
+    # backend, about 0.2 s of every .xml command; a user's own MUJOCO_GL is kept
+    os.environ.setdefault("MUJOCO_GL", "disable")
     app = build_app(commands_for(sys.argv[1:]))
     try:
         app(standalone_mode=True)

@@ -11,7 +11,7 @@ import typer
 from minparam_cli.cli.batch import run_batch
 from minparam_cli.cli.common import error_line, guarded
 
-HELP = "Validate robot description files (YAML DH/MDH, URDF); exit 2 if any is invalid."
+HELP = "Validate robot description files (YAML DH/MDH, URDF, MJCF); exit 2 if any is invalid."
 EPILOG = """\b
 Examples:
   minparam check robots/puma560.yaml

@@ -50,7 +50,7 @@ class Which(str, Enum):
 
 
 def codegen(
-    robot: Path = typer.Argument(..., help="Robot file (YAML DH/MDH or URDF).", show_default=False),
+    robot: Path = typer.Argument(..., help="Robot file (YAML DH/MDH, URDF or MJCF .xml).", show_default=False),
     lang: Lang = typer.Option(..., "--lang", "-l", help="c (one .h + one .c, C99, libm only), python (NumPy) or casadi."),
     output: Optional[Path] = typer.Option(None, "--output", "-o", help="Output file (C: FILE.c, and FILE.h beside it; python/casadi: default stdout)."),
     model: Optional[Path] = typer.Option(None, "--model", help="Model file of 'identify --save-model': also generate inverse_dynamics with its parameters."),

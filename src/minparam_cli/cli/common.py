@@ -40,7 +40,7 @@ def mimic_option():
     return typer.Option(
         MimicMode.coupled,
         "--mimic",
-        help="URDF mimic joints: coupled (move with their master; data give only the independent joints) or fixed (frozen at their offset).",
+        help="URDF mimic joints (MJCF linear joint equalities): coupled (move with their master; data give only the independent joints) or fixed (frozen at their offset).",
     )
 
 

@@ -44,7 +44,7 @@ class Method(str, Enum):
 
 
 def derive(
-    paths: List[Path] = typer.Argument(..., help="Robot files (YAML DH/MDH or URDF) or folders of them.", show_default=False),
+    paths: List[Path] = typer.Argument(..., help="Robot files (YAML DH/MDH, URDF or MJCF .xml) or folders of them.", show_default=False),
     method: Method = typer.Option(Method.qr, "--method", "-m", help="qr (random samples + QR) or projection (Krutikov, exact)."),
     fmt: Format = typer.Option(Format.table, "--format", "-f", help="Output format."),
     friction: str = typer.Option("", "--friction", help="Add friction columns to every joint: any of coulomb,viscous,offset."),

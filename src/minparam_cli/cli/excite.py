@@ -53,7 +53,7 @@ class Scaling(str, Enum):
 
 
 def excite(
-    robot: Path = typer.Argument(..., exists=True, dir_okay=False, help="Robot file (YAML DH/MDH or URDF).", show_default=False),
+    robot: Path = typer.Argument(..., exists=True, dir_okay=False, help="Robot file (YAML DH/MDH, URDF or MJCF .xml).", show_default=False),
     output: Optional[Path] = typer.Option(None, "--output", "-o", help="CSV of the samples (atomically). Default: stdout."),
     json_path: Optional[Path] = typer.Option(None, "--json", help="Also write the Fourier coefficients and the report (JSON) here."),
     plot: Optional[Path] = typer.Option(None, "--plot", help="Also write a PNG of every joint's q(t) with its limits."),

@@ -82,7 +82,7 @@ def time_unit_option():
 
 
 def identify(
-    robot: Path = typer.Argument(..., help="Robot description (YAML DH/MDH or URDF).", show_default=False),
+    robot: Path = typer.Argument(..., help="Robot description (YAML DH/MDH, URDF or MJCF .xml).", show_default=False),
     data: List[Path] = typer.Argument(..., help="Measured data: CSV with a header row, .npz, .parquet or a ROS bag (several recordings with --consistency); or one folder or manifest CSV (recording,robot) of recordings: a batch, with -o FOLDER.", show_default=False),
     validate: Optional[Path] = typer.Option(None, "--validate", help="Selection data (scores the candidate effects) in a second file, instead of a block of DATA."),
     test: List[Path] = typer.Option([], "--test", help="Test data file, touched only by the final report (repeatable); instead of the last block of DATA."),

@@ -49,7 +49,7 @@ Exit codes: 0 success, 1 failed computation, 2 bad input.
 
 
 def simulate(
-    robot: Path = typer.Argument(..., exists=True, dir_okay=False, help="Robot file (YAML DH/MDH or URDF).", show_default=False),
+    robot: Path = typer.Argument(..., exists=True, dir_okay=False, help="Robot file (YAML DH/MDH, URDF or MJCF .xml).", show_default=False),
     trajectory: str = typer.Option("fourier", "--trajectory", help="Excitation: fourier (a random finite Fourier series), or an excite output: its .json (the series, at --duration and --rate) or .csv (the samples as they are)."),
     effects: str = typer.Option("", "--effects", "-e", help="Effects to inject, e.g. coulomb,viscous,spring@2,cogging@3:k=12 (see below)."),
     strength: float = typer.Option(0.1, "--strength", help="Default effect size, as a fraction of each joint's rigid-body RMS torque."),

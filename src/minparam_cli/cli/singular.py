@@ -50,7 +50,7 @@ class OutputFormat(str, Enum):
 
 @guarded
 def singular(
-    robot: Path = typer.Argument(..., exists=True, dir_okay=False, readable=True, help="Robot file: YAML DH/MDH or URDF."),
+    robot: Path = typer.Argument(..., exists=True, dir_okay=False, readable=True, help="Robot file: YAML DH/MDH, URDF or MJCF .xml."),
     q: str = typer.Option(None, "--q", help="Joint values, comma-separated: degrees for revolute joints (radians with --rad), metres for prismatic joints."),
     rad: bool = typer.Option(False, "--rad", help="Read revolute --q values (and --step) in radians."),
     twist: str = typer.Option(None, "--twist", help="Requested twist wx,wy,wz,vx,vy,vz: rad/s and m/s of the tool point O_c, base-frame components."),

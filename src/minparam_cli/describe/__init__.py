@@ -7,13 +7,13 @@ from pathlib import Path
 from minparam_cli.describe.records import GeomValue, Inertial, JointRecord, RobotDescription
 from minparam_cli.errors import DescriptionError
 
-ROBOT_SUFFIXES = (".yaml", ".yml", ".urdf")
+ROBOT_SUFFIXES = (".yaml", ".yml", ".urdf", ".xml")
 
 __all__ = ["GeomValue", "Inertial", "JointRecord", "RobotDescription", "load_description", "ROBOT_SUFFIXES"]
 
 
 def load_description(path: str | Path, snap_angles: float | None = None, mimic: str = "coupled", floating_base: bool = False) -> RobotDescription:
-    """Load a YAML DH/MDH table or a URDF, chosen by the file suffix.
+    """Load a YAML DH/MDH table, a URDF or an MJCF (``.xml``, through MuJoCo's compiler), chosen by the file suffix.
 
     ``snap_angles`` (rad): round angles within it of a multiple of 15° (``describe/snap.py``).
     ``mimic``: URDF mimic joints move with their master ("coupled") or stay at their offset ("fixed").
@@ -45,4 +45,8 @@ def load_description(path: str | Path, snap_angles: float | None = None, mimic: 
             if tr is not None:
                 desc = replace(desc, transmission=tr)
         return desc
-    raise DescriptionError(f"unknown file type {suffix!r}; expected one of .yaml, .yml, .urdf", str(path))
+    if suffix == ".xml":
+        from minparam_cli.describe.mjcf import load_mjcf
+
+        return load_mjcf(path, snap_angles, mimic, floating_base)
+    raise DescriptionError(f"unknown file type {suffix!r}; expected one of .yaml, .yml, .urdf, .xml", str(path))

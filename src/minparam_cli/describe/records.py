@@ -73,9 +73,13 @@ class JointRecord:
     # q_this = multiplier * q_master + offset; None for an independent joint
     mimic: tuple[int, float, float] | None = None
     # one of the six virtual joints of a floating base (3 prismatic, then 3 revolute): no extras;
-    # ``massless``: its link has no mass and no parameters (all but the sixth, which carries the free link)
+    # ``massless``: its link has no mass and no parameters (all but the sixth, which carries the free link;
+    # also MJCF's frames between the joints of one body, which keep their joint's number)
     virtual: bool = False
     massless: bool = False
+    # nominal values of extras the file gives (MJCF armature, frictionloss, damping: "rotor_inertia",
+    # "coulomb", "viscous"), SI; extras not listed have none
+    nominal_extras: tuple[tuple[str, float], ...] = ()
 
 
 @dataclass(frozen=True)
@@ -104,7 +108,7 @@ class RobotDescription:
 
     name: str
     source: str
-    convention: str  # "dh" | "mdh" | "urdf"
+    convention: str  # "dh" | "mdh" | "urdf" | "mjcf" (the last two: joint records with origins)
     joints: tuple[JointRecord, ...]
     gravity: tuple[float, float, float] = (0.0, 0.0, -9.81)
     gravity_source: str = "default"  # "file" | "default" | "cli"

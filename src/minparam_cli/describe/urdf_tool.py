@@ -35,7 +35,7 @@ def select_tool(desc: RobotDescription, link: str) -> RobotDescription:
 
     allowed = {name: (body, xyz) for name, body, xyz in desc.tool_links}
     if link not in allowed:
-        if desc.convention != "urdf":
+        if desc.convention not in ("urdf", "mjcf"):
             raise InputError(f"--tool {link}: {desc.source} is a {desc.convention.upper()} description without links; its tool point is its 'tool' entry")
         names = ", ".join(name for name, _, _ in desc.tool_links)
         raise InputError(f"--tool: no link {link!r} rigidly attached to a moving link in {desc.source}; allowed: {names}")

@@ -57,7 +57,6 @@ from minparam_cli.dynamics.inertia import RandomInertia, random_inertia
 from minparam_cli.experiment.simulate_effects import effect_coefficients
 from minparam_cli.experiment.simulate_spec import InjectedEffect, MotionLimits, SimulationOptions, validate_options
 from minparam_cli.experiment.trajectory import FourierTrajectory, fourier_excitation, joint_ranges
-from minparam_cli.params import standard_names
 from minparam_cli.runtime import workers
 
 if TYPE_CHECKING:
@@ -120,7 +119,7 @@ class Plan:
 
     @property
     def parameter_names(self) -> tuple[str, ...]:
-        return standard_names(self.chain.n)
+        return self.chain.layout.names[: self.chain.layout.n_inertial]
 
 
 @dataclass(frozen=True, eq=False)
@@ -201,7 +200,8 @@ def plan(chain: Chain, options: SimulationOptions, rng: np.random.Generator, pro
     inertia = None
     if options.random_inertia or chain.phi_nominal is None:
         inertia = random_inertia(chain.n, chain.length_scale, inertia_rng)
-        phi, source = inertia.phi, "random"
+        # an MJCF's massless frames between the joints of one body have no columns
+        phi, source = inertia.phi[list(chain.layout.inertial_columns)], "random"
     else:
         from minparam_cli.dynamics.bodies import nominal_problems, nominal_problems_text
 
@@ -316,7 +316,7 @@ def simulate(chain: Chain, options: SimulationOptions, rng: np.random.Generator,
         t=stack("t"), q=stack("q"), dq=stack("dq"), ddq=stack("ddq"), tau=stack("tau"), q_true=stack("q_true"),
         tau_rigid=p.tau_rigid, tau_effects=stack("tau_effects"), phi=p.phi, inertia_source=p.inertia_source,
         inertia=p.inertia, trajectory=p.trajectory, ranges=p.ranges, effects=p.effects, options=options,
-        parameter_names=standard_names(chain.n), limits=stream.limits,
+        parameter_names=chain.layout.names[: chain.layout.n_inertial], limits=stream.limits,
     )
 
 

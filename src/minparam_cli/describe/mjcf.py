@@ -1,0 +1,238 @@
+"""MJCF (MuJoCo's XML) -> RobotDescription, through MuJoCo's own compiler (docs/mjcf.md).
+
+The file is compiled by ``mujoco.MjModel.from_xml_path`` and only the COMPILED model is read, so
+includes, default classes, ``<compiler angle/eulerseq/inertiafromgeom>``, ``<frame>`` elements and
+meshes mean exactly what MuJoCo makes of them; the XML itself is never interpreted here.  Before
+MuJoCo sees it, the file is size-bounded (``safety.read_bounded``), must have a ``<mujoco>`` root
+(other ``.xml`` files are not robots: ``NotARobotError``, skipped in folders) and must carry no
+DOCTYPE or entity declaration.
+
+* hinge and slide joints move; a body with several joints gets one record per joint, the frames
+  between them massless (``JointRecord.massless``, no columns); bodies without joints are welded
+  to their parent (inertias lumped about the moving body's frame);
+* one free joint on a child of the world body: a floating base, six virtual joints in front of
+  that body as for a URDF (q = 0 puts it at its compiled pose);
+* joint equalities (``eq_type`` JOINT) with polycoef (c0, c1, 0, 0, 0): y - y0 = c0 + c1 (x - x0),
+  a mimic joint (``mimic`` as for URDF); one without a second joint locks its joint at y0 + c0
+  (welded); inactive equalities are ignored;
+* ``armature``, ``damping``, ``frictionloss`` of a joint's dof: its nominal rotor inertia, viscous
+  and Coulomb friction (``JointRecord.nominal_extras``), and their columns (``extras``);
+* gravity from ``<option gravity>``, zero when ``<flag gravity="disable"/>``;
+* other free bodies under the world (a ball, a cube beside the robot) are left out, with a warning;
+* refused in one line (exit 2), naming the element: ball joints, a free joint below the world
+  body's children or beside other joints, connect/weld/tendon/flex equalities, joint equalities
+  with nonzero quadratic or higher coefficients.
+
+The joint coordinate is MuJoCo's qpos (not qpos - qpos0): the reference ``ref`` is folded into
+the joint's origin.  The walk over the compiled bodies is ``mjcf_tree``'s.
+"""
+
+from __future__ import annotations
+
+import re
+import threading
+import warnings
+from pathlib import Path
+
+from minparam_cli.describe.mjcf_tree import (EQ_CONNECT, EQ_JOINT, EQ_TENDON, EQ_WELD, JNT_BALL, JNT_FREE,
+                                              JNT_HINGE, JNT_SLIDE, build_description)
+from minparam_cli.describe.records import MIMIC_MODES, RobotDescription
+from minparam_cli.errors import DescriptionError, MinparamWarning, NotARobotError, UnsupportedError
+from minparam_cli.safety import read_bounded
+
+EQ_WORDS = {EQ_CONNECT: "a connect equality (a closed kinematic chain)", EQ_WELD: "a weld equality (a closed kinematic chain)",
+            EQ_TENDON: "a tendon equality (a tendon coupling)"}
+
+_WARNING_LOCK = threading.Lock()
+_DECL = re.compile(rb"<!\s*(DOCTYPE|ENTITY)", re.IGNORECASE)
+_ROOT = re.compile(rb"<([A-Za-z_][\w.\-:]*)")
+
+
+def root_tag(data: bytes) -> str | None:
+    """The name of the first element of an XML text (after the prolog's declaration, comments and
+    processing instructions), or None when there is none."""
+    text = data[3:] if data.startswith(b"\xef\xbb\xbf") else data
+    pos = 0
+    while True:
+        start = text.find(b"<", pos)
+        if start < 0:
+            return None
+        if text.startswith(b"<?", start):
+            pos = text.find(b"?>", start)
+        elif text.startswith(b"<!--", start):
+            pos = text.find(b"-->", start)
+        elif text.startswith(b"<!", start):
+            pos = text.find(b">", start)
+        else:
+            m = _ROOT.match(text, start)
+            return None if m is None else m.group(1).decode("ascii", "replace")
+        if pos < 0:
+            return None
+
+
+def check_mjcf_text(data: bytes, src: str) -> None:
+    """Refuse what must not reach MuJoCo's parser: a DOCTYPE or an entity declaration (TinyXML2 does
+    not expand entities, but a robot file never needs them), and a root other than <mujoco>."""
+    if _DECL.search(data):
+        raise DescriptionError("DOCTYPE and entity declarations are not allowed in an MJCF file", src)
+    tag = root_tag(data)
+    if tag != "mujoco":
+        raise NotARobotError(f"root element is <{tag}>, expected <mujoco> (an MJCF file)" if tag else "no XML element: not an MJCF file", src)
+
+
+def compile_model(path: Path, src: str):
+    """The compiled ``mujoco.MjModel`` of the file, or MuJoCo's message in one line."""
+    from minparam_cli.optional import import_optional
+
+    mujoco = import_optional("mujoco", "mujoco", "reading MJCF (.xml) robot files")
+    notes: list[str] = []
+    # MuJoCo's own warning handler would write MUJOCO_LOG.TXT into the working folder and print to
+    # stderr: the compiler's warnings become MinparamWarning notes, the handler before is put back
+    with _WARNING_LOCK:
+        before = mujoco.get_mju_user_warning()
+        mujoco.set_mju_user_warning(notes.append)
+        try:
+            model = mujoco.MjModel.from_xml_path(str(path))
+        except ValueError as e:
+            text = "; ".join(part.strip() for part in str(e).splitlines() if part.strip())
+            raise DescriptionError(f"MuJoCo cannot compile the file: {text}", src) from None
+        finally:
+            mujoco.set_mju_user_warning(before)
+    for note in notes:
+        warnings.warn(f"{src}: MuJoCo: {note}", MinparamWarning, stacklevel=4)
+    return model
+
+
+def load_mjcf(path: Path, snap_angles: float | None = None, mimic: str = "coupled", floating_base: bool = False) -> RobotDescription:
+    """Read an MJCF file (module docstring).  ``snap_angles`` (rad): joint origin angles within it of a
+    multiple of 15° are rounded to it, each change recorded.  ``mimic``: joint equalities "coupled"
+    (move with their master) or "fixed" (frozen where the master's q = 0 puts them).
+    ``floating_base``: an MJCF says so itself (a free joint); asking for one without it is refused."""
+    if mimic not in MIMIC_MODES:
+        raise ValueError(f"mimic must be one of {MIMIC_MODES}, got {mimic!r}")
+    src = str(path)
+    check_mjcf_text(read_bounded(path), src)
+    m = compile_model(path, src)
+    names = _Names(m)
+    free, left_out = _check_joints(m, names, src)
+    if floating_base and free is None:
+        raise DescriptionError("--floating-base: an MJCF file declares its floating base itself (a free joint, <freejoint/>), and this one has none", src)
+    locked, masters = _equalities(m, names, src, mimic, left_out)
+    return build_description(m, names, src, free, locked, masters, snap_angles, left_out)
+
+
+class _Names:
+    """Names of the compiled model's bodies, joints and equalities; unnamed ones get a made-up, unique
+    name (``body3``, ``<body>_joint2``, ``equality #1``)."""
+
+    def __init__(self, m):
+        import mujoco
+
+        def name(kind, i):
+            return mujoco.mj_id2name(m, kind, i) or ""
+
+        self.body = [name(mujoco.mjtObj.mjOBJ_BODY, b) or (f"body{b}" if b else "world") for b in range(m.nbody)]
+        taken = set(self.body)
+        self.joint = []
+        for j in range(m.njnt):
+            given = name(mujoco.mjtObj.mjOBJ_JOINT, j)
+            b = int(m.jnt_bodyid[j])
+            text = given or (f"{self.body[b]}_joint" + (str(j - int(m.body_jntadr[b]) + 1) if m.body_jntnum[b] > 1 else ""))
+            while not given and text in taken:
+                text += "_"
+            taken.add(text)
+            self.joint.append(text)
+        self.equality = [f"equality[{n}]" if (n := name(mujoco.mjtObj.mjOBJ_EQUALITY, e)) else f"equality #{e + 1}" for e in range(m.neq)]
+        self.model = bytes(m.names).split(b"\0", 1)[0].decode("utf-8", "replace") or "mjcf"
+        self.site = [name(mujoco.mjtObj.mjOBJ_SITE, s) for s in range(m.nsite)]
+
+
+def _check_joints(m, names: _Names, src: str) -> tuple[int | None, frozenset[int]]:
+    """(the body with the free joint of the floating base or None, the world's children left out);
+    refuses ball joints and free joints beside other joints.
+
+    Several free bodies under the world, or free bodies beside a fixed-base tree with more hinge and
+    slide joints: the robot is the tree with the most of them (the first written on a tie), the other
+    free bodies are separate objects (a ball, a cube to push) and are left out, with a warning; their
+    dynamics do not touch the robot's."""
+    frees = []
+    for j in range(m.njnt):
+        kind, b = int(m.jnt_type[j]), int(m.jnt_bodyid[j])
+        where = f"joint[{names.joint[j]}]"
+        if kind == JNT_BALL:
+            raise UnsupportedError(f"ball joints are not supported yet (body '{names.body[b]}')", src, where)
+        if kind != JNT_FREE:
+            continue
+        if int(m.body_parentid[b]) != 0:  # MuJoCo's compiler refuses it too
+            raise UnsupportedError(f"a free joint not at the root (body '{names.body[b]}' hangs on '{names.body[int(m.body_parentid[b])]}') is not supported yet",
+                                   src, where)
+        if m.body_jntnum[b] > 1:
+            raise UnsupportedError(f"body '{names.body[b]}' has a free joint and other joints: not supported", src, where)
+        frees.append(b)
+    if not frees:
+        return None, frozenset()
+    moving: dict[int, int] = {}  # world child -> hinge and slide joints of its tree
+    for j in range(m.njnt):
+        if int(m.jnt_type[j]) in (JNT_HINGE, JNT_SLIDE):
+            root = int(m.body_rootid[int(m.jnt_bodyid[j])])
+            moving[root] = moving.get(root, 0) + 1
+    best_free = max(frees, key=lambda b: (moving.get(b, 0), -b))
+    fixed = [r for r in moving if r not in frees]
+    free = None if fixed and max(moving[r] for r in fixed) > moving.get(best_free, 0) else best_free
+    left_out = frozenset(b for b in frees if b != free)
+    if left_out:
+        shown = ", ".join(f"'{names.body[b]}'" for b in sorted(left_out))
+        warnings.warn(f"{src}: free bodies {shown} left out: separate objects beside the robot (one floating base is modelled)",
+                      MinparamWarning, stacklevel=4)
+    return free, left_out
+
+
+def _equalities(m, names: _Names, src: str, mimic: str, left_out: frozenset[int]) -> tuple[dict[int, float], dict[int, tuple[int, float, float]]]:
+    """({locked joint: its value}, {mimic joint: (independent joint, multiplier, offset)}) from the
+    active joint equalities, q_mimic = multiplier·q_master + offset in qpos units; refuses the others."""
+    locked: dict[int, float] = {}
+    direct: dict[int, tuple[int, float, float]] = {}
+    for e in range(m.neq):
+        if not m.eq_active0[e]:
+            continue  # switched off at the start (it may be switched on by a controller: not modelled)
+        kind, where = int(m.eq_type[e]), names.equality[e]
+        if kind != EQ_JOINT:
+            word = EQ_WORDS.get(kind, f"an equality of type {kind} (flex)")
+            raise UnsupportedError(f"{word} is not supported yet", src, where)
+        y, x = int(m.eq_obj1id[e]), int(m.eq_obj2id[e])
+        if int(m.body_rootid[int(m.jnt_bodyid[y])]) in left_out:
+            continue  # a joint of a free object left out (_check_joints)
+        c = [float(v) for v in m.eq_data[e, :5]]
+        if any(c[2:]):
+            raise UnsupportedError(f"a polynomial joint coupling (polycoef {' '.join(f'{v:g}' for v in c)}: quadratic or higher terms) is not supported yet",
+                                   src, where)
+        for jnt in (y, x):
+            if jnt >= 0 and int(m.jnt_type[jnt]) not in (JNT_HINGE, JNT_SLIDE):
+                raise UnsupportedError(f"a joint equality on joint '{names.joint[jnt]}', which is not a hinge or slide joint, is not supported", src, where)
+        if y in direct or y in locked:
+            raise UnsupportedError(f"joint '{names.joint[y]}' is constrained by two joint equalities: not supported", src, where)
+        y0 = float(m.qpos0[m.jnt_qposadr[y]])
+        if x < 0 or c[1] == 0.0:
+            locked[y] = y0 + c[0]
+            continue
+        if x == y:
+            raise DescriptionError("a joint equality couples a joint with itself", src, where)
+        x0 = float(m.qpos0[m.jnt_qposadr[x]])
+        direct[y] = (x, c[1], y0 + c[0] - c[1] * x0)
+    masters: dict[int, tuple[int, float, float]] = {}
+    for y, (x, k, o) in direct.items():  # a mimic of a mimic: followed to the independent joint
+        seen = [y]
+        while x in direct:
+            if x in seen:
+                raise UnsupportedError("joint equalities form a loop: " + " -> ".join(names.joint[i] for i in [*seen, x]), src, f"joint[{names.joint[y]}]")
+            seen.append(x)
+            x2, k2, o2 = direct[x]
+            x, k, o = x2, k * k2, k * o2 + o
+        if x in locked:
+            locked[y] = k * locked[x] + o
+        else:
+            masters[y] = (x, k, o)
+    if mimic == "fixed":  # frozen where the master's q = 0 puts them, as for URDF's --mimic fixed
+        locked.update({y: o for y, (_, _, o) in masters.items()})
+        masters = {}
+    return locked, masters
