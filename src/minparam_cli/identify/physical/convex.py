@@ -57,7 +57,7 @@ from minparam_cli.params import LINK_PARAMS, N_LINK_PARAMS
 
 J_MARGIN = 1e-6  # kg: J_i ⪰ J_MARGIN·diag(L², L², L², 1)
 TIE_BREAK = 1e-4  # weight of the lightest-body tie-break (no prior only)
-DEFAULT_PRIOR_WEIGHT = 1e-3
+DEFAULT_PRIOR_WEIGHT = 1e-2  # docs/methods/physical.md, "The prior's weight": measured on synthetic data
 # a direction of a link's parameters is "informed" by the data when the data term's curvature along it
 # exceeds the prior's by this factor
 INFORMED_RATIO = 10.0
@@ -68,9 +68,12 @@ SIGNED_EXTRAS = {"Ia": 0.0, "Fc": 0.0, "Fv": 0.0, "Iam": 0.0, "Fcm": 0.0, "Fvm":
 
 @dataclass(frozen=True)
 class PhysicalOptions:
-    prior: str = "none"  # "none" | "nominal"
+    prior: str = "none"  # "none" | "nominal" (identify's --prior auto resolved against the description)
     prior_weight: float = DEFAULT_PRIOR_WEIGHT
     margin: float = J_MARGIN
+    mass_bounds: tuple[tuple[float, float], ...] = ()  # per link (provenance.per_link_bounds); () none
+    total_mass: float | None = None  # the links' masses sum to it (kg)
+    ellipsoids: tuple = ()  # per link: geometry.Ellipsoid or None; () no geometry
 
 
 @dataclass(frozen=True)
@@ -153,6 +156,10 @@ def fit_physical(chain, K: np.ndarray, design, R: np.ndarray, n_eq: int, opts: P
     for i in range(n):
         J = pseudo_inertia(cp, phi[N_LINK_PARAMS * i : N_LINK_PARAMS * (i + 1)])
         cons.append(J - margin >> 0)
+        ell = opts.ellipsoids[i] if i < len(opts.ellipsoids) else None
+        if ell is not None:  # the mass inside the link's ellipsoid: tr(J·Q) ≥ 0 (geometry.py)
+            cons.append(cp.sum(cp.multiply(J, ell.q())) >= 0)
+    cons += _mass_constraints(phi, n, opts)
     names = chain.layout.names
     for k in range(n_inertial, P):
         kind = names[k].rstrip("0123456789")
@@ -198,6 +205,19 @@ def fit_physical(chain, K: np.ndarray, design, R: np.ndarray, n_eq: int, opts: P
     prior_cost = float(prior.value) if prior is not None else 0.0
     return PhysicalFit(phi_v, theta_v, tuple(names), solver.lower(), status, data_cost,
                        prior_cost, informed, time.perf_counter() - t0)
+
+
+def _mass_constraints(phi, n: int, opts: PhysicalOptions) -> list:
+    """lo_i ≤ m_i ≤ hi_i (--mass-bounds) and Σ m_i = M (--total-mass)."""
+    out = []
+    for i, (lo, hi) in enumerate(opts.mass_bounds[:n]):
+        if lo > 0:
+            out.append(phi[N_LINK_PARAMS * i + 9] >= lo)
+        if np.isfinite(hi):
+            out.append(phi[N_LINK_PARAMS * i + 9] <= hi)
+    if opts.total_mass is not None:
+        out.append(sum(phi[N_LINK_PARAMS * i + 9] for i in range(n)) == opts.total_mass)
+    return out
 
 
 def _solve(cp, problem, solvers: list[str]) -> str:

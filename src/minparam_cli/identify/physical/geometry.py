@@ -1,0 +1,120 @@
+"""Where a link's mass can be: one bounding ellipsoid per link, as a linear constraint on its pseudo-inertia.
+
+A mass distribution ρ inside the ellipsoid E = {x : (x − c)ᵀ Σ⁻¹ (x − c) ≤ 1} (link frame) satisfies
+
+    tr(J·Q) = ∫ ρ(x) (1 − (x − c)ᵀ Σ⁻¹ (x − c)) dV ≥ 0,    Q = [[−Σ⁻¹, Σ⁻¹c], [cᵀΣ⁻¹, 1 − cᵀΣ⁻¹c]],
+
+with J = ∫ ρ [x; 1][x; 1]ᵀ dV the pseudo-inertia: a constraint linear in the ten parameters
+(Wensing, Kim & Slotine, IEEE RA-L 3(1), 2018, Sec. IV).  It bounds the shape of the distribution
+relative to its mass, not the mass: a lighter body of the same shape satisfies it as well, so the
+ellipsoid fixes a link's free directions only together with a bound on its mass (provenance.py).
+
+Where the ellipsoid comes from:
+
+* a URDF link with collision (else visual) shapes: the ellipsoid the loader stored on the chain
+  (``Chain.link_geometry``: √3 times the half-widths of the box that holds every shape; see
+  describe/urdf_geometry.py);
+* a DH/MDH table, which has no shapes (``dh_ellipsoid``, a heuristic): the segment from the point where
+  the link's joint sits to the point where its child's joint sits (in the link frame), thickened by
+  r = max(ℓ/2, L/4) (ℓ the segment's length, L the robot's size): a spheroid centred on the segment's
+  midpoint, semi-axes ℓ/2 + r along it and r across.  A last link, with no child, takes its frame's
+  origin as the far end (a DH row's link frame sits at its far end; an MDH row's at its joint, which
+  leaves the sphere of radius L/4), and a link with several children the ellipsoid through the
+  corners of the box that holds their joints, widened by L/4.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from minparam_cli.params import N_LINK_PARAMS
+
+RADIUS_SHARE = 0.5  # r = max(RADIUS_SHARE·ℓ, RADIUS_FLOOR·L) for the DH heuristic
+RADIUS_FLOOR = 0.25
+
+
+@dataclass(frozen=True)
+class Ellipsoid:
+    """{x : (x − c)ᵀ Σ⁻¹ (x − c) ≤ 1} in the link frame (m), and where it comes from."""
+
+    centre: tuple[float, float, float]
+    sigma: tuple[tuple[float, float, float], ...]  # Σ (m²), symmetric positive definite
+    source: str  # "collision", "visual", "DH segment"
+
+    def q(self) -> np.ndarray:
+        """Q of the module docstring: tr(J·Q) ≥ 0 ⇔ the mass is inside (for a distribution)."""
+        c = np.asarray(self.centre, dtype=float)
+        Si = np.linalg.inv(np.asarray(self.sigma, dtype=float))
+        Q = np.zeros((4, 4))
+        Q[:3, :3] = -Si
+        Q[:3, 3] = Q[3, :3] = Si @ c
+        Q[3, 3] = 1.0 - c @ Si @ c
+        return Q
+
+    def semi_axes(self) -> tuple[float, ...]:
+        return tuple(float(np.sqrt(max(v, 0.0))) for v in np.linalg.eigvalsh(np.asarray(self.sigma, dtype=float)))
+
+    def to_dict(self) -> dict:
+        return {"source": self.source, "centre": list(self.centre), "semi_axes": list(self.semi_axes())}
+
+
+def box_ellipsoid(lo, hi, source: str) -> Ellipsoid:
+    """The axis-aligned ellipsoid through the corners of the box [lo, hi]: semi-axes √3 times its
+    half-widths (each at least a thousandth of the largest, so that Σ is invertible)."""
+    lo, hi = np.asarray(lo, dtype=float), np.asarray(hi, dtype=float)
+    half = (hi - lo) / 2
+    half = np.maximum(half, 1e-3 * max(float(half.max()), 1e-6))
+    c = (hi + lo) / 2
+    return Ellipsoid(tuple(float(x) for x in c), tuple(tuple(float(x) for x in row) for row in np.diag(3 * half**2)), source)
+
+
+def segment_ellipsoid(p0, p1, L: float) -> Ellipsoid:
+    """The spheroid around the segment p0–p1 (the DH heuristic of the module docstring)."""
+    p0, p1 = np.asarray(p0, dtype=float), np.asarray(p1, dtype=float)
+    d = p1 - p0
+    ell = float(np.linalg.norm(d))
+    r = max(RADIUS_SHARE * ell, RADIUS_FLOOR * L)
+    if ell == 0:
+        S = np.eye(3) * r * r
+    else:
+        u = d / ell
+        S = r * r * np.eye(3) + ((ell / 2 + r) ** 2 - r * r) * np.outer(u, u)
+    c = (p0 + p1) / 2
+    return Ellipsoid(tuple(float(x) for x in c), tuple(tuple(float(x) for x in row) for row in S), "DH segment")
+
+
+def dh_ellipsoid(chain, i: int, L: float) -> Ellipsoid:
+    """Link i's heuristic ellipsoid from the joint offsets (module docstring)."""
+    post = np.asarray(chain.post[i], dtype=float)
+    joint = -post[:3, :3].T @ post[:3, 3]  # where link i's joint sits, in link i's frame (Post⁻¹ · 0)
+    # where its children's joints sit; a last link: its frame's origin (a DH row's far end)
+    ends = [np.asarray(chain.pre[k][:3, 3], dtype=float) for k in chain.children(i)] or [np.zeros(3)]
+    if len(ends) == 1:
+        return segment_ellipsoid(joint, ends[0], L)
+    pts = np.array([joint, *ends])
+    lo, hi = pts.min(axis=0) - RADIUS_FLOOR * L, pts.max(axis=0) + RADIUS_FLOOR * L
+    return box_ellipsoid(lo, hi, "DH segment")
+
+
+def link_ellipsoids(chain, L: float) -> tuple[Ellipsoid | None, ...]:
+    """Per link, the ellipsoid its mass is inside: the URDF's shapes, the DH heuristic for a DH/MDH
+    table, None for a URDF link without shapes."""
+    stored = getattr(chain, "link_geometry", ()) or ()
+    out: list[Ellipsoid | None] = []
+    for i in range(chain.n):
+        if chain.convention in ("dh", "mdh"):
+            out.append(dh_ellipsoid(chain, i, L))
+        else:
+            g = stored[i] if i < len(stored) else None
+            out.append(None if g is None else box_ellipsoid(g[1], g[2], g[0]))
+    return tuple(out)
+
+
+def ellipsoid_slack(phi_link, ell: Ellipsoid) -> float:
+    """tr(J·Q) (kg) of one link's ten parameters: ≥ 0 when the constraint holds, 0 on its boundary."""
+    from minparam_cli.dynamics.inertia import pseudo_inertia_from_standard
+
+    J = pseudo_inertia_from_standard(np.asarray(phi_link, dtype=float)[:N_LINK_PARAMS])
+    return float(np.sum(J * ell.q()))
