@@ -196,7 +196,7 @@ def fit_physical(chain, K: np.ndarray, design, R: np.ndarray, n_eq: int, opts: P
         objective = objective + TIE_BREAK * size
     solvers = [x for x in ("CLARABEL", "SCS") if x in cp.installed_solvers()]
     problem = cp.Problem(cp.Minimize(objective), cons)
-    solver = _solve(cp, problem, solvers)
+    solver = _solve(cp, problem, solvers, lambda: _violation(np.asarray(phi.value, dtype=float), n, L, opts))
     status = problem.status
     phi_v = np.asarray(phi.value, dtype=float)
     theta_v = np.concatenate([K @ phi_v, np.asarray(c.value, dtype=float)]) if c is not None else K @ phi_v
@@ -220,8 +220,9 @@ def _mass_constraints(phi, n: int, opts: PhysicalOptions) -> list:
     return out
 
 
-def _solve(cp, problem, solvers: list[str]) -> str:
-    """Solve with the first solver that ends optimal; the one that did."""
+def _solve(cp, problem, solvers: list[str], violation) -> str:
+    """Solve with the first solver that ends optimal with a solution that keeps the constraints
+    (``violation()``: None, or what it breaks); the one that did."""
     why = "no conic solver installed (Clarabel or SCS)"
     for solver in solvers:
         try:
@@ -230,9 +231,34 @@ def _solve(cp, problem, solvers: list[str]) -> str:
             why = f"{solver} failed ({str(e).split('.')[0]})"
             continue
         if problem.status in ("optimal", "optimal_inaccurate"):
-            return solver
+            broken = violation()
+            if broken is None:
+                return solver
+            why = f"{solver} ended '{problem.status}' with {broken}"
+            continue
         why = f"{solver} ended '{problem.status}'"
     raise ComputationError(f"physical fit: {why}")
+
+
+def _violation(phi: np.ndarray, n: int, L: float, opts: PhysicalOptions) -> str | None:
+    """What a solver's φ breaks beyond a relative 1e-6: a link's pseudo-inertia, ellipsoid or mass bound
+    (an inaccurate solution can return bodies that are none), or None."""
+    from minparam_cli.dynamics.inertia import pseudo_inertia_from_standard
+
+    d = np.array([1 / L, 1 / L, 1 / L, 1.0])
+    for i in range(n):
+        J = pseudo_inertia_from_standard(phi[N_LINK_PARAMS * i : N_LINK_PARAMS * (i + 1)]) * np.outer(d, d)
+        tol = 1e-6 * max(float(np.abs(J).max()), opts.margin)
+        if np.linalg.eigvalsh(J)[0] < opts.margin - tol:
+            return f"link {i + 1} not a body"
+        ell = opts.ellipsoids[i] if i < len(opts.ellipsoids) else None
+        if ell is not None and float(np.sum(J / np.outer(d, d) * ell.q())) < -tol * L * L:
+            return f"link {i + 1} outside its ellipsoid"
+        m = phi[N_LINK_PARAMS * i + 9]
+        lo, hi = opts.mass_bounds[i] if i < len(opts.mass_bounds) else (0.0, np.inf)
+        if m < lo - tol or m > hi + tol:
+            return f"link {i + 1}'s mass outside its bounds"
+    return None
 
 
 def _informed(A: np.ndarray, scale: np.ndarray, K: np.ndarray, n: int, n_eq: int, opts: PhysicalOptions, chain) -> tuple[int, ...]:
