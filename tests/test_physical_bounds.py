@@ -47,11 +47,12 @@ def link_phi(rep: dict, k: int) -> list[float]:
 
 
 def planar_ellipsoid_q(a: float, L: float) -> np.ndarray:
-    """The DH-segment ellipsoid of a planar link (α = d = 0), built independently: the segment from its
-    joint (−a, 0, 0) to its frame's origin, r = max(a/2, L/4); Q of tr(J·Q) ≥ 0."""
-    r = max(a / 2, L / 4)
+    """The DH-segment ellipsoid of a planar link (α = d = 0), built independently: the box from its
+    joint (−a, 0, 0) to its frame's origin widened by r = L/4, and the ellipsoid through its corners;
+    Q of tr(J·Q) ≥ 0."""
+    r = L / 4
     c = np.array([-a / 2, 0, 0])
-    Si = np.diag([1 / (a / 2 + r) ** 2, 1 / r**2, 1 / r**2])
+    Si = np.diag([1 / (3 * (a / 2 + r) ** 2), 1 / (3 * r**2), 1 / (3 * r**2)])
     return np.block([[-Si, (Si @ c)[:, None]], [(Si @ c)[None, :], np.array([[1 - c @ Si @ c]])]])
 
 

@@ -157,8 +157,8 @@ def fit_physical(chain, K: np.ndarray, design, R: np.ndarray, n_eq: int, opts: P
         J = pseudo_inertia(cp, phi[N_LINK_PARAMS * i : N_LINK_PARAMS * (i + 1)])
         cons.append(J - margin >> 0)
         ell = opts.ellipsoids[i] if i < len(opts.ellipsoids) else None
-        if ell is not None:  # the mass inside the link's ellipsoid: tr(J·Q) ≥ 0 (geometry.py)
-            cons.append(cp.sum(cp.multiply(J, ell.q())) >= 0)
+        if ell is not None:  # the body beyond the margin inside the link's ellipsoid: tr((J − εD)·Q) ≥ 0 (geometry.py)
+            cons.append(cp.sum(cp.multiply(J - margin, ell.q())) >= 0)
     cons += _mass_constraints(phi, n, opts)
     names = chain.layout.names
     for k in range(n_inertial, P):
@@ -241,19 +241,24 @@ def _solve(cp, problem, solvers: list[str], violation) -> str:
 
 
 def _violation(phi: np.ndarray, n: int, L: float, opts: PhysicalOptions) -> str | None:
-    """What a solver's φ breaks beyond a relative 1e-6: a link's pseudo-inertia, ellipsoid or mass bound
-    (an inaccurate solution can return bodies that are none), or None."""
+    """What a solver's φ breaks by more than a millionth of a kilogram-sized body (absolute: the
+    solvers' feasibility tolerance is absolute, and a link the data leave free sits at the margin ε):
+    a link's pseudo-inertia (J ⪰ 0), its ellipsoid or its mass bounds; None when nothing.  An
+    inaccurate solution can return bodies that are none (SCS did: a mass with λ_min(J) = −1.3)."""
     from minparam_cli.dynamics.inertia import pseudo_inertia_from_standard
 
     d = np.array([1 / L, 1 / L, 1 / L, 1.0])
+    margin = np.diag([L * L, L * L, L * L, 1.0]) * opts.margin
     for i in range(n):
-        J = pseudo_inertia_from_standard(phi[N_LINK_PARAMS * i : N_LINK_PARAMS * (i + 1)]) * np.outer(d, d)
-        tol = 1e-6 * max(float(np.abs(J).max()), opts.margin)
-        if np.linalg.eigvalsh(J)[0] < opts.margin - tol:
+        J = pseudo_inertia_from_standard(phi[N_LINK_PARAMS * i : N_LINK_PARAMS * (i + 1)])
+        tol = 1e-6 * max(float(np.abs(J * np.outer(d, d)).max()), 1.0)
+        if np.linalg.eigvalsh(J * np.outer(d, d))[0] < -tol:
             return f"link {i + 1} not a body"
         ell = opts.ellipsoids[i] if i < len(opts.ellipsoids) else None
-        if ell is not None and float(np.sum(J / np.outer(d, d) * ell.q())) < -tol * L * L:
-            return f"link {i + 1} outside its ellipsoid"
+        if ell is not None:
+            Q = ell.q()
+            if float(np.sum((J - margin) * Q)) < -tol * float(np.abs(Q / np.outer(d, d)).max()):
+                return f"link {i + 1} outside its ellipsoid"
         m = phi[N_LINK_PARAMS * i + 9]
         lo, hi = opts.mass_bounds[i] if i < len(opts.mass_bounds) else (0.0, np.inf)
         if m < lo - tol or m > hi + tol:

@@ -14,13 +14,14 @@ Where the ellipsoid comes from:
 * a URDF link with collision (else visual) shapes: the ellipsoid the loader stored on the chain
   (``Chain.link_geometry``: √3 times the half-widths of the box that holds every shape; see
   describe/urdf_geometry.py);
-* a DH/MDH table, which has no shapes (``dh_ellipsoid``, a heuristic): the segment from the point where
-  the link's joint sits to the point where its child's joint sits (in the link frame), thickened by
-  r = max(ℓ/2, L/4) (ℓ the segment's length, L the robot's size): a spheroid centred on the segment's
-  midpoint, semi-axes ℓ/2 + r along it and r across.  A last link, with no child, takes its frame's
-  origin as the far end (a DH row's link frame sits at its far end; an MDH row's at its joint, which
-  leaves the sphere of radius L/4), and a link with several children the ellipsoid through the
-  corners of the box that holds their joints, widened by L/4.
+* a DH/MDH table, which has no shapes (``dh_ellipsoid``, a heuristic): the points a link must reach,
+  in its frame — where its joint sits, the feet on its joint axis of its parent's frame origin and of
+  its own (a DH or MDH offset d lies along that axis), its frame's origin, and where each child's
+  joint sits — held in their bounding box widened by r = L/4 on every side (L the robot's size), and
+  the ellipsoid through that box's corners (semi-axes √3 times its half-widths).  For a link of a
+  planar arm with length a that is the spheroid of semi-axes √3(a/2 + r), √3r, √3r around the
+  link's segment; for the Panda's link 3 (MDH) it reaches from the shoulder, 0.316 m down its axis,
+  to the elbow.
 """
 
 from __future__ import annotations
@@ -31,8 +32,7 @@ import numpy as np
 
 from minparam_cli.params import N_LINK_PARAMS
 
-RADIUS_SHARE = 0.5  # r = max(RADIUS_SHARE·ℓ, RADIUS_FLOOR·L) for the DH heuristic
-RADIUS_FLOOR = 0.25
+RADIUS_FLOOR = 0.25  # the DH heuristic widens the box of a link's points by RADIUS_FLOOR·L
 
 
 @dataclass(frozen=True)
@@ -70,32 +70,24 @@ def box_ellipsoid(lo, hi, source: str) -> Ellipsoid:
     return Ellipsoid(tuple(float(x) for x in c), tuple(tuple(float(x) for x in row) for row in np.diag(3 * half**2)), source)
 
 
-def segment_ellipsoid(p0, p1, L: float) -> Ellipsoid:
-    """The spheroid around the segment p0–p1 (the DH heuristic of the module docstring)."""
-    p0, p1 = np.asarray(p0, dtype=float), np.asarray(p1, dtype=float)
-    d = p1 - p0
-    ell = float(np.linalg.norm(d))
-    r = max(RADIUS_SHARE * ell, RADIUS_FLOOR * L)
-    if ell == 0:
-        S = np.eye(3) * r * r
-    else:
-        u = d / ell
-        S = r * r * np.eye(3) + ((ell / 2 + r) ** 2 - r * r) * np.outer(u, u)
-    c = (p0 + p1) / 2
-    return Ellipsoid(tuple(float(x) for x in c), tuple(tuple(float(x) for x in row) for row in S), "DH segment")
+def dh_points(chain, i: int) -> np.ndarray:
+    """The points link i must reach, in its frame (module docstring), one per row."""
+    pre, post = np.asarray(chain.pre[i], dtype=float), np.asarray(chain.post[i], dtype=float)
+    a = np.asarray(chain.axes[i], dtype=float)
+    post_inv = np.linalg.inv(post)
+    parent = -pre[:3, :3].T @ pre[:3, 3]  # the parent frame's origin, in the joint frame F_parent·Pre
+    own = post[:3, 3]  # the link frame's origin, in the joint frame (at q = 0)
+    in_joint = [np.zeros(3), (parent @ a) * a, (own @ a) * a]  # on the axis: the same at every q
+    pts = [post_inv[:3, :3] @ x + post_inv[:3, 3] for x in in_joint] + [np.zeros(3)]
+    pts += [np.asarray(chain.pre[k][:3, 3], dtype=float) for k in chain.children(i)]
+    return np.array(pts)
 
 
 def dh_ellipsoid(chain, i: int, L: float) -> Ellipsoid:
     """Link i's heuristic ellipsoid from the joint offsets (module docstring)."""
-    post = np.asarray(chain.post[i], dtype=float)
-    joint = -post[:3, :3].T @ post[:3, 3]  # where link i's joint sits, in link i's frame (Post⁻¹ · 0)
-    # where its children's joints sit; a last link: its frame's origin (a DH row's far end)
-    ends = [np.asarray(chain.pre[k][:3, 3], dtype=float) for k in chain.children(i)] or [np.zeros(3)]
-    if len(ends) == 1:
-        return segment_ellipsoid(joint, ends[0], L)
-    pts = np.array([joint, *ends])
-    lo, hi = pts.min(axis=0) - RADIUS_FLOOR * L, pts.max(axis=0) + RADIUS_FLOOR * L
-    return box_ellipsoid(lo, hi, "DH segment")
+    pts = dh_points(chain, i)
+    r = RADIUS_FLOOR * L
+    return box_ellipsoid(pts.min(axis=0) - r, pts.max(axis=0) + r, "DH segment")
 
 
 def link_ellipsoids(chain, L: float) -> tuple[Ellipsoid | None, ...]:
