@@ -295,7 +295,7 @@ def _provenance(chain: Chain, bodies: list, pf: PhysicalFit, popts: PhysicalOpti
         b["on_boundary"] = on_boundary(phi_link, L, popts.margin)
         hi = float(bounds[i][1])
         b["mass_bounds"] = [float(bounds[i][0]), hi if np.isfinite(hi) else None] if popts.mass_bounds else None
-        b["ellipsoid"] = None if ell is None else {**ell.to_dict(), "slack_kg": ellipsoid_slack(phi_link, ell)}
+        b["ellipsoid"] = None if ell is None else {**ell.to_dict(), "slack_kg": ellipsoid_slack(phi_link, ell, popts.margin, L)}
 
 
 def _test_figures(roles: dict, rigid: dict, final: dict, acc: dict) -> TestFigures:

@@ -223,20 +223,21 @@ def _mass_constraints(phi, n: int, opts: PhysicalOptions) -> list:
 def _solve(cp, problem, solvers: list[str], violation) -> str:
     """Solve with the first solver that ends optimal with a solution that keeps the constraints
     (``violation()``: None, or what it breaks); the one that did."""
-    why = "no conic solver installed (Clarabel or SCS)"
+    whys = []
     for solver in solvers:
         try:
             problem.solve(solver=solver)
         except cp.error.SolverError as e:
-            why = f"{solver} failed ({str(e).split('.')[0]})"
+            whys.append(f"{solver} failed ({str(e).split('.')[0]})")
             continue
         if problem.status in ("optimal", "optimal_inaccurate"):
             broken = violation()
             if broken is None:
                 return solver
-            why = f"{solver} ended '{problem.status}' with {broken}"
+            whys.append(f"{solver} ended '{problem.status}' with {broken}")
             continue
-        why = f"{solver} ended '{problem.status}'"
+        whys.append(f"{solver} ended '{problem.status}'")
+    why = "; ".join(whys) or "no conic solver installed (Clarabel or SCS)"
     raise ComputationError(f"physical fit: {why}")
 
 

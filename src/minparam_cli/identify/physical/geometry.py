@@ -5,7 +5,8 @@ A mass distribution ρ inside the ellipsoid E = {x : (x − c)ᵀ Σ⁻¹ (x −
     tr(J·Q) = ∫ ρ(x) (1 − (x − c)ᵀ Σ⁻¹ (x − c)) dV ≥ 0,    Q = [[−Σ⁻¹, Σ⁻¹c], [cᵀΣ⁻¹, 1 − cᵀΣ⁻¹c]],
 
 with J = ∫ ρ [x; 1][x; 1]ᵀ dV the pseudo-inertia: a constraint linear in the ten parameters
-(Wensing, Kim & Slotine, IEEE RA-L 3(1), 2018, Sec. IV).  It bounds the shape of the distribution
+(Wensing, Kim & Slotine, IEEE RA-L 3(1), 2018, Sec. IV).  The fit keeps J ⪰ ε·D (convex.py; D =
+diag(L², L², L², 1)) and asks it of the body beyond that margin: tr((J − ε·D)·Q) ≥ 0.  It bounds the shape of the distribution
 relative to its mass, not the mass: a lighter body of the same shape satisfies it as well, so the
 ellipsoid fixes a link's free directions only together with a bound on its mass (provenance.py).
 
@@ -104,9 +105,10 @@ def link_ellipsoids(chain, L: float) -> tuple[Ellipsoid | None, ...]:
     return tuple(out)
 
 
-def ellipsoid_slack(phi_link, ell: Ellipsoid) -> float:
-    """tr(J·Q) (kg) of one link's ten parameters: ≥ 0 when the constraint holds, 0 on its boundary."""
+def ellipsoid_slack(phi_link, ell: Ellipsoid, margin: float, L: float) -> float:
+    """tr((J − ε·diag(L², L², L², 1))·Q) (kg) of one link's ten parameters, the constraint the fit keeps
+    (the body beyond the margin ε inside the ellipsoid): ≥ 0 when it holds, 0 on its boundary."""
     from minparam_cli.dynamics.inertia import pseudo_inertia_from_standard
 
     J = pseudo_inertia_from_standard(np.asarray(phi_link, dtype=float)[:N_LINK_PARAMS])
-    return float(np.sum(J * ell.q()))
+    return float(np.sum((J - margin * np.diag([L * L, L * L, L * L, 1.0])) * ell.q()))
