@@ -166,3 +166,52 @@ def test_panda_default_prior_gives_gaz_masses_within_a_factor_two():
         assert b["on_boundary"] == (np.linalg.eigvalsh(D @ J @ D)[0] <= 2 * phys["margin_kg"])
     flagged = [f for f in rep["flags"] if "boundary of physical consistency" in f]
     assert bool(flagged) == bool(phys["on_boundary"])
+
+
+URDF = """<robot name="two">
+  <link name="base"/>
+  <link name="l1">
+    <collision><origin xyz="0 0 0.25" rpy="0 0 0"/><geometry><cylinder radius="0.05" length="0.5"/></geometry></collision>
+  </link>
+  <link name="l2">
+    <visual><origin xyz="0.2 0 0"/><geometry><box size="0.4 0.1 0.1"/></geometry></visual>
+    <collision><origin xyz="0 0 0" rpy="0 0 1.5707963267948966"/><geometry><mesh filename="part.stl" scale="2 1 1"/></geometry></collision>
+  </link>
+  <link name="l3"><visual><geometry><mesh filename="package://x/part.dae"/></geometry></visual></link>
+  <link name="tip"><collision><geometry><sphere radius="0.03"/></geometry></collision></link>
+  <joint name="j1" type="revolute"><parent link="base"/><child link="l1"/><axis xyz="0 0 1"/><limit lower="-3" upper="3" effort="9" velocity="2"/></joint>
+  <joint name="j2" type="revolute"><parent link="l1"/><child link="l2"/><origin xyz="0 0 0.5"/><axis xyz="0 1 0"/><limit lower="-3" upper="3" effort="9" velocity="2"/></joint>
+  <joint name="jt" type="fixed"><parent link="l2"/><child link="tip"/><origin xyz="0.4 0 0"/></joint>
+  <joint name="j3" type="revolute"><parent link="l2"/><child link="l3"/><origin xyz="0.4 0 0"/><axis xyz="0 1 0"/><limit lower="-3" upper="3" effort="9" velocity="2"/></joint>
+</robot>
+"""
+
+
+def test_urdf_shapes_give_each_link_its_box(tmp_path):
+    """Collision shapes (else visual) in the link frame: a cylinder moved by its origin, a binary STL's
+    vertices scaled and turned by 90° about z, a fixed link's sphere lumped into its body, and a mesh
+    that is not an STL file next to the URDF skipped (no box)."""
+    import struct
+
+    from minparam_cli.identify.physical.geometry import link_ellipsoids
+    from minparam_cli.robot import DeriveOptions, load_chain
+
+    (tmp_path / "two.urdf").write_text(URDF)
+    verts = [(0, -0.05, -0.05), (0.2, 0.05, -0.05), (0.1, 0.0, 0.06)]
+    tri = struct.pack("<12fH", 0, 0, 1, *[x for v in verts for x in v], 0)
+    (tmp_path / "part.stl").write_bytes(b"\0" * 80 + struct.pack("<I", 1) + tri)
+    _, chain = load_chain(tmp_path / "two.urdf", DeriveOptions())
+    g1, g2, g3 = chain.link_geometry
+    assert g1[0] == "collision" and np.allclose(g1[1:], [(-0.05, -0.05, 0), (0.05, 0.05, 0.5)])
+    # the STL scaled by 2 along x spans x 0..0.4, y ±0.05; turned by 90° about z: x ∓0.05, y 0..0.4; the tip's
+    # sphere sits at (0.4, 0, 0), radius 0.03
+    assert g2[0] == "collision" and np.allclose(g2[1:], [(-0.05, -0.03, -0.05), (0.43, 0.4, 0.06)], atol=1e-6)
+    assert g3 is None
+    ells = link_ellipsoids(chain, 0.5)
+    assert ells[2] is None
+    # the ellipsoid through the box's corners: every corner on it
+    for ell, (_, lo, hi) in zip(ells[:2], (g1, g2), strict=True):
+        Q = ell.q()
+        for corner in np.array(np.meshgrid(*zip(lo, hi, strict=True))).reshape(3, -1).T:
+            x = np.append(corner, 1.0)
+            assert abs(x @ Q @ x) < 1e-9

@@ -112,6 +112,8 @@ class Chain:
     floating_base: bool = False
     # motors and gears (theta_m = N (q - zero)): the motor-side columns of dynamics/transmission.py
     transmission: Transmission | None = None
+    # per link: (source, lo, hi), the box its URDF shapes fill in the link frame, or None (JointRecord.geometry)
+    link_geometry: tuple = ()
 
     @property
     def n(self) -> int:
@@ -269,6 +271,7 @@ def build_chain(
         length_scale=float(max(lengths)) if lengths else 1.0,
         exact_source=None if values else desc,
         transmission=tr,
+        link_geometry=tuple(j.geometry for j in desc.joints),
     )
 
 

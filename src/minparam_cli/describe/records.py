@@ -76,6 +76,9 @@ class JointRecord:
     # ``massless``: its link has no mass and no parameters (all but the sixth, which carries the free link)
     virtual: bool = False
     massless: bool = False
+    # URDF: (source, lo, hi), the box in the link frame that its collision (else visual) shapes fill,
+    # fixed links lumped in (describe/urdf_geometry.py); None: no shapes (every YAML row)
+    geometry: tuple[str, tuple[float, ...], tuple[float, ...]] | None = None
 
 
 @dataclass(frozen=True)
