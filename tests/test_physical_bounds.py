@@ -163,7 +163,7 @@ def test_panda_default_prior_gives_gaz_masses_within_a_factor_two():
     for b in phys["links"]:
         k = b["link"]
         J = pseudo_inertia([phys["phi"][f"{p}{k}"] for p in ("XX", "XY", "XZ", "YY", "YZ", "ZZ", "MX", "MY", "MZ", "M")])
-        assert b["on_boundary"] == (np.linalg.eigvalsh(D @ J @ D)[0] <= 2 * phys["margin_kg"])
+        assert b["on_boundary"] == (np.linalg.eigvalsh(D @ J @ D)[0] <= 10 * phys["margin_kg"])
     flagged = [f for f in rep["flags"] if "boundary of physical consistency" in f]
     assert bool(flagged) == bool(phys["on_boundary"])
 

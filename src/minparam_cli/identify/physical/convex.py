@@ -8,7 +8,9 @@ coefficients c of the effects the diagnosis added, with β = K·φ (K from the
 derive stage, ``BaseSet.K``):
 
     minimise   (1/N) ‖R (θ(φ, c); −1)‖²  +  W·P(φ)   [+ TIE_BREAK·T(φ) without a prior]
-    such that  J_i(φ) ⪰ ε_J·diag(L², L², L², 1)       for every link i
+    such that  J_i(φ) ⪰ ε_J·D,  D = diag(L², L², L², 1)  for every link i
+               tr((J_i(φ) − ε_J·D)·Q_i) ≥ 0           links with an ellipsoid (--geometry; geometry.py)
+               lo_i ≤ m_i ≤ hi_i,  Σ m_i = M           (--mass-bounds, --total-mass)
                Ia, Fc, Fv ≥ 0                          (declared extras)
                c within each effect's physical range   (``effects.EFFECTS[...].bounds``)
 
@@ -28,8 +30,10 @@ derive stage, ``BaseSet.K``):
   plus a tenth of the largest nominal value of the same kind (mass, first
   moment, second moment) in the same link, so every parameter is compared
   with its own link's size.
-  W is ``--prior-weight`` (default 1e-3): the prior outweighs the data only
-  in directions the data barely see.
+  W is ``--prior-weight`` (default 1e-2, docs/methods/physical.md: chosen on
+  synthetic data): the prior outweighs the data only in directions the data
+  barely see.  identify's ``--prior auto`` (the default) uses it whenever the
+  description has inertials; provenance.py says per link what held what.
 * Without a prior, the directions the data cannot see (the parameters that
   regroup, K's null space) are free, and the interior-point solver stops
   anywhere among the equally good bodies: links 1-3 of the Panda recording

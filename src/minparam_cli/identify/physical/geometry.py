@@ -40,8 +40,8 @@ RADIUS_FLOOR = 0.25  # the DH heuristic widens the box of a link's points by RAD
 class Ellipsoid:
     """{x : (x − c)ᵀ Σ⁻¹ (x − c) ≤ 1} in the link frame (m), and where it comes from."""
 
-    centre: tuple[float, float, float]
-    sigma: tuple[tuple[float, float, float], ...]  # Σ (m²), symmetric positive definite
+    centre: tuple[float, ...]  # c (m), three values
+    sigma: tuple[tuple[float, ...], ...]  # Σ (m²), 3×3 symmetric positive definite
     source: str  # "collision", "visual", "DH segment"
 
     def q(self) -> np.ndarray:

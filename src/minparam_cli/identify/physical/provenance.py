@@ -28,7 +28,7 @@ import numpy as np
 
 from minparam_cli.errors import InputError
 
-BOUNDARY_FACTOR = 2.0  # a body is "on the boundary" when λ_min(D⁻½ J D⁻½) ≤ BOUNDARY_FACTOR·ε
+BOUNDARY_FACTOR = 10.0  # a body is "on the boundary" when λ_min(D⁻½ J D⁻½) ≤ BOUNDARY_FACTOR·ε
 
 
 def per_link_bounds(bounds: tuple[tuple[float, float], ...], n: int) -> tuple[tuple[float, float], ...]:
