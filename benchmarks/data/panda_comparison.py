@@ -11,7 +11,11 @@ Runs, from the repository root, exactly the commands a user would type:
         --friction coulomb,viscous,offset --format json
         (column "all data": fit on every sample; its errors are in-sample)
     minparam identify robots/panda.yaml DATA --no-diagnose --friction coulomb,viscous,offset --physical --format json
-        (column "physical": every link a body, friction >= 0; the same split as "minparam")
+        (column "physical": every link a body, friction >= 0, the default prior (--prior auto: the
+        description's nominal inertials, Gaz et al.'s p-hat); the same split as "minparam")
+    minparam identify robots/panda.yaml DATA --physical [--prior none]
+        (every default: the diagnosis on, --prior auto; the run --export-urdf writes; with --prior none,
+        the masses the directions the data leave free get from the tie-break alone)
     minparam derive robots/panda.yaml --symbolic --format json
         (the expression of each base parameter)
 
@@ -164,24 +168,39 @@ def fmt_err(e: dict) -> str:
     return f"rms per joint {joints} N·m, total {e['rms_total']:.4f} N·m, ‖r‖/‖τ‖ {100 * e['relative_error']:.3f} %"
 
 
-def physical_section(d: dict, ref: list[dict]) -> None:
+def physical_section(d: dict, ref: list[dict], default: dict, bare: dict) -> None:
     """The physically consistent fit against the authors' feasible estimates: π(p̂) (their retrieved
-    parameters, Tables VIII-IX) and π̂_OSI (their one-step physically consistent identification)."""
-    p = d["physical"]
+    parameters, Tables VIII-IX) and π̂_OSI (their one-step physically consistent identification).
+    ``d``: the declared model (--no-diagnose); ``default``: `identify --physical` with every default
+    (diagnosis on, --prior auto: the description's inertials, Gaz et al.'s p̂), the run an export
+    writes; ``bare``: the same with --prior none."""
     print("## Physically consistent fit\n")
-    print(f"* solver {p['solver']}, {p['status']}, {p['elapsed_s']:.2f} s; prior {p['prior']}")
-    print(f"* selection data: unconstrained {fmt_err(d['after'])}")
-    print(f"* selection data: physical {fmt_err(p['selection'])}")
-    for k, e in p["test"].items():
-        print(f"* test data ({k}): unconstrained {fmt_err(d['test']['final'])}")
-        print(f"* test data ({k}): physical {fmt_err(e)}")
+    for label, r in (("default run", default), ("declared model (--no-diagnose)", d), ("default run, --prior none", bare)):
+        p = r["physical"]
+        print(f"* {label}: solver {p['solver']}, {p['status']}, {p['elapsed_s']:.2f} s; prior {p['prior']}"
+              + (f", weight {p['prior_weight']:g}" if p["prior_weight"] else ""))
+        print(f"  * selection data: unconstrained {fmt_err(r['after'])}")
+        print(f"  * selection data: physical {fmt_err(p['selection'])}")
+        for k, e in p["test"].items():
+            print(f"  * test data ({k}): unconstrained {fmt_err(r['test']['final'])}")
+            print(f"  * test data ({k}): physical {fmt_err(e)} "
+                  f"({100 * (e['relative_error'] / r['test']['final']['relative_error'] - 1):+.1f} %)")
+        for f in r["flags"]:
+            if f.startswith("physical"):
+                print(f"  * flag: {f}")
     print()
-    print("| link | mass kg (physical) | mass kg (Gaz p̂) | centre of mass m (physical) | centre of mass m (Gaz p̂) | min eig J | data-set directions |")
-    print("|---|---|---|---|---|---|---|")
-    for b, m, c in zip(p["links"], GAZ_MASS, GAZ_COM):
+    print("| link | mass kg (Gaz p̂) | mass kg (minparam, default) | ratio | data-set directions | source of the 10 directions | "
+          "min eig J | mass kg (declared model) | ratio | mass kg (default, --prior none) | centre of mass m (minparam, default) | "
+          "centre of mass m (Gaz p̂) |")
+    print("|---|---|---|---|---|---|---|---|---|---|---|---|")
+    for b, db, nb, m, c in zip(default["physical"]["links"], d["physical"]["links"], bare["physical"]["links"], GAZ_MASS, GAZ_COM):
         gaz_c = " ".join("n/a" if x is None else f"{x:+.4f}" for x in c)
-        print(f"| {b['link']} | {b['mass']:.4f} | {m:.4f} | {' '.join(f'{x:+.4f}' for x in b['com'])} | {gaz_c} | "
-              f"{b['pseudo_inertia_min_eig']:.2g} | {b['informed_directions']}/10 |")
+        src = " + ".join(f"{k} {v}" for k, v in b["source"].items() if v)
+        nsrc = "" if nb["fixed"] else " (not fixed)"
+        print(f"| {b['link']} | {m:.4f} | {b['mass']:.4f} | {b['mass'] / m:.2f} | {b['informed_directions']}/10 | {src} | "
+              f"{b['pseudo_inertia_min_eig']:.2g}{' (boundary)' if b['on_boundary'] else ''} | {db['mass']:.4f} | "
+              f"{db['mass'] / m:.2f} | {nb['mass']:.3g}{nsrc} | {' '.join(f'{x:+.4f}' for x in b['com'])} | {gaz_c} |")
+    p = d["physical"]
     print()
     print("| parameter | physical | unconstrained (WLS) | Gaz π(p̂) | Gaz OSI | Gaz CLS |")
     print("|---|---|---|---|---|---|")
@@ -212,10 +231,14 @@ def main() -> None:
     split = run(["identify", ROBOT, data, *common])
     whole = run(["identify", ROBOT, data, "--validate", data, "--split", "1,0,0", *common])
     phys = run(["identify", ROBOT, data, *common, "--physical"])
+    default = run(["identify", ROBOT, data, "--physical"])
+    bare = run(["identify", ROBOT, data, "--physical", "--prior", "none"])
     derive = run(["derive", ROBOT, "--symbolic"])
     if args.keep:
         args.keep.mkdir(parents=True, exist_ok=True)
-        for name, d in (("split", split), ("all_data", whole), ("physical", phys), ("derive", derive)):
+        for name, d in (("split", split), ("all_data", whole), ("physical", phys), ("physical_default", default),
+                        ("physical_no_prior", bare),
+                        ("derive", derive)):
             (args.keep / f"{name}.json").write_text(json.dumps(d, indent=1), encoding="utf-8")
     base = {b["name"]: b for b in derive["base_parameters"]}
 
@@ -224,7 +247,9 @@ def main() -> None:
     print(f"minparam identify {ROBOT} {data} --no-diagnose --friction {FRICTION}            # column \"minparam\"")
     print(f"minparam identify {ROBOT} {data} --validate {data} --split 1,0,0 --no-diagnose --friction {FRICTION}"
           "  # column \"all data\"")
-    print(f"minparam identify {ROBOT} {data} --no-diagnose --friction {FRICTION} --physical  # column \"physical\"")
+    print(f"minparam identify {ROBOT} {data} --no-diagnose --friction {FRICTION} --physical  # column \"physical\", \"declared model\"")
+    print(f"minparam identify {ROBOT} {data} --physical  # \"default\": every default (diagnosis, --prior auto)")
+    print(f"minparam identify {ROBOT} {data} --physical --prior none  # \"default, --prior none\"")
     print(f"minparam derive {ROBOT} --symbolic --format json  # expressions")
     print("```\n")
     for label, d in (("minparam (default split)", split), ("all data", whole)):
@@ -262,7 +287,7 @@ def main() -> None:
                       "cls": r["cls"], "re": r["re"], "p_hat": r["p_hat"], "z": z, "mismatch": mismatch})
     print()
 
-    physical_section(phys, ref)
+    physical_section(phys, ref, default, bare)
 
     print("## Checks and counts\n")
     bad = [(s["row"], s["name"], s["mismatch"]) for s in stats if s["mismatch"]]

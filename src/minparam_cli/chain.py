@@ -121,6 +121,8 @@ class Chain:
         """The file's nominal value of every extra column of the layout, in column order (0 where none)."""
         given = [dict(v) for v in self.nominal_extras] or [{} for _ in range(self.n)]
         return np.array([given[k].get(kind, 0.0) for k, kind in self.layout.extra_columns])
+    # per link: (source, lo, hi), the box its URDF shapes fill in the link frame, or None (JointRecord.geometry)
+    link_geometry: tuple = ()
 
     @property
     def n(self) -> int:
@@ -282,6 +284,7 @@ def build_chain(
         transmission=tr,
         drive_gains=desc.drive_gains,
         nominal_extras=tuple(j.nominal_extras for j in desc.joints),
+        link_geometry=tuple(j.geometry for j in desc.joints),
     )
 
 

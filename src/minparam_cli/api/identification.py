@@ -61,11 +61,12 @@ def load_identify_chain(opts: IdentifyOptions, robot: Path | None = None):
     if opts.export_urdf is not None and chain.layout.massless:  # before any data are read
         raise InputError(f"--export-urdf: {path} has bodies with several joints (MJCF), whose massless frames the URDF export "
                          "does not write yet")
-    if opts.nominal_prior:
+    if opts.nominal_prior or (opts.physical and opts.prior == "auto"):
         from minparam_cli.dynamics.bodies import nominal_problems, nominal_problems_text
 
         if nominal_problems(chain):
-            raise InputError("--prior nominal: " + nominal_problems_text(str(path), nominal_problems(chain)))
+            raise InputError(f"--prior {opts.prior}: " + nominal_problems_text(str(path), nominal_problems(chain))
+                             + ("; or give --prior none" if opts.prior == "auto" else ""))
     return chain.with_coulomb_smoothing(opts.coulomb_smoothing)
 
 
@@ -76,11 +77,7 @@ def stage_options(opts: IdentifyOptions, chain, motor_side, validate: str | None
     from minparam_cli.measured.records import DataOptions
     from minparam_cli.measured.rosbag import coordinate_names
 
-    physical = None
-    if opts.physical:
-        from minparam_cli.identify.physical.convex import PhysicalOptions
-
-        physical = PhysicalOptions(prior=opts.prior, prior_weight=opts.prior_weight)
+    physical = opts.physical_options(chain) if opts.physical else None
     return StageOptions(
         data=DataOptions(columns=dict(opts.columns), cutoff_hz=opts.cutoff, force_filter=opts.force_filter,
                          decimate=opts.decimate, step_s=(1.0 / opts.rate if opts.rate else None),
@@ -140,6 +137,10 @@ def run_identify(opts: IdentifyOptions, data: Any, progress: Any = None, robot: 
     robot_bytes = read_robot_bytes(path)
     saved = saved_model(str(path), robot_bytes, opts.load_settings(), sopts.data, sopts.seed, art, result)
     assert art.design is not None  # the stage always sets the final design
+    if any(p is not None for p in (opts.export_urdf, opts.export_yaml, opts.export_mjcf)):
+        from minparam_cli.api.model_file import check_exportable
+
+        check_exportable(result.physical, chain, opts.prior)  # before anything is written
     if any(p is not None for p in (opts.save_model, opts.export_urdf, opts.export_yaml, opts.export_mjcf)):
         side_notes = write_identify_outputs(path, chain, robot_bytes, saved, result.data,
                                             None if art.physical is None else art.physical.phi,
@@ -205,8 +206,9 @@ def identify(robot: Robot | str | Path, data: Any, *, validate: Any = None, test
              rate: float | None = None, decimate: int | None = None, trim_still: float | None = None,
              still_speed: float = 0.01, rest_below_still: bool = True, friction: str | Iterable[str] | None = None, rotor_inertia: bool | None = None,
              coulomb_smoothing: float | None = None, gravity: Any = None, effects: str | Iterable[str] | None = None,
-             diagnose: bool = True, min_gain: float = 0.02, physical: bool = False, prior: str = "none",
-             prior_weight: float = 1e-3, ols: bool = False, seed: int = 0, mimic: str | None = None,
+             diagnose: bool = True, min_gain: float = 0.02, physical: bool = False, prior: str = "auto",
+             prior_weight: float = 1e-2, geometry: str = "auto", mass_bounds: Any = None,
+             total_mass: float | None = None, ols: bool = False, seed: int = 0, mimic: str | None = None,
              sigma: str = "hac", block_length: float | None = None, replicates: int = 200,
              essential: float | None = None, side: str = "joint", current: bool = False,
              drive_gains: Sequence[float] | None = None, payload_data: Any = None,
@@ -241,7 +243,7 @@ def identify(robot: Robot | str | Path, data: Any, *, validate: Any = None, test
         coulomb_smoothing=float(coulomb_smoothing) if coulomb_smoothing is not None else (base.coulomb_smoothing if base else 0.0),
         gravity=gravity if gravity is not None else (base.gravity if base else None),
         effects=cast(Any, effects), diagnose=diagnose, min_gain=min_gain, physical=physical, prior=prior,
-        prior_weight=prior_weight, sigma=sigma, block_length=block_length, replicates=replicates,
+        prior_weight=prior_weight, geometry=geometry, mass_bounds=mass_bounds, total_mass=total_mass, sigma=sigma, block_length=block_length, replicates=replicates,
         essential=essential is not None, essential_bound=10.0 if essential is None else float(essential),
         ols=ols, seed=seed, mimic=mimic if mimic is not None else (base.mimic if base else "coupled"),
         side=side, current=bool(current), drive_gains=cast(Any, drive_gains), payload_data=payload_data, payload_mass=payload_mass,

@@ -39,6 +39,21 @@ def read_robot_bytes(robot: str | Path) -> bytes:
     return read_bounded(Path(robot))
 
 
+def check_exportable(physical, chain, prior: str) -> None:
+    """Refuse an export (one line, exit 2, before anything is written) when a link's body is not fixed:
+    directions that neither the data nor the prior nor geometry with a mass bound hold, only the
+    tie-break (identify/physical/provenance.py)."""
+    if physical is None or not physical.not_fixed:
+        return
+    from minparam_cli.errors import InputError
+    from minparam_cli.identify.physical.provenance import refusal
+
+    b = next(x for x in physical.links if x["link"] == physical.not_fixed[0])
+    ell = b.get("ellipsoid")
+    raise InputError(refusal(b["name"], b["informed_directions"], len(physical.not_fixed) - 1, prior,
+                             chain.phi_nominal is not None, None if ell is None else ell["source"]))
+
+
 def write_identify_outputs(robot: Path, chain, robot_bytes: bytes, saved: SavedModel, data_name: str, physical_phi,
                            save_model: Path | None, export_urdf: Path | None, export_yaml: Path | None,
                            export_mjcf: Path | None = None, drive_gains=None) -> tuple[str, ...]:

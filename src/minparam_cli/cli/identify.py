@@ -46,8 +46,15 @@ Exit codes: 0 success, 1 failed computation, 2 bad input.
 
 
 class Prior(str, Enum):
-    none = "none"
+    auto = "auto"
     nominal = "nominal"
+    none = "none"
+
+
+class Geometry(str, Enum):
+    auto = "auto"
+    on = "on"
+    none = "none"
 
 
 class Sigma(str, Enum):
@@ -105,8 +112,11 @@ def identify(
     no_diagnose: bool = typer.Option(False, "--no-diagnose", help="Fit the declared model only."),
     min_gain: float = typer.Option(0.02, "--min-gain", help="Smallest share of the selection residual energy an effect must remove."),
     physical: bool = typer.Option(False, "--physical", help="Also fit the full parameters as a convex program: every link a real body (pseudo-inertia ⪰ 0), friction and rotor inertia ≥ 0 (needs the [physical] extra)."),
-    prior: Prior = typer.Option(Prior.none, "--prior", help="With --physical: pull the full parameters toward the description's nominal inertias (nominal) or not (none)."),
-    prior_weight: float = typer.Option(1e-3, "--prior-weight", help="With --prior nominal: weight of the prior against the mean squared weighted residual."),
+    prior: Prior = typer.Option(Prior.auto, "--prior", help="With --physical: pull the full parameters toward the description's nominal inertials (nominal), or not (none); auto: nominal when the description has inertials."),
+    prior_weight: float = typer.Option(1e-2, "--prior-weight", help="With a prior: its weight against the mean squared weighted residual (docs/methods/physical.md)."),
+    geometry: Geometry = typer.Option(Geometry.auto, "--geometry", help="With --physical: keep each link's mass inside its ellipsoid (URDF collision/visual shapes; DH/MDH: around the link's segment): on, none, or auto (on when there is no prior)."),
+    mass_bounds: Optional[str] = typer.Option(None, "--mass-bounds", help="With --physical: link masses in kg, LO,HI for every link or LO:HI,LO:HI,... one per link."),
+    total_mass: Optional[float] = typer.Option(None, "--total-mass", help="With --physical: the moving links' masses sum to this (kg)."),
     sigma: Sigma = typer.Option(Sigma.hac, "--sigma", help="Which parameter σ the report shows: hac (Newey–West over time blocks, allows for correlated residuals; default), bootstrap (block bootstrap, seeded by --seed) or textbook (σ²(WᵀW)⁻¹, assumes white residuals). See docs/methods/uncertainty.md."),
     block_length: Optional[float] = typer.Option(None, "--block-length", help="Time block (s) of the hac and bootstrap σ; default max(1 s, 5 / cut-off)."),
     replicates: int = typer.Option(200, "--replicates", help="Bootstrap replicates (--sigma bootstrap)."),
@@ -143,7 +153,7 @@ def _identify(robot, data, validate, test, split, columns, time_unit, topic, cut
               friction, rotor_inertia, coulomb_smoothing, gravity, effects, no_diagnose, min_gain, physical, prior,
               prior_weight, sigma, block_length, replicates, consistency, essential, essential_bound, ols, fmt, output, plot, seed, save_model, export_urdf, export_yaml, mimic, quiet, jobs=1, scheduler=None,
               side="joint", export_mjcf=None, current=False, payload_data=None, payload_mass=None, payload_com=None, payload_inertia=None,
-              drive_gains=None):
+              drive_gains=None, geometry="auto", mass_bounds=None, total_mass=None):
     """Parse, call the API (``api.identification``), render, write."""
     from minparam_cli.api.options.identify import IdentifyOptions
 
@@ -154,6 +164,7 @@ def _identify(robot, data, validate, test, split, columns, time_unit, topic, cut
             still_speed=still_speed, rest_below_still=rest_below_still, friction=friction, rotor_inertia=rotor_inertia,
             coulomb_smoothing=coulomb_smoothing, gravity=gravity, effects=effects, diagnose=not no_diagnose,
             min_gain=min_gain, physical=physical, prior=Prior(prior).value, prior_weight=prior_weight,
+            geometry=Geometry(geometry).value, mass_bounds=mass_bounds, total_mass=total_mass,
             sigma=Sigma(sigma).value, block_length=block_length, replicates=replicates, essential=essential,
             essential_bound=essential_bound, ols=ols, seed=seed, mimic=MimicMode(mimic).value, side=Side(side).value,
             current=current, drive_gains=drive_gains, payload_data=payload_data, payload_mass=payload_mass, payload_com=payload_com,

@@ -80,6 +80,9 @@ class JointRecord:
     # nominal values of extras the file gives (MJCF armature, frictionloss, damping: "rotor_inertia",
     # "coulomb", "viscous"), SI; extras not listed have none
     nominal_extras: tuple[tuple[str, float], ...] = ()
+    # URDF: (source, lo, hi), the box in the link frame that its collision (else visual) shapes fill,
+    # fixed links lumped in (describe/urdf_geometry.py); None: no shapes (every YAML row)
+    geometry: tuple[str, tuple[float, ...], tuple[float, ...]] | None = None
 
 
 @dataclass(frozen=True)

@@ -6,8 +6,11 @@ from __future__ import annotations
 
 import math
 
+from pathlib import Path
+
 import numpy as np
 
+from minparam_cli.describe.urdf_geometry import link_box
 from minparam_cli.safety import MAX_ABS_VALUE, MAX_NUMBER_CHARS, bounded, short_repr
 from minparam_cli.errors import DescriptionError, UnsupportedError
 
@@ -54,7 +57,8 @@ def read_elements(root, src: str):
             raise DescriptionError("a <link> has no name", src, "link")
         if name in links:
             raise DescriptionError(f"link '{name}' is defined twice", src, f"link[{name}]")
-        links[name] = {"inertial": _read_inertial(el.find("inertial"), src, f"link[{name}]/inertial")}
+        links[name] = {"inertial": _read_inertial(el.find("inertial"), src, f"link[{name}]/inertial"),
+                       "box": link_box(el, Path(src).parent)}  # its shapes' box (urdf_geometry.py), or None
     joints = []
     names = set()
     for el in root.findall("joint"):

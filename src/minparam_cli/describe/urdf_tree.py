@@ -14,6 +14,7 @@ from minparam_cli.describe.records import GeomValue, Inertial, JointRecord, Robo
 from minparam_cli.safety import MAX_JOINTS
 from minparam_cli.describe.urdf_elements import ACTUATED
 from minparam_cli.describe.urdf_tool import default_tool
+from minparam_cli.describe.urdf_geometry import merged_box, moved_box
 from minparam_cli.errors import DescriptionError, UnsupportedError
 
 
@@ -144,6 +145,7 @@ def build_description(name: str, src: str, links: dict, joints: list[dict], floa
 
     records: list[dict] = []
     body_phi: list[np.ndarray | None] = []
+    body_box: list = []  # per body: the box its links' shapes fill (urdf_geometry.py), or None
     attached: list[tuple[str, int, tuple[float, float, float]]] = []  # links on moving bodies
     # depth-first walk in document order; state: (link, body index or -1 for the base,
     # transform from the body frame to the link frame, actuated joint entering the link)
@@ -152,6 +154,7 @@ def build_description(name: str, src: str, links: dict, joints: list[dict], floa
     if free is not None:
         records = _virtual_records(free, fj, {j["name"] for j in joints})
         body_phi = [None] * 6
+        body_box = [None] * 6
         stack = [(free, 5, np.eye(4), None)]
         visited = 0 if fj is None else 1  # the root link the floating joint starts from
     while stack:
@@ -162,6 +165,7 @@ def build_description(name: str, src: str, links: dict, joints: list[dict], floa
             body = len(records)
             records.append(_joint_record(j, body_parent=X, parent=int(Xj)))
             body_phi.append(None)
+            body_box.append(None)
             X = np.eye(4)
         if body >= 0:
             attached.append((link, body, (float(X[0, 3]) + 0.0, float(X[1, 3]) + 0.0, float(X[2, 3]) + 0.0)))
@@ -169,6 +173,8 @@ def build_description(name: str, src: str, links: dict, joints: list[dict], floa
         if inertial is not None and body >= 0:
             phi = _standard_in_body(inertial, X)
             body_phi[body] = phi if body_phi[body] is None else body_phi[body] + phi
+        if links[link].get("box") is not None and body >= 0:
+            body_box[body] = merged_box(body_box[body], moved_box(links[link]["box"], X))
         pushed: list[tuple] = []
         for j in children[link]:
             Xo = X @ _origin_matrix(j["xyz"], j["rpy"])
@@ -184,8 +190,8 @@ def build_description(name: str, src: str, links: dict, joints: list[dict], floa
         raise DescriptionError("some links are not connected to the root", src)
 
     out = []
-    for rec, body_sum in zip(records, body_phi, strict=True):
-        out.append(JointRecord(**rec, inertial=None if body_sum is None else _to_inertial(body_sum)))
+    for rec, body_sum, box in zip(records, body_phi, body_box, strict=True):
+        out.append(JointRecord(**rec, inertial=None if body_sum is None else _to_inertial(body_sum), geometry=box))
     tool_link, tool = default_tool(attached, records)
     return RobotDescription(
         tool=tool,

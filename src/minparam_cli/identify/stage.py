@@ -215,6 +215,10 @@ def _identify(chain: Chain, data_path: Path, opts: IdentifyOptions, progress) ->
         essential=essential,
     )
     found = flags(result, final_fit) + (artifacts.uncertainty.flags() if artifacts.uncertainty is not None else [])
+    if physical is not None and physical.on_boundary:
+        from minparam_cli.identify.physical.provenance import boundary_flag
+
+        found.append(boundary_flag(list(physical.on_boundary), physical.margin_kg))
     return replace(result, flags=tuple(found), elapsed_s=round(time.perf_counter() - t_start, 4)), artifacts
 
 
@@ -249,8 +253,7 @@ def _physical(chain: Chain, base, design: Design, fit, acc: dict, popts: Physica
     pf = fit_physical(chain, base.K, design, R, int(acc[FIT].rows.sum()), popts)
     n_links = chain.layout.n_inertial // 10
     bodies = link_bodies(pf.phi, n_links)
-    for b, informed in zip(bodies, pf.informed, strict=True):
-        b["informed_directions"] = informed  # of its 10 parameters' directions, set by the data
+    _provenance(chain, bodies, pf, popts)
     nb = len(design.kept)
     out = PhysicalReport(
         solver=pf.solver, status=pf.status, prior=popts.prior,
@@ -265,8 +268,34 @@ def _physical(chain: Chain, base, design: Design, fit, acc: dict, popts: Physica
         links=tuple(bodies),
         not_informed=tuple(b["link"] for b in bodies if b["informed_directions"] == 0),
         partly_informed=tuple(b["link"] for b in bodies if 0 < b["informed_directions"] < 10),
+        not_fixed=tuple(b["link"] for b in bodies if not b["fixed"]),
+        on_boundary=tuple(b["link"] for b in bodies if b["on_boundary"]),
+        mass_bounds=popts.mass_bounds, total_mass=popts.total_mass,
+        geometry=tuple(sorted({e.source for e in popts.ellipsoids if e is not None})),
     )
     return out, pf
+
+
+def _provenance(chain: Chain, bodies: list, pf: PhysicalFit, popts: PhysicalOptions) -> None:
+    """Per link: the directions the data set, where the others come from, whether it is fixed, whether
+    it sits on the boundary of physical consistency, and its ellipsoid (identify/physical/provenance.py)."""
+    from minparam_cli.identify.physical.convex import length_scale
+    from minparam_cli.identify.physical.geometry import ellipsoid_slack
+    from minparam_cli.identify.physical.provenance import on_boundary, sources
+
+    L = length_scale(chain)
+    bounds = popts.mass_bounds or ((0.0, np.inf),) * len(bodies)
+    for i, (b, informed) in enumerate(zip(bodies, pf.informed, strict=True)):
+        ell = popts.ellipsoids[i] if i < len(popts.ellipsoids) else None
+        phi_link = pf.phi[10 * i : 10 * (i + 1)]
+        b["name"] = chain.link_names[i] or f"link{i + 1}"
+        b["informed_directions"] = informed  # of its 10 parameters' directions, set by the data
+        bounded = bool(np.isfinite(bounds[i][1])) or popts.total_mass is not None
+        b["source"], b["fixed"] = sources(informed, popts.prior == "nominal", ell is not None, bounded)
+        b["on_boundary"] = on_boundary(phi_link, L, popts.margin)
+        hi = float(bounds[i][1])
+        b["mass_bounds"] = [float(bounds[i][0]), hi if np.isfinite(hi) else None] if popts.mass_bounds else None
+        b["ellipsoid"] = None if ell is None else {**ell.to_dict(), "slack_kg": ellipsoid_slack(phi_link, ell, popts.margin, L)}
 
 
 def _test_figures(roles: dict, rigid: dict, final: dict, acc: dict) -> TestFigures:

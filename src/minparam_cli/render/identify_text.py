@@ -53,14 +53,24 @@ def _physical_lines(p: PhysicalReport) -> list[str]:
            + (f", weight {p.prior_weight:g})" if p.prior_weight else ")")]
     rows = []
     for b in p.links:
+        src = b.get("source") or {"data": b["informed_directions"]}
         rows.append((b["link"], f"{b['mass']:.4g}", " ".join(f"{x:.3g}" for x in b["com"]),
-                     " ".join(f"{x:.3g}" for x in b["principal_moments"]), f"{b['pseudo_inertia_min_eig']:.2g}",
-                     f"{b['informed_directions']}/10"))
-    out.append(columns(rows, ("link", "mass kg", "centre of mass m", "principal moments kg·m²", "min eig J", "data-set directions"),
-                       right=(0, 1, 4, 5)))
+                     " ".join(f"{x:.3g}" for x in b["principal_moments"]), f"{b['pseudo_inertia_min_eig']:.2g}"
+                     + (" (boundary)" if b.get("on_boundary") else ""),
+                     f"{b['informed_directions']}/10", " + ".join(f"{k} {v}" for k, v in src.items() if v)
+                     + ("" if b.get("fixed", True) else " (not fixed)")))
+    out.append(columns(rows, ("link", "mass kg", "centre of mass m", "principal moments kg·m²", "min eig J", "data-set directions",
+                              "source of the 10 directions"), right=(0, 1, 4, 5)))
     if p.not_informed:
-        out.append(f"links the data did not inform (held by the {'prior' if p.prior != 'none' else 'lightest-body tie-break'}): "
+        out.append(f"links the data did not inform (held by the {'prior' if p.prior != 'none' else 'geometry/bounds or the lightest-body tie-break'}): "
                    + ", ".join(str(x) for x in p.not_informed))
+    extra = ([f"geometry: the links' ellipsoids from {', '.join(p.geometry)}"] if p.geometry else []) + \
+        ([f"mass bounds: {', '.join(f'{lo:g}-{hi:g}' for lo, hi in p.mass_bounds)} kg"] if p.mass_bounds else []) + \
+        ([f"total mass: {p.total_mass:g} kg"] if p.total_mass is not None else [])
+    out += extra
+    if p.not_fixed:
+        out.append("not fixed (only the tie-break holds their free directions; --export-urdf/--export-yaml refuse them): links "
+                   + ", ".join(str(x) for x in p.not_fixed))
     return out
 
 

@@ -24,7 +24,8 @@ from minparam_cli.describe.records import MIMIC_MODES
 from minparam_cli.measured.columns import TIME_UNITS as UNIT_SCALES
 
 TIME_UNITS = tuple(UNIT_SCALES)  # the units the readers convert (measured.columns)
-PRIORS = ("none", "nominal")
+PRIORS = ("auto", "nominal", "none")  # auto: nominal when the description has inertials, else none
+GEOMETRIES = ("auto", "on", "none")  # auto: the links' ellipsoids when the fit has no prior
 SIGMAS = ("hac", "bootstrap", "textbook")
 SIDES = ("joint", "motor")
 DEFAULT_SPLIT = (0.6, 0.2, 0.2)
@@ -79,6 +80,28 @@ def drive_gains_option(value: Any, current: bool) -> tuple[float, ...] | None:
     return gains
 
 
+def _mass_bounds(value: Any) -> tuple[tuple[float, float], ...]:
+    """--mass-bounds as pairs (lo, hi) kg: "LO,HI" (every link), "LO:HI,LO:HI,..." (one per link), or
+    Python pairs; 0 <= LO <= HI, HI may be inf."""
+    if value is None or value == "" or value == ():
+        return ()
+    if isinstance(value, str):
+        text = value.replace(" ", "")
+        pairs = [p.split(":") for p in text.split(",")] if ":" in text else [text.split(",")]
+    else:
+        pairs = [list(p) for p in value]
+    out = []
+    for p in pairs:
+        try:
+            lo, hi = (float(x) for x in p)
+        except (TypeError, ValueError):
+            raise OptionError("--mass-bounds", f"expected LO,HI or LO:HI,LO:HI,... in kg, got {value!r}") from None
+        if not (math.isfinite(lo) and 0 <= lo <= hi) or math.isnan(hi):
+            raise OptionError("--mass-bounds", f"each pair needs 0 <= LO <= HI, got {lo:g}:{hi:g}")
+        out.append((lo, hi))
+    return tuple(out)
+
+
 @dataclass(frozen=True)
 class IdentifyOptions:
     """Every option of ``minparam identify`` (same names as the flags, same defaults), checked.
@@ -110,8 +133,11 @@ class IdentifyOptions:
     diagnose: bool = True
     min_gain: float = 0.02
     physical: bool = False
-    prior: str = "none"
-    prior_weight: float = 1e-3
+    prior: str = "auto"
+    prior_weight: float = 1e-2
+    geometry: str = "auto"
+    mass_bounds: Any = None  # "LO,HI" for every link, "LO:HI,LO:HI,..." one per link, or pairs
+    total_mass: float | None = None
     sigma: str = "hac"
     block_length: float | None = None
     replicates: int = 200
@@ -167,8 +193,9 @@ class IdentifyOptions:
         if not _finite_positive(self.prior_weight):
             raise OptionError("--prior-weight", "must be a positive number")
         put("prior", choice_option(self.prior, PRIORS, "--prior"))
-        if self.prior != "none" and not self.physical:
+        if self.prior == "nominal" and not self.physical:
             raise OptionError("--prior", "a prior needs --physical")
+        self._check_bounds()
         self._check_exports()
         if self.gravity is not None:
             put("gravity", float_option(self.gravity, 3, "--gravity"))
@@ -200,6 +227,19 @@ class IdentifyOptions:
         if isinstance(test, (str, Path)) or is_in_memory(test):
             return (test,)
         return tuple(test)
+
+    def _check_bounds(self) -> None:
+        """--geometry, --mass-bounds and --total-mass: normalised, and only with --physical."""
+        self._put("geometry", choice_option(self.geometry, GEOMETRIES, "--geometry"))
+        self._put("mass_bounds", _mass_bounds(self.mass_bounds))
+        if self.total_mass is not None:
+            if not _finite_positive(self.total_mass):
+                raise OptionError("--total-mass", "must be a positive mass (kg)")
+            self._put("total_mass", float(self.total_mass))
+        for flag, given in (("--mass-bounds", self.mass_bounds), ("--total-mass", self.total_mass is not None),
+                            ("--geometry", self.geometry != "auto")):
+            if given and not self.physical:
+                raise OptionError(flag, "needs --physical")
 
     def _check_exports(self) -> None:
         """Refuse an export the run cannot make before the fit runs."""
@@ -296,3 +336,20 @@ class IdentifyOptions:
     @property
     def nominal_prior(self) -> bool:
         return self.physical and self.prior == "nominal"
+
+    def physical_options(self, chain):
+        """--prior (auto resolved: nominal when the description has inertials), --geometry (auto: the
+        ellipsoids when there is no prior), --mass-bounds, --total-mass for this chain, as the convex
+        fit's options; checked against its links (one-line errors)."""
+        from minparam_cli.identify.physical.convex import PhysicalOptions, length_scale
+        from minparam_cli.identify.physical.geometry import link_ellipsoids
+        from minparam_cli.identify.physical.provenance import check_total_mass, per_link_bounds
+
+        prior = self.prior if self.prior != "auto" else ("nominal" if chain.phi_nominal is not None else "none")
+        n = chain.layout.n_inertial // 10
+        bounds = per_link_bounds(self.mass_bounds, n) if self.mass_bounds else ()
+        check_total_mass(bounds or ((0.0, math.inf),) * n, self.total_mass)
+        use = self.geometry == "on" or (self.geometry == "auto" and prior == "none")
+        ellipsoids = link_ellipsoids(chain, length_scale(chain))[:n] if use else ()
+        return PhysicalOptions(prior=prior, prior_weight=self.prior_weight, mass_bounds=bounds,
+                               total_mass=self.total_mass, ellipsoids=ellipsoids)

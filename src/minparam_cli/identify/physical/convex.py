@@ -8,7 +8,9 @@ coefficients c of the effects the diagnosis added, with β = K·φ (K from the
 derive stage, ``BaseSet.K``):
 
     minimise   (1/N) ‖R (θ(φ, c); −1)‖²  +  W·P(φ)   [+ TIE_BREAK·T(φ) without a prior]
-    such that  J_i(φ) ⪰ ε_J·diag(L², L², L², 1)       for every link i
+    such that  J_i(φ) ⪰ ε_J·D,  D = diag(L², L², L², 1)  for every link i
+               tr((J_i(φ) − ε_J·D)·Q_i) ≥ 0           links with an ellipsoid (--geometry; geometry.py)
+               lo_i ≤ m_i ≤ hi_i,  Σ m_i = M           (--mass-bounds, --total-mass)
                Ia, Fc, Fv ≥ 0                          (declared extras)
                c within each effect's physical range   (``effects.EFFECTS[...].bounds``)
 
@@ -28,8 +30,10 @@ derive stage, ``BaseSet.K``):
   plus a tenth of the largest nominal value of the same kind (mass, first
   moment, second moment) in the same link, so every parameter is compared
   with its own link's size.
-  W is ``--prior-weight`` (default 1e-3): the prior outweighs the data only
-  in directions the data barely see.
+  W is ``--prior-weight`` (default 1e-2, docs/methods/physical.md: chosen on
+  synthetic data): the prior outweighs the data only in directions the data
+  barely see.  identify's ``--prior auto`` (the default) uses it whenever the
+  description has inertials; provenance.py says per link what held what.
 * Without a prior, the directions the data cannot see (the parameters that
   regroup, K's null space) are free, and the interior-point solver stops
   anywhere among the equally good bodies: links 1-3 of the Panda recording
@@ -57,7 +61,7 @@ from minparam_cli.params import LINK_PARAMS, N_LINK_PARAMS
 
 J_MARGIN = 1e-6  # kg: J_i ⪰ J_MARGIN·diag(L², L², L², 1)
 TIE_BREAK = 1e-4  # weight of the lightest-body tie-break (no prior only)
-DEFAULT_PRIOR_WEIGHT = 1e-3
+DEFAULT_PRIOR_WEIGHT = 1e-2  # docs/methods/physical.md, "The prior's weight": measured on synthetic data
 # a direction of a link's parameters is "informed" by the data when the data term's curvature along it
 # exceeds the prior's by this factor
 INFORMED_RATIO = 10.0
@@ -68,9 +72,12 @@ SIGNED_EXTRAS = {"Ia": 0.0, "Fc": 0.0, "Fv": 0.0, "Iam": 0.0, "Fcm": 0.0, "Fvm":
 
 @dataclass(frozen=True)
 class PhysicalOptions:
-    prior: str = "none"  # "none" | "nominal"
+    prior: str = "none"  # "none" | "nominal" (identify's --prior auto resolved against the description)
     prior_weight: float = DEFAULT_PRIOR_WEIGHT
     margin: float = J_MARGIN
+    mass_bounds: tuple[tuple[float, float], ...] = ()  # per link (provenance.per_link_bounds); () none
+    total_mass: float | None = None  # the links' masses sum to it (kg)
+    ellipsoids: tuple = ()  # per link: geometry.Ellipsoid or None; () no geometry
 
 
 @dataclass(frozen=True)
@@ -153,6 +160,10 @@ def fit_physical(chain, K: np.ndarray, design, R: np.ndarray, n_eq: int, opts: P
     for i in range(n):
         J = pseudo_inertia(cp, phi[N_LINK_PARAMS * i : N_LINK_PARAMS * (i + 1)])
         cons.append(J - margin >> 0)
+        ell = opts.ellipsoids[i] if i < len(opts.ellipsoids) else None
+        if ell is not None:  # the body beyond the margin inside the link's ellipsoid: tr((J − εD)·Q) ≥ 0 (geometry.py)
+            cons.append(cp.sum(cp.multiply(J - margin, ell.q())) >= 0)
+    cons += _mass_constraints(phi, n, opts)
     names = chain.layout.names
     for k in range(n_inertial, P):
         kind = names[k].rstrip("0123456789")
@@ -189,7 +200,7 @@ def fit_physical(chain, K: np.ndarray, design, R: np.ndarray, n_eq: int, opts: P
         objective = objective + TIE_BREAK * size
     solvers = [x for x in ("CLARABEL", "SCS") if x in cp.installed_solvers()]
     problem = cp.Problem(cp.Minimize(objective), cons)
-    solver = _solve(cp, problem, solvers)
+    solver = _solve(cp, problem, solvers, lambda: _violation(np.asarray(phi.value, dtype=float), n, L, opts))
     status = problem.status
     phi_v = np.asarray(phi.value, dtype=float)
     theta_v = np.concatenate([K @ phi_v, np.asarray(c.value, dtype=float)]) if c is not None else K @ phi_v
@@ -200,19 +211,64 @@ def fit_physical(chain, K: np.ndarray, design, R: np.ndarray, n_eq: int, opts: P
                        prior_cost, informed, time.perf_counter() - t0)
 
 
-def _solve(cp, problem, solvers: list[str]) -> str:
-    """Solve with the first solver that ends optimal; the one that did."""
-    why = "no conic solver installed (Clarabel or SCS)"
+def _mass_constraints(phi, n: int, opts: PhysicalOptions) -> list:
+    """lo_i ≤ m_i ≤ hi_i (--mass-bounds) and Σ m_i = M (--total-mass)."""
+    out = []
+    for i, (lo, hi) in enumerate(opts.mass_bounds[:n]):
+        if lo > 0:
+            out.append(phi[N_LINK_PARAMS * i + 9] >= lo)
+        if np.isfinite(hi):
+            out.append(phi[N_LINK_PARAMS * i + 9] <= hi)
+    if opts.total_mass is not None:
+        out.append(sum(phi[N_LINK_PARAMS * i + 9] for i in range(n)) == opts.total_mass)
+    return out
+
+
+def _solve(cp, problem, solvers: list[str], violation) -> str:
+    """Solve with the first solver that ends optimal with a solution that keeps the constraints
+    (``violation()``: None, or what it breaks); the one that did."""
+    whys = []
     for solver in solvers:
         try:
             problem.solve(solver=solver)
         except cp.error.SolverError as e:
-            why = f"{solver} failed ({str(e).split('.')[0]})"
+            whys.append(f"{solver} failed ({str(e).split('.')[0]})")
             continue
         if problem.status in ("optimal", "optimal_inaccurate"):
-            return solver
-        why = f"{solver} ended '{problem.status}'"
+            broken = violation()
+            if broken is None:
+                return solver
+            whys.append(f"{solver} ended '{problem.status}' with {broken}")
+            continue
+        whys.append(f"{solver} ended '{problem.status}'")
+    why = "; ".join(whys) or "no conic solver installed (Clarabel or SCS)"
     raise ComputationError(f"physical fit: {why}")
+
+
+def _violation(phi: np.ndarray, n: int, L: float, opts: PhysicalOptions) -> str | None:
+    """What a solver's φ breaks by more than a millionth of a kilogram-sized body (absolute: the
+    solvers' feasibility tolerance is absolute, and a link the data leave free sits at the margin ε):
+    a link's pseudo-inertia (J ⪰ 0), its ellipsoid or its mass bounds; None when nothing.  An
+    inaccurate solution can return bodies that are none (SCS did: a mass with λ_min(J) = −1.3)."""
+    from minparam_cli.dynamics.inertia import pseudo_inertia_from_standard
+
+    d = np.array([1 / L, 1 / L, 1 / L, 1.0])
+    margin = np.diag([L * L, L * L, L * L, 1.0]) * opts.margin
+    for i in range(n):
+        J = pseudo_inertia_from_standard(phi[N_LINK_PARAMS * i : N_LINK_PARAMS * (i + 1)])
+        tol = 1e-6 * max(float(np.abs(J * np.outer(d, d)).max()), 1.0)
+        if np.linalg.eigvalsh(J * np.outer(d, d))[0] < -tol:
+            return f"link {i + 1} not a body"
+        ell = opts.ellipsoids[i] if i < len(opts.ellipsoids) else None
+        if ell is not None:
+            Q = ell.q()
+            if float(np.sum((J - margin) * Q)) < -tol * float(np.abs(Q / np.outer(d, d)).max()):
+                return f"link {i + 1} outside its ellipsoid"
+        m = phi[N_LINK_PARAMS * i + 9]
+        lo, hi = opts.mass_bounds[i] if i < len(opts.mass_bounds) else (0.0, np.inf)
+        if m < lo - tol or m > hi + tol:
+            return f"link {i + 1}'s mass outside its bounds"
+    return None
 
 
 def _informed(A: np.ndarray, scale: np.ndarray, K: np.ndarray, n: int, n_eq: int, opts: PhysicalOptions, chain) -> tuple[int, ...]:

@@ -7,6 +7,7 @@ report's order.
 from __future__ import annotations
 
 import copy
+import math
 from dataclasses import dataclass
 from typing import Any, Mapping
 
@@ -34,6 +35,12 @@ class PhysicalReport:
     links: tuple[Mapping[str, Any], ...]
     not_informed: tuple[Any, ...]
     partly_informed: tuple[Any, ...]
+    # links whose free directions only the tie-break holds (provenance.py: an export refuses them)
+    not_fixed: tuple[Any, ...] = ()
+    on_boundary: tuple[Any, ...] = ()  # links at the margin of physical consistency (flagged)
+    mass_bounds: tuple[tuple[float, float], ...] = ()  # --mass-bounds per link (() none)
+    total_mass: float | None = None
+    geometry: tuple[str, ...] = ()  # where the links' ellipsoids came from (() none used)
 
     def to_dict(self) -> dict:
         return {
@@ -48,6 +55,11 @@ class PhysicalReport:
             "links": [copy.deepcopy(dict(b)) for b in self.links],
             "not_informed": list(self.not_informed),
             "partly_informed": list(self.partly_informed),
+            "not_fixed": list(self.not_fixed),
+            "on_boundary": list(self.on_boundary),
+            "mass_bounds": [[lo, hi if math.isfinite(hi) else None] for lo, hi in self.mass_bounds],
+            "total_mass": self.total_mass,
+            "geometry": list(self.geometry),
         }
 
 
