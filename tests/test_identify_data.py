@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from conftest import SHARED
+from conftest import ROBOTS, SHARED
 from typer.testing import CliRunner
 
 from minparam_cli.cli.app import app
@@ -35,19 +35,33 @@ def smooth_signals(N=4000, n=2, rate=500.0):
     return t, q, dq, ddq
 
 
-def test_cleaning_counts_nan_repeats_and_time_reversals(tmp_path):
+def test_cleaning_counts_nan_rows_and_sample_and_hold_repeats(tmp_path):
     t, q, dq, ddq = smooth_signals(200)
     tau = q * 2.0
     t, q, dq, ddq, tau = (x.copy() for x in (t, q, dq, ddq, tau))
     q[10, 0] = np.nan  # one NaN row
     for k in (50, 51):  # two sample-and-hold rows: same values, new time stamps
         q[k], dq[k], ddq[k], tau[k] = q[k - 1], dq[k - 1], ddq[k - 1], tau[k - 1]
-    t[100] = t[99]  # time does not increase
     p = write_csv(tmp_path / "d.csv", t, q, dq, tau, ddq)
     rep = DataReport(str(p))
     b = load_all(p, 2, DataOptions(), rep)
-    assert rep.dropped == {"nan": 1, "time_not_increasing": 1, "repeated_sample": 2}
-    assert len(b) == 200 - 4 and rep.filter is None
+    assert rep.dropped == {"nan": 1, "repeated_sample": 2}
+    assert len(b) == 200 - 3 and rep.filter is None
+
+
+@pytest.mark.parametrize("chunk", [25_000, 30])
+@pytest.mark.parametrize("how, word", [("equal", "repeats"), ("back", "goes back from")])
+def test_a_time_stamp_that_does_not_increase_is_refused_naming_its_row(tmp_path, how, word, chunk):
+    t, q, dq, ddq = smooth_signals(200)
+    t = t.copy()
+    q = q.copy()
+    q[10, 0] = np.nan  # a NaN row before it: the row number still counts it
+    t[100] = t[99] if how == "equal" else t[98]
+    p = write_csv(tmp_path / "d.csv", t, q, dq, q.copy(), ddq)
+    with pytest.raises(DataError, match=rf"data row 101 \(after the header\) has t = .* which {word}"):
+        load_all(p, 2, DataOptions(chunk_rows=chunk))
+    r = CliRunner().invoke(app, ["identify", str(ROBOTS / "planar2r.yaml"), str(p), "-q"])
+    assert r.exit_code == 2 and "data row 101" in r.output and "Traceback" not in r.output
 
 
 def test_derived_derivatives_match_the_exact_ones(tmp_path):

@@ -3,9 +3,9 @@
 Pipeline per chunk, with a margin of neighbouring samples so that chunk edges
 do not show:
 
-1. drop rows with NaN in a used column, rows whose time does not increase,
-   and repeated samples (sample-and-hold logging: q, q̇ and τ identical to the
-   previous row);
+1. drop rows with NaN in a used column and repeated samples (sample-and-hold
+   logging: q, q̇ and τ identical to the previous row, with a new time stamp);
+   refuse a time stamp that does not increase (naming its row);
 2. when q̇ or q̈ must be computed: resample onto a uniform grid at the median
    step (linear interpolation; irregular steps are counted), low-pass q, q̇ and
    τ with the same zero-phase Butterworth filter (scipy.signal.sosfiltfilt),
@@ -32,15 +32,32 @@ from minparam_cli.measured.records import KEYS, Block, DataOptions, DataReport, 
 
 
 def _clean(table: np.ndarray, last: np.ndarray | None, report: DataReport) -> tuple[np.ndarray, np.ndarray | None]:
-    """Drop NaN, non-increasing times and repeated samples; ``last`` is the previous kept row.
+    """Drop NaN and repeated samples; refuse time stamps that do not increase.  ``last`` is the
+    previous kept row.
 
-    ``table``: the used columns, time first.  Rows are copied only when some are dropped.
+    ``table``: the used columns, time first.  Rows are copied only when some are dropped.  A time
+    stamp equal to or before the previous row's (rows with NaN left out) is an error naming the row
+    (counted from 1 after the header): the order of the samples is unknown then, and dropping rows
+    would hide it.  Sample-and-hold rows (q, q̇ and τ identical to the previous row, with a new and
+    later stamp) are logging artefacts, dropped and counted.
     """
+    first_row = report.rows_read + 1
     report.rows_read += len(table)
     ok = np.isfinite(table).all(axis=1)
+    rows = None
     if not ok.all():
         report.dropped["nan"] += int((~ok).sum())
+        rows = np.flatnonzero(ok)
         table = table[ok]
+    t_prev = last[0] if last is not None else -np.inf
+    tt = table[:, 0]
+    if len(tt) and not (tt[0] > t_prev and np.all(tt[1:] > tt[:-1])):
+        bad = int(np.argmax(tt <= np.concatenate([[t_prev], tt[:-1]])))
+        before = float(tt[bad - 1]) if bad else float(t_prev)
+        row = first_row + (int(rows[bad]) if rows is not None else bad)
+        kind = "repeats" if tt[bad] == before else "goes back from"
+        raise DataError(f"{report.path}: time stamps must increase: data row {row} (after the header) has t = {tt[bad]!r}, "
+                        f"which {kind} the row before's {before!r}")
     # compare every row with the row before it (the first with the previous chunk's last kept row)
     if len(table):
         repeated = np.empty(len(table), dtype=bool)
@@ -49,14 +66,6 @@ def _clean(table: np.ndarray, last: np.ndarray | None, report: DataReport) -> tu
         if repeated.any():
             report.dropped["repeated_sample"] += int(repeated.sum())
             table = table[~repeated]
-    # time must increase: keep the running maximum rule
-    t_prev = last[0] if last is not None else -np.inf
-    tt = table[:, 0]
-    if len(tt) and not (tt[0] > t_prev and np.all(tt[1:] > tt[:-1])):
-        running = np.maximum.accumulate(np.concatenate([[t_prev], tt]))[:-1]
-        increasing = tt > running
-        report.dropped["time_not_increasing"] += int((~increasing).sum())
-        table = table[increasing]
     new_last = table[-1].copy() if len(table) else last
     return table, new_last
 

@@ -70,7 +70,7 @@ class DataReport:
 
     path: str
     rows_read: int = 0
-    dropped: dict = field(default_factory=lambda: {"nan": 0, "time_not_increasing": 0, "repeated_sample": 0})
+    dropped: dict = field(default_factory=lambda: {"nan": 0, "repeated_sample": 0})
     irregular_steps: int = 0
     segments: int = 1  # pieces of the record between gaps (steps longer than GAP_STEPS sampling steps)
     gap_s: float = 0.0  # the gaps' total length (s)
