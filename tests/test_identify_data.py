@@ -257,3 +257,44 @@ def test_smooth_asymmetric_coulomb_columns_sum_to_the_smooth_coulomb_column():
         for j in range(3):
             asym = EFFECTS["asymmetric_coulomb"].columns(s, j)
             assert np.allclose(asym.sum(axis=1), EFFECTS["coulomb"].columns(s, j)[:, 0], atol=1e-15)
+
+
+# --- q̇ given beside q: must be q's time derivative (measured/consistency.py) --------------------
+
+
+@pytest.mark.parametrize("scale, word", [(180 / np.pi, "dq in deg/s"), (-1.0, "sign of dq is flipped"), (3.0, "not the same joint")])
+def test_a_velocity_column_that_is_not_dq_dt_is_refused_naming_the_joint(tmp_path, scale, word):
+    t, q, dq, ddq = smooth_signals(4000, n=3)
+    rng = np.random.default_rng(1)
+    q = q + 1e-5 * rng.standard_normal(q.shape)  # noisy positions still pass on the good joints
+    dq = dq.copy()
+    dq[:, 1] *= scale
+    p = write_csv(tmp_path / "d.csv", t, q, dq, q.copy(), ddq)
+    with pytest.raises(DataError, match=rf"joint 2: the velocity column disagrees with the positions: .*{word}"):
+        load_all(p, 3, DataOptions())
+    dq[:, 1] /= scale
+    load_all(write_csv(tmp_path / "ok.csv", t, q, dq, q.copy(), ddq), 3, DataOptions())
+
+
+def test_positions_in_degrees_beside_velocities_in_rad_per_s_are_refused(tmp_path):
+    t, q, dq, ddq = smooth_signals(4000, n=2)
+    p = write_csv(tmp_path / "d.csv", t, np.degrees(q), dq, q.copy(), ddq)
+    with pytest.raises(DataError, match=r"joint 1: .*q in degrees"):
+        load_all(p, 2, DataOptions())
+
+
+def test_the_panda_recording_velocities_agree_with_its_positions(monkeypatch):
+    from minparam_cli.measured.blocks import iter_blocks
+    from minparam_cli.measured.consistency import VelocityCheck
+
+    seen = []
+    finish = VelocityCheck.finish
+
+    def record(self):
+        seen.extend(self.slopes())
+        finish(self)
+
+    monkeypatch.setattr(VelocityCheck, "finish", record)
+    for _ in iter_blocks(PANDA_CSV, 7, DataOptions()):
+        pass
+    assert len(seen) == 7 and all(s is not None and abs(s[0] - 1) < 0.03 for s in seen)

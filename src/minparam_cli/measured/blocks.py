@@ -17,6 +17,9 @@ do not show:
    seconds of samples are held back while a standstill's length is unknown);
 4. yield blocks of (t, q, dq, ddq, tau).
 
+Where the file gives both q and q̇, q̇ must be q's time derivative (measured/consistency.py): a
+q̇ in deg/s, a flipped sign or a mapped column of another joint is refused, naming the joint.
+
 Everything dropped is counted and reported, with the reason.
 """
 
@@ -83,6 +86,7 @@ def time_span(path: str | Path, opts: DataOptions) -> tuple[float, float]:
 
 def iter_blocks(path: str | Path, n: int, opts: DataOptions, report: DataReport | None = None) -> Iterator[Block]:
     """Clean, filter and differentiate the file chunk by chunk; memory bounded by the chunk size."""
+    from minparam_cli.measured.consistency import VelocityCheck
     from minparam_cli.measured.filtering import Processor
     from minparam_cli.measured.reading import raw_chunks
     from minparam_cli.measured.tables import split
@@ -91,6 +95,7 @@ def iter_blocks(path: str | Path, n: int, opts: DataOptions, report: DataReport 
     report = report if report is not None else DataReport(str(path))
     last = None
     processor = None
+    velocity: VelocityCheck | None = None
     step = None
     for table, layout in raw_chunks(path, n, opts):
         if step is None and opts.step_s:
@@ -105,6 +110,9 @@ def iter_blocks(path: str | Path, n: int, opts: DataOptions, report: DataReport 
         if processor is None:
             processor = Processor(clean, opts, report, step)
             still = Standstill(n, opts, report)
+            velocity = VelocityCheck(n, processor.gap, opts.still_speed, str(path)) if clean["dq"] is not None else None
+        if velocity is not None:
+            velocity.push(clean["t"], clean["q"], clean["dq"])
         for b in processor.push(clean):
             yield from still.push(b)
         # not alive while the next chunk is read: memory is one chunk, not two (an unfiltered block
@@ -113,6 +121,8 @@ def iter_blocks(path: str | Path, n: int, opts: DataOptions, report: DataReport 
         b = None
     if processor is None:
         raise DataError(f"{path}: no usable samples (every row was dropped or the file has no data)")
+    if velocity is not None:
+        velocity.finish()
     for b in processor.finish():
         yield from still.push(b)
     yield from still.finish()
