@@ -59,7 +59,7 @@ def _clean(table: np.ndarray, last: np.ndarray | None, report: DataReport) -> tu
         before = float(tt[bad - 1]) if bad else float(t_prev)
         row = first_row + (int(rows[bad]) if rows is not None else bad)
         kind = "repeats" if tt[bad] == before else "goes back from"
-        raise DataError(f"{report.path}: time stamps must increase: data row {row} (after the header) has t = {tt[bad]!r}, "
+        raise DataError(f"{report.path}: time stamps must increase: data row {row} (after the header) has t = {float(tt[bad])!r}, "
                         f"which {kind} the row before's {before!r}")
     # compare every row with the row before it (the first with the previous chunk's last kept row)
     if len(table):
