@@ -58,7 +58,7 @@ class VelocityCheck:
     def slopes(self) -> list[tuple[float, float] | None]:
         """Per joint (b, se), or None where the joint moves too little (or too few steps) to judge."""
         out: list[tuple[float, float] | None] = []
-        for sxx, sxy, syy, m in zip(self.sxx, self.sxy, self.syy, self.count):
+        for sxx, sxy, syy, m in zip(self.sxx, self.sxy, self.syy, self.count, strict=True):
             if m < 3 or sxx <= m * self.still**2:
                 out.append(None)
                 continue
