@@ -69,7 +69,7 @@ def _csv(path, t, q, tau):
     return path
 
 
-@pytest.mark.parametrize("chunk", [25_000, 333])
+@pytest.mark.parametrize("chunk", [25_000, 333, 400])  # 400: the gap falls between two chunks
 def test_no_derived_sample_lies_in_the_gap_and_each_segment_is_differentiated_alone(tmp_path, chunk):
     t = np.concatenate([np.arange(0, 4, 0.005), np.arange(7, 11, 0.005)])
     q, dq = _motion(t)
@@ -80,6 +80,8 @@ def test_no_derived_sample_lies_in_the_gap_and_each_segment_is_differentiated_al
     exact = _motion(b.t)[1]
     assert np.max(np.abs(b.dq - exact)) < 0.02  # 1.5 % of the 1.3 rad/s peak at the segments' ends (0.0093 measured)
     assert rep.dropped["filter_edges"] == 4 * 40
+    whole = load_all(p, 2, DataOptions(decimate=1))
+    assert len(whole) == len(b) and np.max(np.abs(whole.t - b.t)) < 1e-9 and np.max(np.abs(whole.ddq - b.ddq)) < 1e-9 * np.max(np.abs(whole.ddq))
 
 
 def test_a_step_of_gap_steps_is_not_a_gap_and_one_step_more_is(tmp_path):

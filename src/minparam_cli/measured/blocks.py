@@ -6,8 +6,10 @@ do not show:
 1. drop rows with NaN in a used column and repeated samples (sample-and-hold
    logging: q, q̇ and τ identical to the previous row, with a new time stamp);
    refuse a time stamp that does not increase (naming its row);
-2. when q̇ or q̈ must be computed: resample onto a uniform grid at the median
-   step (linear interpolation; irregular steps are counted), low-pass q, q̇ and
+2. when q̇ or q̈ must be computed: split the record at gaps (steps longer than
+   records.GAP_STEPS median steps) into segments and, per segment, resample
+   onto a uniform grid at the median step (linear interpolation; irregular
+   steps are counted), low-pass q, q̇ and
    τ with the same zero-phase Butterworth filter (scipy.signal.sosfiltfilt),
    differentiate (central differences), and decimate so that the kept rate is
    about ten times the cut-off;
@@ -40,7 +42,7 @@ def _clean(table: np.ndarray, last: np.ndarray | None, report: DataReport) -> tu
 
     ``table``: the used columns, time first.  Rows are copied only when some are dropped.  A time
     stamp equal to or before the previous row's (rows with NaN left out) is an error naming the row
-    (counted from 1 after the header): the order of the samples is unknown then, and dropping rows
+    (counted from 1 after a CSV's header; a sample of another source, counted from 1): the order of the samples is unknown then, and dropping rows
     would hide it.  Sample-and-hold rows (q, q̇ and τ identical to the previous row, with a new and
     later stamp) are logging artefacts, dropped and counted.
     """
@@ -59,7 +61,8 @@ def _clean(table: np.ndarray, last: np.ndarray | None, report: DataReport) -> tu
         before = float(tt[bad - 1]) if bad else float(t_prev)
         row = first_row + (int(rows[bad]) if rows is not None else bad)
         kind = "repeats" if tt[bad] == before else "goes back from"
-        raise DataError(f"{report.path}: time stamps must increase: data row {row} (after the header) has t = {float(tt[bad])!r}, "
+        where = f"data row {row} (after the header)" if report.path.lower().endswith(".csv") else f"sample {row}"
+        raise DataError(f"{report.path}: time stamps must increase: {where} has t = {float(tt[bad])!r}, "
                         f"which {kind} the row before's {before!r}")
     # compare every row with the row before it (the first with the previous chunk's last kept row)
     if len(table):
