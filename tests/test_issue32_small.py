@@ -55,6 +55,10 @@ def test_evaluate_reads_other_column_names_with_columns_and_takes_q(sim):
     assert renamed.stderr == ""
     a, b = json.loads(same.stdout), json.loads(renamed.stdout)
     assert a["files"][0]["rms_total"] == b["files"][0]["rms_total"] and a["files"][0]["samples"] == b["files"][0]["samples"] > 0
+    import minparam
+
+    ev = minparam.evaluate(sim / "m.json", sim / "renamed.csv", columns={"t": "time", "q": "pos"})
+    assert ev.pooled.rms_total == a["files"][0]["rms_total"]
     r = runner.invoke(app, ["evaluate", str(sim / "m.json"), str(sim / "sim.csv"), "--columns", "x=time"])
     assert r.exit_code == 2 and "--columns" in r.output
 
