@@ -276,6 +276,29 @@ def test_a_velocity_column_that_is_not_dq_dt_is_refused_naming_the_joint(tmp_pat
     load_all(write_csv(tmp_path / "ok.csv", t, q, dq, q.copy(), ddq), 3, DataOptions())
 
 
+def test_the_velocity_check_thins_its_steps_and_ignores_a_few_wild_samples(tmp_path, monkeypatch):
+    import minparam_cli.measured.consistency as consistency
+
+    monkeypatch.setattr(consistency, "KEEP", 300)  # 4000 steps: the stride doubles to 16
+    t, q, dq, ddq = smooth_signals(4000, n=2)
+    dq = dq.copy()
+    dq[::97, 0] = 1e6  # about 1 % of the samples wild on joint 1
+    seen = []
+    finish = consistency.VelocityCheck.finish
+
+    def record(self):
+        seen.append((self.stride, self.slopes()))
+        finish(self)
+
+    monkeypatch.setattr(consistency.VelocityCheck, "finish", record)
+    load_all(write_csv(tmp_path / "ok.csv", t, q, dq, q.copy(), ddq), 2, DataOptions(chunk_rows=700))
+    stride, slopes = seen[0]
+    assert stride == 16 and all(s is not None and abs(s[0] - 1) < 1e-3 for s in slopes)
+    dq[:, 1] = np.degrees(dq[:, 1])
+    with pytest.raises(DataError, match="joint 2: .*dq in deg/s"):
+        load_all(write_csv(tmp_path / "deg.csv", t, q, dq, q.copy(), ddq), 2, DataOptions(chunk_rows=700))
+
+
 def test_positions_in_degrees_beside_velocities_in_rad_per_s_are_refused(tmp_path):
     t, q, dq, ddq = smooth_signals(4000, n=2)
     p = write_csv(tmp_path / "d.csv", t, np.degrees(q), dq, q.copy(), ddq)
