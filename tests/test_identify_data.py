@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from conftest import SHARED
+from conftest import ROBOTS, SHARED
 from typer.testing import CliRunner
 
 from minparam_cli.cli.app import app
@@ -35,19 +35,33 @@ def smooth_signals(N=4000, n=2, rate=500.0):
     return t, q, dq, ddq
 
 
-def test_cleaning_counts_nan_repeats_and_time_reversals(tmp_path):
+def test_cleaning_counts_nan_rows_and_sample_and_hold_repeats(tmp_path):
     t, q, dq, ddq = smooth_signals(200)
     tau = q * 2.0
     t, q, dq, ddq, tau = (x.copy() for x in (t, q, dq, ddq, tau))
     q[10, 0] = np.nan  # one NaN row
     for k in (50, 51):  # two sample-and-hold rows: same values, new time stamps
         q[k], dq[k], ddq[k], tau[k] = q[k - 1], dq[k - 1], ddq[k - 1], tau[k - 1]
-    t[100] = t[99]  # time does not increase
     p = write_csv(tmp_path / "d.csv", t, q, dq, tau, ddq)
     rep = DataReport(str(p))
     b = load_all(p, 2, DataOptions(), rep)
-    assert rep.dropped == {"nan": 1, "time_not_increasing": 1, "repeated_sample": 2}
-    assert len(b) == 200 - 4 and rep.filter is None
+    assert rep.dropped == {"nan": 1, "repeated_sample": 2}
+    assert len(b) == 200 - 3 and rep.filter is None
+
+
+@pytest.mark.parametrize("chunk", [25_000, 30])
+@pytest.mark.parametrize("how, word", [("equal", "repeats"), ("back", "goes back from")])
+def test_a_time_stamp_that_does_not_increase_is_refused_naming_its_row(tmp_path, how, word, chunk):
+    t, q, dq, ddq = smooth_signals(200)
+    t = t.copy()
+    q = q.copy()
+    q[10, 0] = np.nan  # a NaN row before it: the row number still counts it
+    t[100] = t[99] if how == "equal" else t[98]
+    p = write_csv(tmp_path / "d.csv", t, q, dq, q.copy(), ddq)
+    with pytest.raises(DataError, match=rf"data row 101 \(after the header\) has t = .* which {word}"):
+        load_all(p, 2, DataOptions(chunk_rows=chunk))
+    r = CliRunner().invoke(app, ["identify", str(ROBOTS / "planar2r.yaml"), str(p), "-q"])
+    assert r.exit_code == 2 and "data row 101" in r.output and "Traceback" not in r.output
 
 
 def test_derived_derivatives_match_the_exact_ones(tmp_path):
@@ -243,3 +257,67 @@ def test_smooth_asymmetric_coulomb_columns_sum_to_the_smooth_coulomb_column():
         for j in range(3):
             asym = EFFECTS["asymmetric_coulomb"].columns(s, j)
             assert np.allclose(asym.sum(axis=1), EFFECTS["coulomb"].columns(s, j)[:, 0], atol=1e-15)
+
+
+# --- q̇ given beside q: must be q's time derivative (measured/consistency.py) --------------------
+
+
+@pytest.mark.parametrize("scale, word", [(180 / np.pi, "dq in deg/s"), (-1.0, "sign of dq is flipped"), (3.0, "not the same joint")])
+def test_a_velocity_column_that_is_not_dq_dt_is_refused_naming_the_joint(tmp_path, scale, word):
+    t, q, dq, ddq = smooth_signals(4000, n=3)
+    rng = np.random.default_rng(1)
+    q = q + 1e-5 * rng.standard_normal(q.shape)  # noisy positions still pass on the good joints
+    dq = dq.copy()
+    dq[:, 1] *= scale
+    p = write_csv(tmp_path / "d.csv", t, q, dq, q.copy(), ddq)
+    with pytest.raises(DataError, match=rf"joint 2: the velocity column disagrees with the positions: .*{word}"):
+        load_all(p, 3, DataOptions())
+    dq[:, 1] /= scale
+    load_all(write_csv(tmp_path / "ok.csv", t, q, dq, q.copy(), ddq), 3, DataOptions())
+
+
+def test_the_velocity_check_thins_its_steps_and_ignores_a_few_wild_samples(tmp_path, monkeypatch):
+    import minparam_cli.measured.consistency as consistency
+
+    monkeypatch.setattr(consistency, "KEEP", 300)  # 4000 steps: the stride doubles to 16
+    t, q, dq, ddq = smooth_signals(4000, n=2)
+    dq = dq.copy()
+    dq[::97, 0] = 1e6  # about 1 % of the samples wild on joint 1
+    seen = []
+    finish = consistency.VelocityCheck.finish
+
+    def record(self):
+        seen.append((self.stride, self.slopes()))
+        finish(self)
+
+    monkeypatch.setattr(consistency.VelocityCheck, "finish", record)
+    load_all(write_csv(tmp_path / "ok.csv", t, q, dq, q.copy(), ddq), 2, DataOptions(chunk_rows=700))
+    stride, slopes = seen[0]
+    assert stride == 16 and all(s is not None and abs(s[0] - 1) < 1e-3 for s in slopes)
+    dq[:, 1] = np.degrees(dq[:, 1])
+    with pytest.raises(DataError, match="joint 2: .*dq in deg/s"):
+        load_all(write_csv(tmp_path / "deg.csv", t, q, dq, q.copy(), ddq), 2, DataOptions(chunk_rows=700))
+
+
+def test_positions_in_degrees_beside_velocities_in_rad_per_s_are_refused(tmp_path):
+    t, q, dq, ddq = smooth_signals(4000, n=2)
+    p = write_csv(tmp_path / "d.csv", t, np.degrees(q), dq, q.copy(), ddq)
+    with pytest.raises(DataError, match=r"joint 1: .*q in degrees"):
+        load_all(p, 2, DataOptions())
+
+
+def test_the_panda_recording_velocities_agree_with_its_positions(monkeypatch):
+    from minparam_cli.measured.blocks import iter_blocks
+    from minparam_cli.measured.consistency import VelocityCheck
+
+    seen = []
+    finish = VelocityCheck.finish
+
+    def record(self):
+        seen.extend(self.slopes())
+        finish(self)
+
+    monkeypatch.setattr(VelocityCheck, "finish", record)
+    for _ in iter_blocks(PANDA_CSV, 7, DataOptions()):
+        pass
+    assert len(seen) == 7 and all(s is not None and abs(s[0] - 1) < 0.03 for s in seen)

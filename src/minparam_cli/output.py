@@ -7,11 +7,14 @@ on stderr.  No command-line parsing here: the commands import these from this mo
 
 from __future__ import annotations
 
+import contextlib
 import os
+import shutil
 import sys
+import tempfile
 import time
 from pathlib import Path
-from typing import Callable
+from typing import Callable, Iterator
 
 from minparam_cli.errors import ComputationError, InputError
 
@@ -65,6 +68,25 @@ def output_folder(path: Path, flag: str) -> Path:
     except OSError as e:
         raise InputError(f"{flag} {path}: cannot create the folder ({e.strerror})") from None
     return path
+
+
+@contextlib.contextmanager
+def staged_folder(path: Path | None) -> Iterator[Path | None]:
+    """Write the files meant for folder ``path`` into the yielded temporary folder, made beside it (in
+    its parent: the same file system); they are moved into ``path`` only when the block ends without
+    an error, so an interrupted command (Ctrl-C) or a failed one leaves none of them.  Each move is
+    atomic (os.replace), the set is moved in one go after the command's work.  ``None``: nothing."""
+    if path is None:
+        yield None
+        return
+    path = Path(path)
+    stage = Path(tempfile.mkdtemp(prefix=f".{path.resolve().name}.", suffix=".part", dir=path.resolve().parent))
+    try:
+        yield stage
+        for f in sorted(stage.iterdir()):
+            os.replace(f, path / f.name)
+    finally:
+        shutil.rmtree(stage, ignore_errors=True)
 
 
 def atomic_write(path: Path, write: Callable[[str], object], suffix: str = ".tmp") -> None:

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, replace
 from pathlib import Path
-from typing import TYPE_CHECKING, Any, Sequence
+from typing import TYPE_CHECKING, Any, Mapping, Sequence
 
 from minparam_cli.api.identified import Evaluation, Model
 from minparam_cli.api.options.evaluate import EvaluateOptions
@@ -33,14 +33,18 @@ class EvaluationSetup:
 
 
 def evaluation_setup(model_file: str, saved: SavedModel, robot_file: str, design: Design, which: str | None,
-                     time_unit: str = "s", topic: str | None = None) -> EvaluationSetup:
+                     time_unit: str = "s", topic: str | None = None,
+                     columns: Mapping[str, str] | None = None) -> EvaluationSetup:
     """The parameters to use (the physical fit by default when the model has one) and the model's data
-    settings with these files' time unit, a bag's topic and the robot's joint names."""
+    settings with these files' time unit, a bag's topic, the robot's joint names and, when given,
+    these files' column names (``columns``, replacing the model's whole)."""
     from minparam_cli.measured.rosbag import coordinate_names
 
     kind = which if which is not None else ("physical" if saved.physical is not None else "fit")
     theta = saved.fit_theta(kind)
     data = replace(saved.data, time_unit=time_unit, topic=topic, joint_names=coordinate_names(design.chain))
+    if columns is not None:
+        data = replace(data, columns=dict(columns))
     return EvaluationSetup(model_file, robot_file, saved, design, kind, theta, data)
 
 
@@ -131,7 +135,8 @@ def run_evaluate(model: Model | str | Path, data: Sequence[Any], opts: EvaluateO
         else:
             check_data_file(Path(x))
             names.append(x if isinstance(x, Path) else str(x))
-    setup = evaluation_setup(source, saved, robot_file, design, opts.which, opts.time_unit, opts.topic)
+    setup = evaluation_setup(source, saved, robot_file, design, opts.which, opts.time_unit, opts.topic,
+                             opts.columns)  # type: ignore[arg-type]  # a dict once the record is built
     band = _band(setup.saved, setup.kind, design.chain.dof, source, opts.band_level) if opts.band else None
     with registered(records):
         if opts.predictions is None:
@@ -142,15 +147,17 @@ def run_evaluate(model: Model | str | Path, data: Sequence[Any], opts: EvaluateO
 
 
 def evaluate(model: Model | str | Path, data: Any, *, which: str | None = None, robot: str | Path | None = None,
-             time_unit: str = "s", topic: str | None = None) -> Evaluation:
+             time_unit: str = "s", topic: str | None = None, columns: str | Mapping[str, str] | None = None) -> Evaluation:
     """Errors of a saved model on data (``minparam evaluate``): per file and pooled.
 
     ``model``: a :class:`Model` or a model file; ``data``: one data set or a list of them (files,
     mappings of arrays, DataFrames), read with the model's settings.  ``which``: "physical" or "fit"
-    (default: physical when the model has one).
+    (default: physical when the model has one).  ``columns``: the data's column names
+    (``"t=time,q=pos"`` or a mapping, as identify's ``columns``) instead of the model's.
     """
     from minparam_cli.measured.arrays import is_in_memory
 
-    opts = EvaluateOptions(which=which, robot=None if robot is None else Path(robot), time_unit=time_unit, topic=topic)
+    opts = EvaluateOptions(which=which, robot=None if robot is None else Path(robot), time_unit=time_unit, topic=topic,
+                           columns=columns)
     items = [data] if isinstance(data, (str, Path)) or is_in_memory(data) else list(data)
     return run_evaluate(model, items, opts)

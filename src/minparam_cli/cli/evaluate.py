@@ -23,7 +23,8 @@ Examples:
 
 \b
 The data are read with the model's settings (columns, cut-off, filter, decimation, rate,
-standstill trimming); --time-unit and --topic say how to read these files.  The robot
+standstill trimming); --time-unit and --topic say how to read these files, and
+--columns names their columns when they differ from the model's (as identify's).  The robot
 file is the one the model names, or --robot; its SHA-256 must be the model's.
 Exit codes: 0 success, 1 failed computation, 2 bad input.
 """
@@ -46,19 +47,23 @@ def evaluate(
     robot: Optional[Path] = typer.Option(None, "--robot", help="Robot file to use instead of the one the model names (same SHA-256)."),
     time_unit: TimeUnit = time_unit_option(),
     topic: Optional[str] = topic_option(),
+    columns: str = typer.Option("", "--columns", help="The data files' columns, as identify's --columns (t=time,q=pos,tau=effort), instead of the model's."),
+    quiet: bool = typer.Option(False, "--quiet", "-q", help="Nothing on stderr but errors (evaluate draws no progress bar; accepted as by every command)."),
 ):
-    _evaluate(model, data, which, predictions, fmt, output, robot, time_unit, topic, band, band_level)
+    del quiet  # evaluate writes nothing on stderr but errors
+    _evaluate(model, data, which, predictions, fmt, output, robot, time_unit, topic, band, band_level, columns or None)
 
 
 @guarded
-def _evaluate(model, data, which, predictions, fmt, output, robot, time_unit, topic, band=False, band_level=0.95):
+def _evaluate(model, data, which, predictions, fmt, output, robot, time_unit, topic, band=False, band_level=0.95, columns=None):
     """Parse, call the API (``api.evaluation``), render, write."""
     from minparam_cli.api.evaluation import run_evaluate
     from minparam_cli.api.options.evaluate import EvaluateOptions
 
     with option_errors():
         opts = EvaluateOptions(which=which.value if which is not None else None, predictions=predictions, band=band,
-                               band_level=band_level, robot=robot, time_unit=TimeUnit(time_unit).value, topic=topic)
+                               band_level=band_level, robot=robot, time_unit=TimeUnit(time_unit).value, topic=topic,
+                               columns=columns)
     result = run_evaluate(model, list(data), opts)
     if fmt == Fmt.json:
         text = json.dumps(result.to_dict(), indent=2, ensure_ascii=False)

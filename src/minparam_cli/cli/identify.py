@@ -10,7 +10,7 @@ from typing import List, Optional
 import typer
 
 from minparam_cli.cli.common import MimicMode, guarded, mimic_option, option_errors, save_png
-from minparam_cli.output import Progress, write_output
+from minparam_cli.output import Progress, staged_folder, write_output
 from minparam_cli.cli.executor import scheduler_option
 
 HELP = (
@@ -194,15 +194,16 @@ def _identify(robot, data, validate, test, split, columns, time_unit, topic, cut
         ident = run_identify(opts, data[0], progress=bar)
     finally:
         bar.close()
-    if plot is not None:
-        _plots(ident, plot)
-    if fmt == Fmt.json:
-        text = json.dumps(ident.to_dict(), indent=2, ensure_ascii=False)
-    else:
-        from minparam_cli.render.identify_text import render_identify
+    with staged_folder(plot) as stage:  # the figures go into --plot's folder only once all is written
+        if stage is not None:
+            _plots(ident, stage)
+        if fmt == Fmt.json:
+            text = json.dumps(ident.to_dict(), indent=2, ensure_ascii=False)
+        else:
+            from minparam_cli.render.identify_text import render_identify
 
-        text = render_identify(ident.result)
-    write_output(text, output)
+            text = render_identify(ident.result)
+        write_output(text, output)
 
 
 def _plots(ident, plot: Path) -> None:

@@ -115,6 +115,7 @@ def platform_from_mapping(doc: Any, src: str) -> PlatformDescription:
         _check_spread(pcoords, src, "platform")
     else:
         bnames, bcoords = _explicit(doc["nodes"], src, "nodes")
+        _check_distinct(bnames, bcoords, src)
         pnames, pcoords = (), ()
 
     default_limits = None
@@ -244,6 +245,19 @@ def _check_spread(coords, src, side):
     sv = np.linalg.svd(span, compute_uv=False)
     if sv[1] <= 1e-9 * max(sv[0], 1e-300):
         raise DescriptionError(f"the nodes are collinear (singular values {sv[0]:.3g}, {sv[1]:.3g})", src, side)
+
+
+def _check_distinct(names, coords, src):
+    """A truss's nodes are one frame's points: two at the same place (within 1e-9 of the nodes' extent)
+    would give a leg of no length and an octahedron without a shape."""
+    import numpy as np
+
+    c = np.array(coords, dtype=float)
+    tol = 1e-9 * max(float(np.ptp(c, axis=0).max()) if len(c) else 0.0, 1e-300)
+    d = np.linalg.norm(c[:, None, :] - c[None, :, :], axis=2)
+    i, j = np.nonzero(np.triu(d <= tol, k=1))
+    if len(i):
+        raise DescriptionError(f"nodes {names[i[0]]!r} and {names[j[0]]!r} are at the same place {list(coords[i[0]])}", src, "nodes")
 
 
 def _limits(value, src, where) -> tuple[float, float]:

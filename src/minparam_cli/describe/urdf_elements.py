@@ -107,6 +107,13 @@ def read_elements(root, src: str):
             # finite but huge limits (-1e16 .. 1e16) are a common way of writing "no limit"
             lo = _number_attr(lim, "lower", src, f"{where}/limit", bound=False)
             hi = _number_attr(lim, "upper", src, f"{where}/limit", bound=False)
+            # reversed limits are a typing error; equal ones leave the joint no motion.  lower = upper = 0 is
+            # what a <limit> without lower/upper means (the specification's defaults): no limits, as before
+            if lo > hi:
+                raise DescriptionError(f"lower limit {lo:g} is above upper limit {hi:g}", src, f"{where}/limit")
+            if lo == hi and lo != 0:
+                raise DescriptionError(f"lower and upper limit are both {lo:g}: the {jtype} joint cannot move "
+                                       "(make it fixed, or widen the limits)", src, f"{where}/limit")
             if lo < hi and max(abs(lo), abs(hi)) <= MAX_ABS_VALUE:
                 limits = (lo, hi)
         # <limit velocity= effort=>: positive values are limits; 0 or below (placeholders seen in real

@@ -109,12 +109,13 @@ def chunks(record: Record, n: int, opts) -> Iterator[tuple[np.ndarray, dict]]:
     """``reading.raw_chunks`` of a record (time in the record's unit): the .npz route for arrays, the
     CSV column rules (``measured.columns.column_indices``) for a table."""
     from minparam_cli.measured.tables import column_layout, array_chunks
-    from minparam_cli.measured.columns import column_indices
+    from minparam_cli.measured.columns import column_indices, require_named
 
     if record.kind == "arrays":
         assert record.arrays is not None
         names = {k: opts.columns.get(k, k) for k in KEYS}
         arrays = {k: (np.array(record.arrays[names[k]], dtype=float) if names[k] in record.arrays else None) for k in KEYS}
+        require_named(arrays, opts.columns, record.name)
         yield from array_chunks(arrays, record.name, n, opts)
         return
     assert record.table is not None

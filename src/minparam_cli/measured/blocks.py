@@ -3,11 +3,13 @@
 Pipeline per chunk, with a margin of neighbouring samples so that chunk edges
 do not show:
 
-1. drop rows with NaN in a used column, rows whose time does not increase,
-   and repeated samples (sample-and-hold logging: q, q̇ and τ identical to the
-   previous row);
-2. when q̇ or q̈ must be computed: resample onto a uniform grid at the median
-   step (linear interpolation; irregular steps are counted), low-pass q, q̇ and
+1. drop rows with NaN in a used column and repeated samples (sample-and-hold
+   logging: q, q̇ and τ identical to the previous row, with a new time stamp);
+   refuse a time stamp that does not increase (naming its row);
+2. when q̇ or q̈ must be computed: split the record at gaps (steps longer than
+   records.GAP_STEPS median steps) into segments and, per segment, resample
+   onto a uniform grid at the median step (linear interpolation; irregular
+   steps are counted), low-pass q, q̇ and
    τ with the same zero-phase Butterworth filter (scipy.signal.sosfiltfilt),
    differentiate (central differences), and decimate so that the kept rate is
    about ten times the cut-off;
@@ -16,6 +18,9 @@ do not show:
    joints that lasts longer than that (streamed: at most ``trim_still_s``
    seconds of samples are held back while a standstill's length is unknown);
 4. yield blocks of (t, q, dq, ddq, tau).
+
+Where the file gives both q and q̇, q̇ must be q's time derivative (measured/consistency.py): a
+q̇ in deg/s, a flipped sign or a mapped column of another joint is refused, naming the joint.
 
 Everything dropped is counted and reported, with the reason.
 """
@@ -32,15 +37,33 @@ from minparam_cli.measured.records import KEYS, Block, DataOptions, DataReport, 
 
 
 def _clean(table: np.ndarray, last: np.ndarray | None, report: DataReport) -> tuple[np.ndarray, np.ndarray | None]:
-    """Drop NaN, non-increasing times and repeated samples; ``last`` is the previous kept row.
+    """Drop NaN and repeated samples; refuse time stamps that do not increase.  ``last`` is the
+    previous kept row.
 
-    ``table``: the used columns, time first.  Rows are copied only when some are dropped.
+    ``table``: the used columns, time first.  Rows are copied only when some are dropped.  A time
+    stamp equal to or before the previous row's (rows with NaN left out) is an error naming the row
+    (counted from 1 after a CSV's header; a sample of another source, counted from 1): the order of the samples is unknown then, and dropping rows
+    would hide it.  Sample-and-hold rows (q, q̇ and τ identical to the previous row, with a new and
+    later stamp) are logging artefacts, dropped and counted.
     """
+    first_row = report.rows_read + 1
     report.rows_read += len(table)
     ok = np.isfinite(table).all(axis=1)
+    rows = None
     if not ok.all():
         report.dropped["nan"] += int((~ok).sum())
+        rows = np.flatnonzero(ok)
         table = table[ok]
+    t_prev = last[0] if last is not None else -np.inf
+    tt = table[:, 0]
+    if len(tt) and not (tt[0] > t_prev and np.all(tt[1:] > tt[:-1])):
+        bad = int(np.argmax(tt <= np.concatenate([[t_prev], tt[:-1]])))
+        before = float(tt[bad - 1]) if bad else float(t_prev)
+        row = first_row + (int(rows[bad]) if rows is not None else bad)
+        kind = "repeats" if tt[bad] == before else "goes back from"
+        where = f"data row {row} (after the header)" if report.path.lower().endswith(".csv") else f"sample {row}"
+        raise DataError(f"{report.path}: time stamps must increase: {where} has t = {float(tt[bad])!r}, "
+                        f"which {kind} the row before's {before!r}")
     # compare every row with the row before it (the first with the previous chunk's last kept row)
     if len(table):
         repeated = np.empty(len(table), dtype=bool)
@@ -49,14 +72,6 @@ def _clean(table: np.ndarray, last: np.ndarray | None, report: DataReport) -> tu
         if repeated.any():
             report.dropped["repeated_sample"] += int(repeated.sum())
             table = table[~repeated]
-    # time must increase: keep the running maximum rule
-    t_prev = last[0] if last is not None else -np.inf
-    tt = table[:, 0]
-    if len(tt) and not (tt[0] > t_prev and np.all(tt[1:] > tt[:-1])):
-        running = np.maximum.accumulate(np.concatenate([[t_prev], tt]))[:-1]
-        increasing = tt > running
-        report.dropped["time_not_increasing"] += int((~increasing).sum())
-        table = table[increasing]
     new_last = table[-1].copy() if len(table) else last
     return table, new_last
 
@@ -74,6 +89,7 @@ def time_span(path: str | Path, opts: DataOptions) -> tuple[float, float]:
 
 def iter_blocks(path: str | Path, n: int, opts: DataOptions, report: DataReport | None = None) -> Iterator[Block]:
     """Clean, filter and differentiate the file chunk by chunk; memory bounded by the chunk size."""
+    from minparam_cli.measured.consistency import VelocityCheck
     from minparam_cli.measured.filtering import Processor
     from minparam_cli.measured.reading import raw_chunks
     from minparam_cli.measured.tables import split
@@ -82,6 +98,7 @@ def iter_blocks(path: str | Path, n: int, opts: DataOptions, report: DataReport 
     report = report if report is not None else DataReport(str(path))
     last = None
     processor = None
+    velocity: VelocityCheck | None = None
     step = None
     for table, layout in raw_chunks(path, n, opts):
         if step is None and opts.step_s:
@@ -96,6 +113,9 @@ def iter_blocks(path: str | Path, n: int, opts: DataOptions, report: DataReport 
         if processor is None:
             processor = Processor(clean, opts, report, step)
             still = Standstill(n, opts, report)
+            velocity = VelocityCheck(n, processor.gap, opts.still_speed, str(path)) if clean["dq"] is not None else None
+        if velocity is not None:
+            velocity.push(clean["t"], clean["q"], clean["dq"])
         for b in processor.push(clean):
             yield from still.push(b)
         # not alive while the next chunk is read: memory is one chunk, not two (an unfiltered block
@@ -104,6 +124,8 @@ def iter_blocks(path: str | Path, n: int, opts: DataOptions, report: DataReport 
         b = None
     if processor is None:
         raise DataError(f"{path}: no usable samples (every row was dropped or the file has no data)")
+    if velocity is not None:
+        velocity.finish()
     for b in processor.finish():
         yield from still.push(b)
     yield from still.finish()

@@ -65,6 +65,13 @@ def parse_columns(text: str) -> dict[str, str]:
     return out
 
 
+def require_named(present: dict, columns: dict[str, str], src: str) -> None:
+    """Refuse an array (an .npz member, a mapping's key) that ``--columns`` names but the data lack."""
+    missing = [f"{k}={columns[k]}" for k in KEYS if k in columns and present.get(k) is None]
+    if missing:
+        raise DataError(f"{src}: no array named by --columns {', '.join(missing)}")
+
+
 def looks_headerless(header: list[str]) -> bool:
     """Whether a CSV's first line is a row of numbers rather than column names."""
     values = [h.strip() for h in header]
@@ -96,8 +103,17 @@ def headerless_error(src: str, width: int, n: int) -> DataError:
 def time_index(header: list[str], n: int, columns: dict[str, str], src: str) -> int:
     """Index of the time column, refusing a file without a header first."""
     names = [h.strip() for h in header]
+    if not any(names):
+        raise DataError(f"{src}: empty file (no header row, no data)")
     if looks_headerless(names):
         raise headerless_error(src, len(names), n)
+    if len(names) == 1:
+        for sep, what in ((";", "';'"), ("\t", "tabs")):
+            if sep in names[0]:
+                raise DataError(f"{src}: no comma-separated header: the header has {what} between its names; "
+                                "use comma-separated values")
+        raise DataError(f"{src}: the header has a single column ({names[0][:40]!r}): expected comma-separated "
+                        "columns t, q1.., tau1..")
     name = columns.get("t", "t")
     if name not in names:
         raise DataError(f"{src}: missing time column '{name}' (use --columns t=NAME)")
@@ -113,7 +129,8 @@ def column_indices(header: list[str], n: int, columns: dict[str, str], src: str)
     names = [h.strip() for h in header]
     idx: dict[str, list[int] | None] = {"t": [time_index(names, n, columns, src)]}
     for key in KEYS[1:]:
-        idx[key] = key_indices(names, key, columns.get(key, key), n, src, required=key in ("q", "tau"))
+        # q and tau always; dq and ddq when --columns names them (a named column that is missing is an error)
+        idx[key] = key_indices(names, key, columns.get(key, key), n, src, required=key in ("q", "tau") or key in columns)
     return idx
 
 

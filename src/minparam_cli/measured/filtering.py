@@ -17,6 +17,13 @@ controller stamps, t ≈ 1.7e9 s, and the same record re-zeroed give the same sa
   ending one step early;
 - a time step is irregular when it differs from the sampling step by more than IRREGULAR_TOL
   (records.IRREGULAR_TOL, 10 %), longer or shorter.
+
+Gaps: a step longer than GAP_STEPS (records.GAP_STEPS, 25) sampling steps is a gap in the
+recording (a logging pause), not a late sample.  It splits the record into segments, and nothing
+is invented across it: each segment is resampled, filtered and differentiated on its own, and one
+cut-off period is dropped at both ends of every segment (the filter's settling).  A segment too
+short to keep anything after that is dropped whole (DataReport.dropped["short_segment"]).  Without
+filtering (q̇ and q̈ read from the file) no sample is invented anyway; the gaps are still counted.
 """
 
 from __future__ import annotations
@@ -26,7 +33,7 @@ import math
 import numpy as np
 
 from minparam_cli.errors import DataError
-from minparam_cli.measured.records import FILTER_ORDER, IRREGULAR_TOL, KEYS, Block, DataOptions, DataReport, sampling_step
+from minparam_cli.measured.records import FILTER_ORDER, GAP_STEPS, IRREGULAR_TOL, KEYS, Block, DataOptions, DataReport, sampling_step
 
 RATE_TOL = 1e-3
 GRID_TOL = 1e-3
@@ -55,6 +62,7 @@ class Processor:
             raise DataError(f"{report.path}: time stamps do not increase")
         self.dt: float = dt
         report.median_step_s = self.dt
+        self.gap = GAP_STEPS * dt  # a longer step starts a new segment
         self.filter = opts.force_filter or first["dq"] is None or first["ddq"] is None
         self.has_dq = first["dq"] is not None
         self.has_ddq = first["ddq"] is not None
@@ -85,6 +93,7 @@ class Processor:
             self.trim = _ceil(fs / opts.cutoff_hz)
             self.offset = 0  # global grid index of the buffer's first row
             report.dropped["filter_edges"] = 0
+            report.trim_s = self.trim * self.dt
             self.k = opts.decimate or max(1, _floor(fs / (10 * opts.cutoff_hz)))
             report.filter = f"Butterworth order {FILTER_ORDER}, zero-phase (forward-backward), cut-off {opts.cutoff_hz:g} Hz, at {fs:.6g} Hz"
             report.derived = [name for name, present in (("dq", self.has_dq), ("ddq", self.has_ddq)) if not present or opts.force_filter]
@@ -106,7 +115,11 @@ class Processor:
         if self.last_t is not None:
             t = np.concatenate([[self.last_t], t])
         if len(t) > 1:
-            self.report.irregular_steps += int(np.sum(np.abs(np.diff(t) - self.dt) > IRREGULAR_TOL * self.dt))
+            d = np.diff(t)
+            self.report.irregular_steps += int(np.sum(np.abs(d - self.dt) > IRREGULAR_TOL * self.dt))
+            gaps = d[d > self.gap]
+            self.report.segments += len(gaps)
+            self.report.gap_s += float(gaps.sum())
             self.last_t = float(t[-1])
 
     def _decimate(self, b: Block) -> Block:
@@ -131,11 +144,17 @@ class Processor:
 
     def finish(self):
         if self.filter:
-            last = self.prev_raw
-            if last is not None and self.grid_next <= last[0] + GRID_TOL * self.dt:
-                # the next grid point is the last sample, up to the stamps' rounding: it ends the grid
-                self._append(np.concatenate([[self.grid_next], last[1:]])[None])
-            yield from self._flush(final=True)
+            yield from self._end_segment(last=True)
+
+    def _end_segment(self, last: bool):
+        """Filter out what the segment still holds; then start afresh (a gap, or the end of the file)."""
+        end = self.prev_raw
+        if end is not None and self.grid_next <= end[0] + GRID_TOL * self.dt:
+            # the next grid point is the last sample, up to the stamps' rounding: it ends the grid
+            self._append(np.concatenate([[self.grid_next], end[1:]])[None])
+        yield from self._flush(final=True, last=last)
+        self.buffer, self.buffered, self.total, self.emitted, self.offset = [], 0, 0, 0, 0
+        self.prev_raw = None
 
     # --- filtered path -------------------------------------------------------
 
@@ -148,6 +167,20 @@ class Processor:
 
     def _push_filtered(self, clean: dict):
         raw = self._columns(clean)
+        t = raw[:, 0]
+        steps = np.diff(np.concatenate([[self.prev_raw[0]], t])) if self.prev_raw is not None else np.diff(t)
+        first = 0 if self.prev_raw is not None else 1  # steps[k] ends at row k - 1 + first
+        starts = np.flatnonzero(steps > self.gap) + first  # rows that begin a new segment
+        bounds = [0, *starts.tolist(), len(raw)]
+        for k in range(len(bounds) - 1):
+            lo, hi = bounds[k], bounds[k + 1]
+            if k > 0:  # a gap before row lo: the segment before it ends, a new one starts at lo
+                yield from self._end_segment(last=False)
+                self.grid_next = float(raw[lo, 0])
+            if hi > lo:
+                yield from self._push_part(raw[lo:hi])
+
+    def _push_part(self, raw: np.ndarray):
         if self.prev_raw is not None:
             raw = np.vstack([self.prev_raw[None], raw])
         self.prev_raw = raw[-1]
@@ -166,9 +199,19 @@ class Processor:
         self.buffered += len(uni)
         self.total += len(uni)
 
-    def _flush(self, final: bool):
+    def _flush(self, final: bool, last: bool = True):
         if final and self.total <= 2 * self.trim:
+            if self.report.segments > 1:  # one segment of several: dropped; refused when none is left
+                self.report.dropped["short_segment"] = self.report.dropped.get("short_segment", 0) + self.total
+                if not (last and self.report.samples == 0):
+                    return
             fs = 1.0 / self.dt
+            if self.report.segments > 1:
+                raise DataError(
+                    f"{self.report.path}: every one of the {self.report.segments} segments (split at gaps longer than "
+                    f"{GAP_STEPS} sampling steps) is too short to filter: at {fs:.6g} Hz one period of the "
+                    f"{self.opts.cutoff_hz:g} Hz cut-off ({self.trim} samples) is dropped at each end of each"
+                )
             raise DataError(
                 f"{self.report.path}: too few samples to filter: {self.total} at {fs:.6g} Hz, and one period of the "
                 f"{self.opts.cutoff_hz:g} Hz cut-off ({self.trim} samples) is dropped at each end; at least "

@@ -21,7 +21,7 @@ import numpy as np
 
 from minparam_cli.errors import DataError
 from minparam_cli.measured import arrays, parquet, recording, rosbag, spans
-from minparam_cli.measured.columns import TIME_UNITS, column_indices
+from minparam_cli.measured.columns import TIME_UNITS, column_indices, require_named
 from minparam_cli.measured.records import KEYS, DataOptions
 from minparam_cli.measured.tables import array_chunks, column_layout, csv_tables, open_npz, require_data_file, short_error
 
@@ -119,6 +119,7 @@ class Npz:
                 raise
             except Exception as e:  # noqa: BLE001 - a damaged member: zlib, zipfile, format or dtype errors
                 raise DataError(f"{path}: cannot read .npz ({short_error(e)})") from None
+        require_named(found, opts.columns, str(path))
         yield from array_chunks(found, str(path), n, opts)
 
     def time_span(self, path: Path, opts: DataOptions) -> tuple[float, float]:

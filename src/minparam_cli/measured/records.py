@@ -17,6 +17,10 @@ CHUNK_ROWS = 25_000  # rows read at a time: 5.8 MB for 29 columns; with identify
 KEYS = ("t", "q", "dq", "ddq", "tau")
 # a time step that differs from the sampling step by more than this share (longer or shorter) is irregular
 IRREGULAR_TOL = 0.1
+# a time step longer than this many sampling steps is a gap (a logging pause): it splits the record into
+# segments that are filtered and differentiated apart (measured/filtering.py).  The Panda recording's
+# longest step, after its sample-and-hold rows are dropped, is 15.5 steps (15.5 ms at 1 kHz)
+GAP_STEPS = 25
 STAMP_ULPS = 2  # two time stamps' steps that differ by at most this many units in the last place are the same step
 
 
@@ -66,8 +70,11 @@ class DataReport:
 
     path: str
     rows_read: int = 0
-    dropped: dict = field(default_factory=lambda: {"nan": 0, "time_not_increasing": 0, "repeated_sample": 0})
+    dropped: dict = field(default_factory=lambda: {"nan": 0, "repeated_sample": 0})
     irregular_steps: int = 0
+    segments: int = 1  # pieces of the record between gaps (steps longer than GAP_STEPS sampling steps)
+    gap_s: float = 0.0  # the gaps' total length (s)
+    trim_s: float | None = None  # dropped at both ends of every segment by the filter (s); None: not filtered
     median_step_s: float | None = None
     derived: list = field(default_factory=list)
     filter: str | None = None
@@ -83,6 +90,10 @@ class DataReport:
             "rows_read": self.rows_read,
             "dropped": dict(self.dropped),
             "irregular_steps": self.irregular_steps,
+            "segments": self.segments,
+            "gap_s": self.gap_s,
+            "gap_steps": GAP_STEPS,
+            "trim_s": self.trim_s,
             "median_step_s": self.median_step_s,
             "derived": list(self.derived),
             "filter": self.filter,

@@ -84,6 +84,18 @@ def render_identify(r: IdentifyResult) -> str:
     return text
 
 
+def _segments(files) -> str:
+    """Segments between gaps, over every file, and what the filter dropped at their ends."""
+    seg = sum(f.get("segments", 1) for f in files)
+    gaps = seg - len(files)
+    text = f"{seg}" + (f" ({gaps} gap(s) longer than {files[0].get('gap_steps')} steps, {sum(f.get('gap_s', 0.0) for f in files):.4g} s in all, "
+                       "filtered apart)" if gaps else "")
+    trimmed = sum(f["dropped"].get("filter_edges", 0) for f in files)
+    if files[0].get("trim_s"):
+        text += f"; {files[0]['trim_s']:.4g} s dropped at both ends of each ({trimmed} samples in all)"
+    return text
+
+
 def _render(r: IdentifyResult) -> str:
     pre = r.preprocessing
     dropped = ", ".join(f"{k.replace('_', ' ')} {v}" for k, v in r.dropped.items() if v) or "nothing"
@@ -97,6 +109,7 @@ def _render(r: IdentifyResult) -> str:
         ("test data", f"{r.samples_test} samples: {_role(roles['test'])} (chose nothing)" if roles["test"] else "none"),
         ("dropped", f"{dropped} (of {rows_read} rows read in {len(files)} file(s))"),
         ("irregular steps", f"{pre['irregular_steps']} (median step {pre['median_step_s']:.6g} s)" if pre.get("median_step_s") else "-"),
+        ("segments", _segments(files)),
         ("filter", pre["filter"] or "none (q, q̇, q̈ given)"),
         ("derived", ", ".join(pre["derived"]) or "-"),
         ("decimation", f"keep 1 sample in {pre['decimation']}"),
