@@ -243,12 +243,20 @@ def _honest_sigma(grams, maps, fit, opts: IdentifyOptions, progress):
     return replace(fit, std_percent=relative_percent(fit.theta, u.std())), replace(u, columns=tuple(fit.columns), note=note)
 
 
+WEIGHT_FLOOR = 1e-4  # the physical fit's per-joint weight σ_j is at least this fraction of the joint's RMS torque
+
+
 def _physical(chain: Chain, base, design: Design, fit, acc: dict, popts: PhysicalOptions, test_keys: list):
     """The convex fit on the fit data (same weights as the unconstrained fit), its errors on the
     selection and test data beside the unconstrained ones, and its bodies."""
     from minparam_cli.identify.physical.convex import fit_physical, link_bodies
 
     weights = fit.sigma if fit.method == "wls" else np.ones(chain.dof)
+    # a σ at rounding level (noise-free data) would scale the program's numbers by 1e14 and no conic solver
+    # ends there: the weights are floored at WEIGHT_FLOOR of each joint's RMS torque (they never are on
+    # measured data, whose σ are percents of it)
+    rms = np.sqrt(acc[FIT].y_norm2() / np.maximum(acc[FIT].rows, 1))
+    weights = np.maximum(weights, WEIGHT_FLOOR * rms) if np.any(rms > 0) else weights
     R = acc[FIT].stacked(weights)
     pf = fit_physical(chain, base.K, design, R, int(acc[FIT].rows.sum()), popts)
     n_links = chain.layout.n_inertial // 10
