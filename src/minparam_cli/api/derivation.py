@@ -29,7 +29,11 @@ def derive_all(path: str | Path, opts: DeriveOptions, progress: Callable[[int, i
 
     t0 = time.perf_counter()
     desc, chain = load_chain(path, opts.stage())
-    if opts.method == "projection":
+    if desc.loops is not None:  # a closed chain: the actuated torques through the loops (loops/derive.py)
+        from minparam_cli.loops.derive import derive_closed
+
+        base = derive_closed(desc, chain, opts, progress)
+    elif opts.method == "projection":
         from minparam_cli.base.projection import derive_projection
 
         base = derive_projection(chain, progress=progress)
@@ -45,7 +49,7 @@ def derive_all(path: str | Path, opts: DeriveOptions, progress: Callable[[int, i
     if opts.snap_angles is not None:
         snap = {"tolerance_rad": opts.snap_angles, "changed": [dict(a) for a in desc.adjustments]}
     weak: tuple = ()
-    if base.rank_margin.get("weak"):
+    if base.rank_margin.get("weak") and desc.loops is None:
         from minparam_cli.base.weak import weak_parameters
 
         weak = tuple(weak_parameters(chain, base, explain=True, samples=opts.samples, seed=opts.seed))

@@ -9,6 +9,10 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 from fractions import Fraction
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    from minparam_cli.describe.loops import ClosedLoops
 
 # what a loader does with URDF <mimic> joints: move them with their master, or freeze them at their offset
 MIMIC_MODES = ("coupled", "fixed")
@@ -119,6 +123,8 @@ class RobotDescription:
     adjustments: tuple[dict, ...] = ()
     # motors, gears and their coupling (YAML ``transmission:``, or a URDF's side file); None: none declared
     transmission: Transmission | None = None
+    # a closed chain: the joints above are its spanning tree, these its cuts and actuated joints (describe/loops.py)
+    loops: ClosedLoops | None = None
 
     @property
     def dof(self) -> int:
