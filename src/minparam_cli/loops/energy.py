@@ -37,12 +37,12 @@ def energy_rows(model: ClosedModel, q: np.ndarray, qd: np.ndarray) -> tuple[np.n
     N = len(q)
     kin, pot = np.zeros((N, layout.size)), np.zeros((N, layout.size))
     g = chain.gravity
-    for j in range(chain.n):
+    for slot, j in enumerate(layout.links_with_columns):  # massless links (a universal joint's cross) have none
         R, p = T[:, j, :3, :3], T[:, j, :3, 3]
         w = V[:, j, :3]
         v = V[:, j, 3:] + cross(w, p)
         wb, vb = np.einsum("sji,sj->si", R, w), np.einsum("sji,sj->si", R, v)
-        c = 10 * j
+        c = 10 * slot
         kin[:, c:c + 6] = np.stack([wb[:, 0] ** 2 / 2, wb[:, 0] * wb[:, 1], wb[:, 0] * wb[:, 2], wb[:, 1] ** 2 / 2,
                                     wb[:, 1] * wb[:, 2], wb[:, 2] ** 2 / 2], axis=1)
         kin[:, c + 6:c + 9] = cross(vb, wb)
