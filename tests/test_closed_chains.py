@@ -22,7 +22,7 @@ RRR = ROOT / "robots" / "planar_3rrr.yaml"
 
 
 def _model(path):
-    desc, chain = load_chain(path, DeriveOptions().stage())
+    desc, chain = load_chain(path, DeriveOptions().stage(), loops=True)
     return desc, chain, closed_model(desc, chain)
 
 
@@ -149,14 +149,14 @@ loops:
 def test_a_loop_that_locks_the_mechanism_is_refused(tmp_path):
     bad = tmp_path / "locked.yaml"
     bad.write_text(LOCKED)
-    desc, chain = load_chain(bad, DeriveOptions().stage())
+    desc, chain = load_chain(bad, DeriveOptions().stage(), loops=True)
     with pytest.raises(DescriptionError, match="lock the mechanism: 2 tree joints and 2 independent"):
         closed_model(desc, chain)
 
 
 def test_a_loop_that_does_not_close_is_refused(tmp_path):
     bad = _write(tmp_path, ("[[0, 0, 1.0], [-0.3, 0, 0]]", "[[0, 0, 1.9], [-0.3, 0, 0]]"))
-    desc, chain = load_chain(bad, DeriveOptions().stage())
+    desc, chain = load_chain(bad, DeriveOptions().stage(), loops=True)
     with pytest.raises(DescriptionError, match="cannot be assembled"):
         closed_model(desc, chain)
 
@@ -164,7 +164,7 @@ def test_a_loop_that_does_not_close_is_refused(tmp_path):
 def test_a_wrong_count_of_actuated_joints_is_refused(tmp_path):
     bad = _write(tmp_path, ("axis: [0, 1, 0], actuated: true,\n     limits: [-80, 80],\n     inertial: {mass: 3.0",
                             "axis: [0, 1, 0],\n     limits: [-80, 80],\n     inertial: {mass: 3.0"))
-    desc, chain = load_chain(bad, DeriveOptions().stage())
+    desc, chain = load_chain(bad, DeriveOptions().stage(), loops=True)
     with pytest.raises(DescriptionError, match="mobility 3 .* but 2 joints are actuated"):
         closed_model(desc, chain)
 
@@ -186,3 +186,17 @@ def test_cli_bad_loop_is_one_line_exit_2(tmp_path):
                        env={"PYTHONPATH": str(ROOT / "src"), "PATH": "/usr/bin:/bin"}, timeout=120)
     assert r.returncode == 2
     assert len(r.stderr.strip().splitlines()) == 1 and "cannot be assembled" in r.stderr
+
+
+@pytest.mark.parametrize("command", [["simulate", "{robot}", "-o", "{tmp}/x.csv"], ["excite", "{robot}", "-o", "{tmp}/e.csv"],
+                                     ["codegen", "{robot}", "--lang", "python", "-o", "{tmp}/cg"]])
+def test_commands_without_loops_refuse_a_closed_chain_in_one_line(command, tmp_path):
+    """Only derive reads loops yet: the others must not take the spanning tree for the robot."""
+    from typer.testing import CliRunner
+
+    from minparam_cli.cli.app import app
+
+    r = CliRunner().invoke(app, [c.format(robot=ARM, tmp=tmp_path) for c in command])
+    assert r.exit_code == 2, r.output
+    assert "is a closed chain" in r.output and "Traceback" not in r.output
+    assert not list(tmp_path.iterdir())

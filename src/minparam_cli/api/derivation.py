@@ -28,7 +28,7 @@ def derive_all(path: str | Path, opts: DeriveOptions, progress: Callable[[int, i
     from minparam_cli.robot import load_chain
 
     t0 = time.perf_counter()
-    desc, chain = load_chain(path, opts.stage())
+    desc, chain = load_chain(path, opts.stage(), loops=True)
     if desc.loops is not None:  # a closed chain: the actuated torques through the loops (loops/derive.py)
         from minparam_cli.loops.derive import derive_closed
 

@@ -99,10 +99,12 @@ def prepare_simulation(robot: Robot | str | Path, opts: SimulateOptions) -> Simu
     from minparam_cli.chain import build_chain
     from minparam_cli.describe import load_description
     from minparam_cli.experiment.simulate_spec import SimulationOptions, parse_effects, validate_options
-    from minparam_cli.robot import require_fixed_base
+    from minparam_cli.robot import require_fixed_base, require_open_chain
 
     path = robot_path(robot)
-    chain = build_chain(load_description(path, mimic=opts.mimic))
+    desc = load_description(path, mimic=opts.mimic)
+    require_open_chain(desc)
+    chain = build_chain(desc)
     require_fixed_base(chain, "simulate")
     side = opts.side
     motor_values, gains = _motor_values(opts.motor_params, chain), _drive_gains(chain, opts.current)
