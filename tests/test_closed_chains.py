@@ -43,9 +43,9 @@ def _energy_by_differences(chain, q_of_t, t, h=1e-4):
         R, Rd = T0[0, j, :3, :3], (Tp[0, j, :3, :3] - Tm[0, j, :3, :3]) / (2 * h)
         W = Rd @ R.T
         w = np.array([W[2, 1], W[0, 2], W[1, 0]])
-        cp = lambda T: T[0, j, :3, :3] @ c + T[0, j, :3, 3]  # noqa: E731
-        vc = (cp(Tp) - cp(Tm)) / (2 * h)
-        E += 0.5 * m * vc @ vc + 0.5 * w @ (R @ Ic @ R.T) @ w - m * chain.gravity @ cp(T0)
+        cp, cm, c0 = (T[0, j, :3, :3] @ c + T[0, j, :3, 3] for T in (Tp, Tm, T0))
+        vc = (cp - cm) / (2 * h)
+        E += 0.5 * m * vc @ vc + 0.5 * w @ (R @ Ic @ R.T) @ w - m * chain.gravity @ c0
     return E
 
 

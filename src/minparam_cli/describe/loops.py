@@ -62,4 +62,4 @@ def pose(xyz=(0.0, 0.0, 0.0), rpy=(0.0, 0.0, 0.0)) -> Pose:
     R = ((cy * cp, cy * sp * sr - sy * cr, cy * sp * cr + sy * sr),
          (sy * cp, sy * sp * sr + cy * cr, sy * sp * cr - cy * sr),
          (-sp, cp * sr, cp * cr))
-    return tuple((*R[i], float(xyz[i])) for i in range(3)) + ((0.0, 0.0, 0.0, 1.0),)  # type: ignore[return-value]
+    return tuple((*R[i], float(xyz[i])) for i in range(3)) + ((0.0, 0.0, 0.0, 1.0),)

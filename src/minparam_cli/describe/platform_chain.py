@@ -56,6 +56,8 @@ def platform_closed_chain(doc: dict, src: str) -> RobotDescription:
     home = _vector(dyn["home"], src, "dynamics.home", n=6)
     Hp = np.array(pose([k * x for x in home[:3]], [angle * a for a in home[3:]]))
     platform = _inertial(dyn["platform"], k, src, "dynamics.platform")  # type: ignore[arg-type]  # a float scale works
+    if platform is None:
+        raise DescriptionError("expected {mass, com, inertia}", src, "dynamics.platform")
     parts = [_part(dyn[key], k, src, f"dynamics.{key}") for key in ("cylinder", "piston")]
     friction = tuple(sorted(_friction(dyn.get("friction", []), src, "dynamics.friction")))
     base = {n: k * np.array(c) for n, c in zip(plat.base_names, plat.base_coords, strict=True)}
@@ -104,7 +106,7 @@ def platform_closed_chain(doc: dict, src: str) -> RobotDescription:
                             loops=ClosedLoops(cuts, tuple(actuated), tuple(reference), "platform"))
 
 
-def _part(v: Any, k: float, src: str, where: str) -> tuple[float, float, tuple[float, ...]]:
+def _part(v: Any, k: float, src: str, where: str) -> tuple[float, float, tuple[float, float, float, float, float, float]]:
     if not isinstance(v, dict) or set(v) != {"mass", "com", "inertia"}:
         raise DescriptionError("expected {mass, com, inertia: [across, across, along]}", src, where)
     mass = _number(v["mass"], src, f"{where}.mass")

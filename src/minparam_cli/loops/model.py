@@ -191,7 +191,8 @@ def closed_model(desc: RobotDescription, chain: Chain) -> ClosedModel:
             Fb = Wa if cut.body_b < 0 else np.linalg.inv(T0[0, cut.body_b]) @ Wa
         else:
             Fb = np.array(cut.frame_b, dtype=float)
-        offsets = {"connect": [np.zeros(3)], "revolute": [np.zeros(3), [0, 0, L]], "weld": [np.zeros(3), [L, 0, 0], [0, L, 0]]}
+        offsets: dict[str, list[np.ndarray]] = {"connect": [np.zeros(3)], "revolute": [np.zeros(3), np.array([0, 0, L])],
+                                                "weld": [np.zeros(3), np.array([L, 0, 0]), np.array([0, L, 0])]}
         for d in offsets[cut.kind]:
             ba.append(cut.body_a)
             bb.append(cut.body_b)

@@ -25,8 +25,9 @@ def actuated_box(model: ClosedModel) -> tuple[np.ndarray, np.ndarray]:
         r = model.reference[j]
         s = SPREAD_REVOLUTE if chain.types[j] == REVOLUTE else SPREAD_PRISMATIC * chain.length_scale
         a, b = r - s, r + s
-        if chain.limits and chain.limits[j] is not None:
-            a, b = max(a, chain.limits[j][0]), min(b, chain.limits[j][1])
+        lim = chain.limits[j] if chain.limits else None
+        if lim is not None:
+            a, b = max(a, lim[0]), min(b, lim[1])
         lo.append(a)
         hi.append(b)
     return np.array(lo), np.array(hi)
