@@ -32,7 +32,7 @@ def derive_all(path: str | Path, opts: DeriveOptions, progress: Callable[[int, i
     if desc.loops is not None:  # a closed chain: the actuated torques through the loops (loops/derive.py)
         from minparam_cli.loops.derive import derive_closed
 
-        base = derive_closed(desc, chain, opts, progress)
+        base = derive_closed(desc, chain, opts.samples, opts.seed, opts.method, bool(opts.symbolic or opts.symbolic_numbers))
     elif opts.method == "projection":
         from minparam_cli.base.projection import derive_projection
 

@@ -23,19 +23,18 @@ def actuated_regressor(model: ClosedModel, q, qd, qdd, G) -> np.ndarray:
     return np.einsum("snf,snp->sfp", G, Yt)
 
 
-def derive_closed(desc: RobotDescription, chain, opts, progress=None) -> BaseSet:
-    """Base parameters of the actuated torques of ``desc``'s closed chain (``minparam derive``; ``opts``:
-    its DeriveOptions).  Krutikov's projection and the symbolic regrouping are tree routes: refused."""
+def derive_closed(desc: RobotDescription, chain, samples: int, seed: int, method: str = "qr", symbolic: bool = False) -> BaseSet:
+    """Base parameters of the actuated torques of ``desc``'s closed chain (``minparam derive``).
+    Krutikov's projection and the symbolic regrouping are tree routes: refused in one line."""
     from minparam_cli.errors import UnsupportedError
     from minparam_cli.loops.energy import energy_check
 
-    if opts.method == "projection":
+    if method == "projection":
         raise UnsupportedError("--method projection works on trees; a closed chain's base set comes from the loops' "
                                "tangent map (use --method qr)", desc.source)
-    if opts.symbolic or opts.symbolic_numbers:
+    if symbolic:
         raise UnsupportedError("--symbolic regroups a tree in closed form; a closed chain's regrouping is numeric "
                                "(drop --symbolic)", desc.source)
-    samples, seed = opts.samples, opts.seed
     t0 = time.perf_counter()
     model = closed_model(desc, chain)
     f, P = len(model.actuated), chain.layout.size
