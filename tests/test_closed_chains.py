@@ -162,8 +162,9 @@ def test_a_loop_that_does_not_close_is_refused(tmp_path):
 
 
 def test_a_wrong_count_of_actuated_joints_is_refused(tmp_path):
-    bad = _write(tmp_path, ("axis: [0, 1, 0], actuated: true,\n     limits: [-80, 80],\n     inertial: {mass: 3.0",
-                            "axis: [0, 1, 0],\n     limits: [-80, 80],\n     inertial: {mass: 3.0"))
+    bad = _write(tmp_path, ("axis: [0, 1, 0], actuated: true,\n     limits: [-40, 40],\n     inertial: {mass: 3.0",
+                            "axis: [0, 1, 0],\n     limits: [-40, 40],\n     inertial: {mass: 3.0"))
+    assert bad.read_text() != ARM.read_text()
     desc, chain = load_chain(bad, DeriveOptions().stage(), loops=True)
     with pytest.raises(DescriptionError, match="mobility 3 .* but 2 joints are actuated"):
         closed_model(desc, chain)
@@ -188,15 +189,22 @@ def test_cli_bad_loop_is_one_line_exit_2(tmp_path):
     assert len(r.stderr.strip().splitlines()) == 1 and "cannot be assembled" in r.stderr
 
 
-@pytest.mark.parametrize("command", [["simulate", "{robot}", "-o", "{tmp}/x.csv"], ["excite", "{robot}", "-o", "{tmp}/e.csv"],
-                                     ["codegen", "{robot}", "--lang", "python", "-o", "{tmp}/cg"]])
+@pytest.mark.parametrize("command", [["singular", "{robot}", "--scan"], ["codegen", "{robot}", "--lang", "python", "--model",
+                                                                 "{tmp}/none.json", "-o", "{tmp}/cg.py"]])
 def test_commands_without_loops_refuse_a_closed_chain_in_one_line(command, tmp_path):
-    """Only derive reads loops yet: the others must not take the spanning tree for the robot."""
+    """The commands that do not read loops must not take the spanning tree for the robot."""
     from typer.testing import CliRunner
 
     from minparam_cli.cli.app import app
 
+    if "--model" in command:  # a model file for the closed chain, from identify
+        data = tmp_path / "d.csv"
+        assert CliRunner().invoke(app, ["simulate", str(ARM), "-o", str(data), "--duration", "6", "--noise", "0.3"]).exit_code == 0
+        r = CliRunner().invoke(app, ["identify", str(ARM), str(data), "--no-diagnose", "--save-model", str(tmp_path / "none.json")])
+        assert r.exit_code == 0, r.output
+        data.unlink()
+    before = set(tmp_path.iterdir())
     r = CliRunner().invoke(app, [c.format(robot=ARM, tmp=tmp_path) for c in command])
     assert r.exit_code == 2, r.output
     assert "is a closed chain" in r.output and "Traceback" not in r.output
-    assert not list(tmp_path.iterdir())
+    assert set(tmp_path.iterdir()) == before

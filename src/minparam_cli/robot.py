@@ -32,8 +32,9 @@ class DeriveOptions:
 
 
 def load_chain(path: str | Path, opts: DeriveOptions, loops: bool = False):
-    """Description and chain with the CLI's extras and gravity applied.  ``loops``: the caller handles
-    a closed chain (``desc.loops``: derive); every other caller gets a one-line refusal."""
+    """Description and chain with the CLI's extras and gravity applied.  A closed chain (``desc.loops``)
+    is refused in one line unless the caller handles its loops (``loops``): derive and codegen take the
+    spanning tree, simulate, identify and excite add the loops as the coupling (``loops/coupling.py``)."""
     from minparam_cli.chain import build_chain
     from minparam_cli.describe import load_description
 
@@ -68,6 +69,5 @@ def require_open_chain(desc) -> None:
     if desc.loops is not None:
         from minparam_cli.errors import UnsupportedError
 
-        raise UnsupportedError("is a closed chain: only 'minparam derive' reads closed chains yet (simulate, identify, "
-                               "excite, codegen, kinematics and the model file need the loops' manifold: not supported)",
-                               desc.source)
+        raise UnsupportedError("is a closed chain: this command does not read closed chains yet (derive, codegen, "
+                               "simulate, identify, evaluate and excite do)", desc.source)

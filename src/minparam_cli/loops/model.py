@@ -28,6 +28,8 @@ CLOSE_RTOL = 1e-11
 # a closure equation counts in the rank when its singular value exceeds this fraction of the largest
 RANK_RTOL = 1e-8
 NEWTON_STEPS = 60
+# steps of the continuation from the reference to the wanted actuated coordinates (``close_from_reference``)
+CONTINUATION_STEPS = 8
 
 
 @dataclass(frozen=True, eq=False)
@@ -120,6 +122,18 @@ class ClosedModel:
             step = np.linalg.lstsq(J[0][:, p], h[0], rcond=None)[0] if len(q) == 1 else _batched_lstsq(J[:, :, p], h)
             q[:, p] -= step
         return q, np.abs(self.residual(q)).max(axis=1)
+
+
+    def close_from_reference(self, q_a: np.ndarray, steps: int = CONTINUATION_STEPS) -> tuple[np.ndarray, np.ndarray]:
+        """``close`` by continuation: the actuated joints moved from the reference to ``q_a`` (N, f) in
+        ``steps`` equal steps, Newton from the previous solution at each, so the loops stay in the
+        reference's assembly mode (a four-bar does not jump from parallelogram to antiparallelogram)."""
+        q = np.repeat(self.reference[None, :], len(q_a), axis=0)
+        ref_a = self.reference[list(self.actuated)]
+        err = np.zeros(len(q_a))
+        for k in range(1, steps + 1):
+            q, err = self.close(ref_a + (q_a - ref_a) * (k / steps), q)
+        return q, err
 
 
 def _batched_lstsq(J: np.ndarray, h: np.ndarray) -> np.ndarray:

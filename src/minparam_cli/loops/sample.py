@@ -43,10 +43,9 @@ def within_limits(model: ClosedModel, q: np.ndarray) -> np.ndarray:
 
 
 def assemble(model: ClosedModel, q_a: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Configurations (N, n) with the actuated joints at ``q_a`` and the loops closed from the reference
-    assembly mode, and whether each one closed, within the limits and away from a singularity."""
-    start = np.repeat(model.reference[None, :], len(q_a), axis=0)
-    q, err = model.close(q_a, start)
+    """Configurations (N, n) with the actuated joints at ``q_a`` and the loops closed in the reference's
+    assembly mode (continuation), and whether each one closed, within the limits and away from a singularity."""
+    q, err = model.close_from_reference(q_a)
     ok = (err < CLOSE_RTOL * model.chain.length_scale * 1e3) & within_limits(model, q)
     if ok.any():
         J, _ = model.jacobian(q)
