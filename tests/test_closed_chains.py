@@ -178,12 +178,13 @@ def test_tree_only_routes_refuse_a_closed_chain(opts):
         derive_file(ARM, DeriveOptions(**opts))
 
 
-def test_cli_bad_loop_is_one_line_exit_2(tmp_path):
+@pytest.mark.parametrize("command", ["derive", "check"])
+def test_cli_bad_loop_is_one_line_exit_2(tmp_path, command):
     import subprocess
     import sys
 
     bad = _write(tmp_path, ("[[0, 0, 1.0], [-0.3, 0, 0]]", "[[0, 0, 1.9], [-0.3, 0, 0]]"))
-    r = subprocess.run([sys.executable, "-m", "minparam_cli", "derive", str(bad)], capture_output=True, text=True,
+    r = subprocess.run([sys.executable, "-m", "minparam_cli", command, str(bad)], capture_output=True, text=True,
                        env={"PYTHONPATH": str(ROOT / "src"), "PATH": "/usr/bin:/bin"}, timeout=120)
     assert r.returncode == 2
     assert len(r.stderr.strip().splitlines()) == 1 and "cannot be assembled" in r.stderr

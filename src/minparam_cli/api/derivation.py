@@ -73,6 +73,10 @@ def check_file(path: str | Path) -> CheckResult:
 
     desc = load_description(path)
     chain = build_chain(desc)
+    if desc.loops is not None:  # the loops close, leave the mechanism mobile and are driven by the actuated joints
+        from minparam_cli.loops.model import closed_model
+
+        closed_model(desc, chain)
     verdicts = body_verdicts(desc)
     problems = [(link, problem) for link, problem in verdicts if problem is not None]
     if problems:
