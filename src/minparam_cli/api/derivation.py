@@ -58,7 +58,10 @@ def derive_all(path: str | Path, opts: DeriveOptions, progress: Callable[[int, i
         from minparam_cli.base.symbolic import add_symbolic
 
         symbolic = add_symbolic(desc, chain, base, numbers=opts.symbolic_numbers)
-    derivation = Derivation(RobotSummary.of(chain), warnings, snap, weak, symbolic, time.perf_counter() - t0)
+    summary = RobotSummary.of(chain)
+    if desc.loops is not None:  # the robot's degrees of freedom are its actuated joints, not the tree's
+        summary = replace(summary, dof=base.extra["closed_chain"]["mobility"], convention=f"closed chain, {chain.n} tree joints")
+    derivation = Derivation(summary, warnings, snap, weak, symbolic, time.perf_counter() - t0)
     return replace(base, derivation=derivation), desc, chain
 
 
