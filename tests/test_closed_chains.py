@@ -209,3 +209,16 @@ def test_commands_without_loops_refuse_a_closed_chain_in_one_line(command, tmp_p
     assert r.exit_code == 2, r.output
     assert "is a closed chain" in r.output and "Traceback" not in r.output
     assert set(tmp_path.iterdir()) == before
+
+
+def test_actuated_joints_that_do_not_drive_the_passive_ones_are_refused(tmp_path):
+    """Motors on q1, q2, q3 (the loop's own three) and the base yaw q0 passive: the count matches the
+    mobility, but nothing drives q0 (the loop does not involve it), so the choice is refused."""
+    text = ARM.read_text().replace("axis: [0, 0, 1], actuated: true,", "axis: [0, 0, 1],")
+    text = text.replace("origin: [0, 0, 1.0, 0, 0, 0], axis: [0, 1, 0],", "origin: [0, 0, 1.0, 0, 0, 0], axis: [0, 1, 0], actuated: true,")
+    assert text.count("actuated: true") == 3
+    bad = tmp_path / "bad.yaml"
+    bad.write_text(text)
+    desc, chain = load_chain(bad, DeriveOptions().stage(), loops=True)
+    with pytest.raises(DescriptionError, match="do not determine the passive ones"):
+        closed_model(desc, chain)
