@@ -34,6 +34,9 @@ def robot_files() -> list[Path]:
 
 
 ROBOT_FILES = robot_files()
+# closed chains in robots/ (kind: closed_chain, or a platform with dynamics): derive reads them too
+CLOSED_FILES = [p for p in sorted(ROBOTS.glob("*.yaml"))
+                if (d := yaml.safe_load(p.read_text())) and (d.get("kind") == "closed_chain" or "dynamics" in d)]
 ROBOT_IDS = [p.name for p in ROBOT_FILES]
 
 

@@ -75,14 +75,14 @@ def test_urdf_states_its_gravity_and_maps_names():
 
 
 def test_folder_jsonl_gives_one_object_per_robot():
-    from conftest import ROBOT_FILES
+    from conftest import CLOSED_FILES, ROBOT_FILES
 
     r = cli("derive", "robots", "--format", "jsonl")
     assert r.exit_code == 0, r.output
     lines = [json.loads(ln) for ln in r.output.strip().splitlines()]
     robots = [ln for ln in lines if "n_base" in ln]
-    assert len(robots) == len(ROBOT_FILES)
-    assert {ln["source"] for ln in robots} == {f"robots/{p.name}" for p in ROBOT_FILES}
+    assert len(robots) == len(ROBOT_FILES) + len(CLOSED_FILES)
+    assert {ln["source"] for ln in robots} == {f"robots/{p.name}" for p in ROBOT_FILES + CLOSED_FILES}
 
 
 def test_batch_keeps_going_past_a_failed_robot_and_exits_non_zero(tmp_path):

@@ -71,7 +71,7 @@ LAYERS = (
     ("describe",),
     ("joint_matrices", "chain", "robot"),
     ("dynamics",),
-    ("base", "kinematics", "codegen"),
+    ("base", "kinematics", "codegen", "loops"),
     ("measured",),
     ("experiment", "identify.estimate"),
     ("identify.passes",),

@@ -73,6 +73,12 @@ class Coupling:
         Gt = self.G.T
         return q @ Gt + self.offset, qd @ Gt, qdd @ Gt
 
+    def coordinate_rows(self, q, qd, qdd, joint_rows: Callable):
+        """The regressor's rows of the coordinates: Gᵀ times ``joint_rows(q, qd, qdd)`` (N, n, P) of
+        every joint's state (a closed chain's coupling, ``loops/coupling.py``, has a G per state)."""
+        states = (np.ascontiguousarray(x) for x in self.joint_states(q, qd, qdd))
+        return np.matmul(self.G.T, joint_rows(*states))
+
 
 @dataclass(frozen=True, eq=False)
 class Chain:

@@ -31,12 +31,16 @@ class DeriveOptions:
     symbolic_numbers: bool = False  # with symbolic: lengths and rational axes as the file's exact numbers
 
 
-def load_chain(path: str | Path, opts: DeriveOptions):
-    """Description and chain with the CLI's extras and gravity applied."""
+def load_chain(path: str | Path, opts: DeriveOptions, loops: bool = False):
+    """Description and chain with the CLI's extras and gravity applied.  A closed chain (``desc.loops``)
+    is refused in one line unless the caller handles its loops (``loops``): derive and codegen take the
+    spanning tree, simulate, identify and excite add the loops as the coupling (``loops/coupling.py``)."""
     from minparam_cli.chain import build_chain
     from minparam_cli.describe import load_description
 
     desc = load_description(path, opts.snap_angles, opts.mimic, opts.floating_base)
+    if not loops:
+        require_open_chain(desc)
     if opts.gravity is not None:
         desc = replace(desc, gravity=cast("tuple[float, float, float]", tuple(opts.gravity)), gravity_source="cli")
     extras: list[tuple[str, ...]] = []
@@ -58,3 +62,12 @@ def require_fixed_base(chain, command: str) -> None:
 
     if chain.floating_base:
         raise UnsupportedError(f"{command} of floating-base robots needs base motion columns: not supported yet", chain.source)
+
+
+def require_open_chain(desc) -> None:
+    """One-line refusal for the commands that would take a closed chain's spanning tree for the robot."""
+    if desc.loops is not None:
+        from minparam_cli.errors import UnsupportedError
+
+        raise UnsupportedError("is a closed chain: this command does not read closed chains yet (derive, codegen, "
+                               "simulate, identify, evaluate and excite do)", desc.source)

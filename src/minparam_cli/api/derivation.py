@@ -28,8 +28,12 @@ def derive_all(path: str | Path, opts: DeriveOptions, progress: Callable[[int, i
     from minparam_cli.robot import load_chain
 
     t0 = time.perf_counter()
-    desc, chain = load_chain(path, opts.stage())
-    if opts.method == "projection":
+    desc, chain = load_chain(path, opts.stage(), loops=True)
+    if desc.loops is not None:  # a closed chain: the actuated torques through the loops (loops/derive.py)
+        from minparam_cli.loops.derive import derive_closed
+
+        base = derive_closed(desc, chain, opts.samples, opts.seed, opts.method, bool(opts.symbolic or opts.symbolic_numbers))
+    elif opts.method == "projection":
         from minparam_cli.base.projection import derive_projection
 
         base = derive_projection(chain, progress=progress)
@@ -45,7 +49,7 @@ def derive_all(path: str | Path, opts: DeriveOptions, progress: Callable[[int, i
     if opts.snap_angles is not None:
         snap = {"tolerance_rad": opts.snap_angles, "changed": [dict(a) for a in desc.adjustments]}
     weak: tuple = ()
-    if base.rank_margin.get("weak"):
+    if base.rank_margin.get("weak") and desc.loops is None:
         from minparam_cli.base.weak import weak_parameters
 
         weak = tuple(weak_parameters(chain, base, explain=True, samples=opts.samples, seed=opts.seed))
@@ -54,7 +58,10 @@ def derive_all(path: str | Path, opts: DeriveOptions, progress: Callable[[int, i
         from minparam_cli.base.symbolic import add_symbolic
 
         symbolic = add_symbolic(desc, chain, base, numbers=opts.symbolic_numbers)
-    derivation = Derivation(RobotSummary.of(chain), warnings, snap, weak, symbolic, time.perf_counter() - t0)
+    summary = RobotSummary.of(chain)
+    if desc.loops is not None:  # the robot's degrees of freedom are its actuated joints, not the tree's
+        summary = replace(summary, dof=base.extra["closed_chain"]["mobility"], convention=f"closed chain, {chain.n} tree joints")
+    derivation = Derivation(summary, warnings, snap, weak, symbolic, time.perf_counter() - t0)
     return replace(base, derivation=derivation), desc, chain
 
 
@@ -69,6 +76,10 @@ def check_file(path: str | Path) -> CheckResult:
 
     desc = load_description(path)
     chain = build_chain(desc)
+    if desc.loops is not None:  # the loops close, leave the mechanism mobile and are driven by the actuated joints
+        from minparam_cli.loops.model import closed_model
+
+        closed_model(desc, chain)
     verdicts = body_verdicts(desc)
     problems = [(link, problem) for link, problem in verdicts if problem is not None]
     if problems:

@@ -54,7 +54,11 @@ def prepare_excite(robot: Path, opts: ExciteOptions) -> Prepared:
     from minparam_cli.robot import DeriveOptions, load_chain, require_fixed_base
 
     design = opts.design()
-    _, chain = load_chain(robot, DeriveOptions(friction=opts.friction, rotor_inertia=opts.rotor_inertia, mimic=opts.mimic))
+    from minparam_cli.loops.coupling import with_loops
+
+    desc, chain = load_chain(robot, DeriveOptions(friction=opts.friction, rotor_inertia=opts.rotor_inertia, mimic=opts.mimic),
+                             loops=True)
+    chain = with_loops(desc, chain)  # a closed chain: the actuated joints, the loops as the coupling
     require_fixed_base(chain, "excite")
     box = np.array(opts.box, dtype=float) if opts.box is not None else None
     point = np.array(opts.point, dtype=float) if opts.point is not None else None

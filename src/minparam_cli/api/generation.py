@@ -57,7 +57,9 @@ def generate(robot: Path, opts: CodegenOptions) -> tuple[Generated, str]:
     if opts.model is None:
         stage = DeriveOptions(opts.method, opts.friction_kinds, opts.rotor_inertia, opts.gravity_vector, opts.samples,
                               opts.seed, mimic=opts.mimic, floating_base=opts.floating_base)
-        _, chain = load_chain(robot, stage)
+        desc, chain = load_chain(robot, stage, loops=True)
+        if desc.loops is not None:  # a closed chain: the actuated torques' base regressor (codegen/closed.py)
+            return _closed(desc, chain, robot, robot_bytes, opts), _stem(opts, chain.name)
         if opts.method == "projection":
             from minparam_cli.base.projection import derive_projection
 
@@ -108,3 +110,30 @@ def codegen(robot: Robot | str | Path, lang: str, *, model: Any = None, paramete
     warn(gen.notes)
     return GeneratedCode(lang=opts.lang, files=dict(gen.files), counts={k: dict(v) for k, v in gen.counts.items()},
                          base_names=tuple(gen.base_names), output=opts.output, notes=tuple(gen.notes), _generated_stem=stem)
+
+
+def _stem(opts: CodegenOptions, name: str) -> str:
+    from minparam_cli.codegen.functions import identifier
+
+    if opts.output is not None and not is_stdout(opts.output):
+        return opts.output.stem
+    return name if opts.lang != "c" else identifier(opts.name if opts.name is not None else name)
+
+
+def _closed(desc, chain, robot: Path, robot_bytes: bytes, opts: CodegenOptions) -> Generated:
+    """A closed chain's generated base regressor (C or NumPy; codegen/closed.py)."""
+    from minparam_cli import __version__
+    from minparam_cli.codegen.closed import generate_closed_code
+    from minparam_cli.codegen.functions import Meta, identifier
+    from minparam_cli.errors import UnsupportedError
+    from minparam_cli.loops.derive import derive_closed
+    from minparam_cli.loops.model import closed_model
+    from minparam_cli.model.file import sha256_hex
+
+    if opts.full:
+        raise UnsupportedError("codegen --full of a closed chain: not supported (the base regressor only)", str(robot))
+    base = derive_closed(desc, chain, opts.samples, opts.seed, opts.method)
+    stem = _stem(opts, chain.name)
+    prefix = identifier(opts.name if opts.name is not None else stem)
+    meta = Meta(str(robot), sha256_hex(robot_bytes), opts.command_line(robot), __version__)
+    return generate_closed_code(closed_model(desc, chain), base, opts.lang, prefix, meta, stem)

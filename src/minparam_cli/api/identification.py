@@ -55,8 +55,11 @@ def load_identify_chain(opts: IdentifyOptions, robot: Path | None = None):
     from minparam_cli.robot import DeriveOptions, load_chain, require_fixed_base
 
     path = opts.robot if robot is None else Path(robot)
-    _, chain = load_chain(path, DeriveOptions(friction=opts.friction, rotor_inertia=opts.rotor_inertia,
-                                              gravity=opts.gravity, mimic=opts.mimic))
+    from minparam_cli.loops.coupling import with_loops
+
+    desc, chain = load_chain(path, DeriveOptions(friction=opts.friction, rotor_inertia=opts.rotor_inertia,
+                                                 gravity=opts.gravity, mimic=opts.mimic), loops=True)
+    chain = with_loops(desc, chain)  # a closed chain: the actuated joints, the loops as the coupling
     require_fixed_base(chain, "identify")
     if opts.export_urdf is not None and chain.layout.massless:  # before any data are read
         raise InputError(f"--export-urdf: {path} has bodies with several joints (MJCF), whose massless frames the URDF export "

@@ -49,6 +49,9 @@ def analyse_singular(robot: Path, opts: SingularOptions, progress=None) -> Singu
     from minparam_cli.kinematics.serial.plucker import require_serial
 
     desc = load_description(robot)
+    from minparam_cli.robot import require_open_chain
+
+    require_open_chain(desc)
     if opts.tool is not None:
         from minparam_cli.describe.urdf_tool import select_tool
 

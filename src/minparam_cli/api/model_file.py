@@ -26,7 +26,10 @@ def open_model(model: str | Path, robot: str | Path | None = None) -> tuple[Save
     if not robot_file.is_file():
         raise ModelError(f"{model}: robot file {robot_file} not found" + ("" if robot else " (give it with --robot)"))
     check_robot(m, str(model), str(robot_file), read_bounded(robot_file))
-    _, chain = load_chain(robot_file, m.load.derive_options(m.seed))
+    from minparam_cli.loops.coupling import with_loops
+
+    desc, chain = load_chain(robot_file, m.load.derive_options(m.seed), loops=True)
+    chain = with_loops(desc, chain)  # a closed chain: the actuated joints, the loops as the coupling
     require_fixed_base(chain, "evaluate")
     chain = chain.with_coulomb_smoothing(m.load.coulomb_smoothing)
     return m, robot_file, model_design(m, chain, str(model))

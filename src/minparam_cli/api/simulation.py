@@ -111,10 +111,12 @@ def prepare_simulation(robot: Robot | str | Path, opts: SimulateOptions) -> Simu
     from minparam_cli.chain import build_chain
     from minparam_cli.describe import load_description
     from minparam_cli.experiment.simulate_spec import SimulationOptions, parse_effects, validate_options
+    from minparam_cli.loops.coupling import with_loops
     from minparam_cli.robot import require_fixed_base
 
     path = robot_path(robot)
-    chain = build_chain(load_description(path, mimic=opts.mimic))
+    desc = load_description(path, mimic=opts.mimic)
+    chain = with_loops(desc, build_chain(desc))  # a closed chain: the actuated joints, the loops as the coupling
     require_fixed_base(chain, "simulate")
     side = opts.side
     motor_values, gains = _motor_values(opts.motor_params, chain), _drive_gains(chain, opts.current, side, opts.drive_gains)

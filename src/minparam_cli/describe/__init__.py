@@ -22,10 +22,14 @@ def load_description(path: str | Path, snap_angles: float | None = None, mimic: 
     path = Path(path)
     suffix = path.suffix.lower()
     if suffix in (".yaml", ".yml"):
+        from minparam_cli.describe.closed_yaml import load_closed
         from minparam_cli.describe.yaml_dh import load_yaml
 
         if floating_base:
             raise DescriptionError("--floating-base applies to URDF files (a DH table describes a fixed base)", str(path))
+        closed = load_closed(path)  # a closed chain (kind: closed_chain, or a platform with dynamics), else None
+        if closed is not None:
+            return closed
         desc = load_yaml(path)
         if snap_angles is not None:
             from minparam_cli.describe.snap import snap_description

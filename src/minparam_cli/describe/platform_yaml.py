@@ -35,7 +35,8 @@ from minparam_cli.errors import DescriptionError
 
 LENGTH_UNITS = ("mm", "cm", "m")
 ANGLE_UNITS = ("deg", "rad")
-TOP_KEYS = {"kind", "name", "description", "units", "base", "platform", "nodes", "legs", "leg_limits", "workspace"}
+TOP_KEYS = {"kind", "name", "description", "units", "base", "platform", "nodes", "legs", "leg_limits", "workspace",
+            "dynamics"}  # dynamics: the inertial data of the legs and platform (describe/platform_chain.py)
 SIDE_KEYS = {"radius", "angles", "names", "nodes"}
 LEG_KEYS = {"name", "nodes", "limits"}
 BOX_KEYS = ("x", "y", "z", "roll", "pitch", "yaw")

@@ -9,6 +9,10 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 from fractions import Fraction
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    from minparam_cli.describe.loops import ClosedLoops
 
 # what a loader does with URDF <mimic> joints: move them with their master, or freeze them at their offset
 MIMIC_MODES = ("coupled", "fixed")
@@ -129,6 +133,8 @@ class RobotDescription:
     # joint-side drive gains (YAML top-level ``drive_gains:``): tau_j = k_j i_j for currents read with joint
     # angles (``identify --current`` without --side motor); None: not declared
     drive_gains: tuple[float, ...] | None = None
+    # a closed chain: the joints above are its spanning tree, these its cuts and actuated joints (describe/loops.py)
+    loops: ClosedLoops | None = None
 
     @property
     def dof(self) -> int:

@@ -189,8 +189,7 @@ def regressor(chain: Chain, q, qd, qdd, include_extras: bool = True, backend: st
 
             add_motor_columns(chain, Y, qd, qdd)
         return Y
-    q, qd, qdd = (np.ascontiguousarray(x) for x in chain.coupling.joint_states(q, qd, qdd))
-    return np.matmul(chain.coupling.G.T, joint_regressor(chain, q, qd, qdd, include_extras, backend))
+    return chain.coupling.coordinate_rows(q, qd, qdd, lambda a, b, c: joint_regressor(chain, a, b, c, include_extras, backend))
 
 
 def joint_regressor(chain: Chain, q, qd, qdd, include_extras: bool = True, backend: str = "auto") -> np.ndarray:
@@ -296,6 +295,9 @@ def random_states(chain: Chain, samples: int, rng):
     ``rng``: a seeded ``random.Random`` (what derive uses: the stdlib generator
     spares the command the ~20 ms import of numpy.random) or a numpy Generator.
     """
+    sampler = getattr(chain.coupling, "random_states", None)
+    if sampler is not None:  # a closed chain: states on the loops' manifold (loops/coupling.py)
+        return sampler(samples, rng)
     n = chain.dof
     pris = np.array([t != REVOLUTE for t in chain.coordinate_types])
     if isinstance(rng, random.Random):

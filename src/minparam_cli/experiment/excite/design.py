@@ -237,6 +237,18 @@ def design(chain: Chain, base: BaseSet, options: ExciteOptions, limits: cons.Lim
         constraints.append({"type": "ineq", "fun": box_fun, "jac": box_jac})
         slack.append(BOX_MARGIN / 2)
 
+    margins = getattr(chain.coupling, "limit_margins", None)
+    if margins is not None and getattr(chain.coupling, "limited_passive", None):  # a closed chain's passive joints
+        def passive_fun(x):
+            return margins(Bq @ x.reshape(n, m).T)[0].ravel()
+
+        def passive_jac(x):
+            d = margins(Bq @ x.reshape(n, m).T)[1]
+            return cons.state_jacobian(d, np.zeros_like(d), np.zeros_like(d), Bq, Bq, Bq)
+
+        constraints.append({"type": "ineq", "fun": passive_fun, "jac": passive_jac})
+        slack.append(0.0)
+
     records, ends = [], []
     total = options.starts * options.max_iterations
     for i, child in enumerate(_children(rng, options.starts)):
@@ -274,6 +286,10 @@ def design(chain: Chain, base: BaseSet, options: ExciteOptions, limits: cons.Lim
     for _, best, best_x in sorted(ends, key=lambda e: e[0]):  # noqa: B007
         traj, scale, broken = _checked(chain, FourierTrajectory.from_matrix(best_x.reshape(n, m), options.base_frequency), limits,
                                        phi if use_tau else None, t)
+        if margins is not None and getattr(chain.coupling, "limited_passive", None):  # passive joints, densely
+            low = margins(traj.evaluate(cons.dense_times(traj, t))[0])[0].min(axis=0)
+            names = chain.coupling.limited_passive  # type: ignore[union-attr]  # margins: a closed chain's coupling
+            broken += [f"passive joint {names[k % len(names)]} leaves its limits" for k in np.flatnonzero(low < 0)]
         if not broken:
             break
         failures.append(broken)

@@ -1,0 +1,65 @@
+"""The record of a closed kinematic chain: a spanning tree (the description's joints) plus the
+loop-closing cuts between two of its links, and which joints are actuated.
+
+Every loader of a closed chain fills the same record (docs/methods/closed_chains.md):
+
+* the closed-chain YAML (``kind: closed_chain``, ``describe/closed_yaml.py``);
+* a platform YAML with a ``dynamics:`` section (``describe/platform_chain.py``): the legs and the
+  platform become a tree, every leg but the first closed on the platform by a ``connect`` cut;
+* the MJCF reader (another branch): an ``<equality><connect body1 body2 anchor>`` is
+  ``LoopCut(kind="connect", body_a=<index of body1's joint>, body_b=<body2's, -1 for the world>,
+  frame_a=<anchor as a 4x4 translation>, frame_b=None)``; a ``<weld body1 body2 relpose>`` is
+  ``kind="weld"`` with ``frame_a`` the identity and ``frame_b`` the inverse of relpose (or None:
+  where frame_a lies at the reference configuration, MuJoCo's default).  ``frame_b=None`` is the
+  MuJoCo convention: the second body's point is taken where the first body's lies at
+  ``ClosedLoops.reference`` (qpos0), so such a cut closes there by construction.
+
+Kinds of cut (the constraint they impose between frame_a on body a and frame_b on body b):
+``connect`` (the two origins coincide: a ball joint, 3 equations), ``revolute`` (origins and z axes
+coincide: a hinge, 5), ``weld`` (the frames coincide, 6).  Equations that repeat others (a planar
+loop: the out-of-plane ones) are found by rank, not declared.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+CUT_KINDS = ("connect", "revolute", "weld")
+
+Pose = tuple[tuple[float, float, float, float], ...]  # a 4x4 homogeneous transform, row by row
+
+
+@dataclass(frozen=True)
+class LoopCut:
+    """One loop-closing joint between body a and body b (joint indices of the tree, -1: the base)."""
+
+    name: str
+    kind: str  # one of CUT_KINDS
+    body_a: int
+    body_b: int
+    frame_a: Pose  # in body a's link frame, SI
+    frame_b: Pose | None  # in body b's link frame (the base frame for -1); None: where frame_a is at the reference
+
+
+@dataclass(frozen=True)
+class ClosedLoops:
+    """The loops of a closed chain: the cuts, the actuated joints (indices into the tree, in the
+    order of the torques) and the reference configuration of every tree joint (SI), near which the
+    mechanism is assembled (the start of the closure's Newton iterations)."""
+
+    cuts: tuple[LoopCut, ...]
+    actuated: tuple[int, ...]
+    reference: tuple[float, ...]
+    origin: str = "yaml"  # "yaml" | "platform" | "mjcf": which loader filled it
+
+
+def pose(xyz=(0.0, 0.0, 0.0), rpy=(0.0, 0.0, 0.0)) -> Pose:
+    """The 4x4 pose of a translation and roll-pitch-yaw angles (URDF's order: Rz(yaw) Ry(pitch) Rx(roll))."""
+    import math
+
+    r, p, y = rpy
+    cr, sr, cp, sp, cy, sy = math.cos(r), math.sin(r), math.cos(p), math.sin(p), math.cos(y), math.sin(y)
+    R = ((cy * cp, cy * sp * sr - sy * cr, cy * sp * cr + sy * sr),
+         (sy * cp, sy * sp * sr + cy * cr, sy * sp * cr - cy * sr),
+         (-sp, cp * sr, cp * cr))
+    return tuple((*R[i], float(xyz[i])) for i in range(3)) + ((0.0, 0.0, 0.0, 1.0),)
