@@ -192,3 +192,18 @@ def in_bounds(effect_id: str, coefficients) -> bool:
     b = EFFECTS[effect_id].bounds
     c = np.asarray(coefficients, dtype=float)
     return b is None or bool(np.all((c >= b[0]) & (c <= b[1])))
+
+
+def evidence_text(ev: dict | None) -> str:
+    """The evidence saved with one effect of a model (``identify``'s diagnosis step), in an ASCII line (generated code)."""
+    if not ev:
+        return "no evidence recorded"
+    parts = [] if ev.get("named", True) else ["not named: its evidence does not hold under correlated residuals"]
+    if "delta_bic_eff" in ev:
+        parts.append(f"delta BIC_eff {ev['delta_bic_eff']:.1f} (N_eff {ev.get('n_eff', float('nan')):.0f})")
+    if ev.get("periods_seen") is not None:
+        parts.append(f"{ev['periods_seen']:.2g} periods seen")
+    if ev.get("replaces"):
+        parts.append(f"replaces {ev['replaces']}")
+    return ", ".join(parts) if parts else "no evidence recorded"
+

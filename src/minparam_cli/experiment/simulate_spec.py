@@ -29,7 +29,7 @@ class EffectSpec:
     gain: float | None = None  # only for 'gain'; None = strength
     hyper: float | None = None  # the grid value (stribeck vs, cogging k); None for effects without one
     text: str = ""  # the item as written, for messages
-    rest: float | None = None  # only for 'spring': the rest angle q₀ of K·(q − q₀); None = the mean of q
+    rest: float | None = None  # only for 'spring': the rest angle q₀ of K·(q − q₀); None = 0
 
 
 @dataclass(frozen=True)

@@ -131,7 +131,8 @@ def _identify(chain: Chain, data_path: Path, opts: IdentifyOptions, progress) ->
         steps_out[0] = replace(steps_out[0], statistic=d.steps[0].statistic)
         for s_ in d.steps[1:]:
             assert s_.term is not None  # only the first step (the rigid body) has no term
-            label = ("drop " if "drops" in s_.statistic else "") + s_.term.label()
+            label = ("drop " if "drops" in s_.statistic else "") + s_.term.label() \
+                + (" [model error, not named]" if s_.statistic.get("named") is False else "")
             steps_out.append(Step(s_.term.effect, tuple(j + 1 for j in s_.term.joints), s_.statistic, s_.errors,
                                   s_.term.hyper, label))
         if d.design.terms:

@@ -253,12 +253,14 @@ def diagnose(design: Design, train: Block, hold: Block, opts: DiagnosisOptions, 
         if not np.any(ok):
             break
         log_ratio = np.log(np.where(ok, scores.rssh1, 1.0) / rssh0) if rssh0 > 0 else np.zeros(len(cands))
-        dbic_iid = np.where(ok, Nh * log_ratio + scores.m * np.log(Nh), np.inf)  # as if the samples were independent
-        dbic = np.where(ok, n_eff * log_ratio + scores.m * np.log(n_eff), np.inf)  # ΔBIC_eff: what decides
+        # a grid value (Stribeck vs, ripple order k) is chosen by the search: it counts as a parameter too
+        m_bic = scores.m + np.array([1 if EFFECTS[t.effect].grid else 0 for t in cands])
+        dbic_iid = np.where(ok, Nh * log_ratio + m_bic * np.log(Nh), np.inf)  # as if the samples were independent
         gain = 1.0 - scores.rssh1 / rssh0 if rssh0 > 0 else np.zeros(len(cands))
         plain = (scores.rssh1_joint * sigma**2).sum(axis=1)  # unweighted selection RSS
-        strong = ok & (dbic < opts.bic_threshold) & (gain >= opts.min_gain) & (plain < rssh0_plain)
         physical = _physical(cands, scores)
+        dbic = dbic_iid  # what adds a term to the model (prediction); ΔBIC_eff below decides its name
+        strong = ok & (dbic < opts.bic_threshold) & (gain >= opts.min_gain) & (plain < rssh0_plain)
         wrong_sign = np.array([c is not None and not all(in_bounds(t.effect, row) for row, fresh in zip(c, nw, strict=True) if fresh)
                                for t, c, nw in zip(cands, scores.coefficients, scores.new, strict=True)], dtype=bool)
         qualifies = strong & physical
@@ -270,8 +272,8 @@ def diagnose(design: Design, train: Block, hold: Block, opts: DiagnosisOptions, 
             else:
                 t = cands[best_any]
                 out.stop_reason = (
-                    f"best remaining candidate {t.label()}: ΔBIC_eff {dbic[best_any]:.1f} (N_eff {n_eff:.0f}), removes "
-                    f"{100 * gain[best_any]:.2f} % of the selection residual energy (needs ΔBIC_eff < "
+                    f"best remaining candidate {t.label()}: ΔBIC {dbic[best_any]:.1f}, removes "
+                    f"{100 * gain[best_any]:.2f} % of the selection residual energy (needs ΔBIC < "
                     f"{opts.bic_threshold:g}, {100 * opts.min_gain:g} % and a falling selection error)"
                 )
             break
@@ -286,12 +288,15 @@ def diagnose(design: Design, train: Block, hold: Block, opts: DiagnosisOptions, 
         sel = data.selection(out.design)
         sig = data.joint_sigma(sel, opts.weighted)
         theta_all, *_ = np.linalg.lstsq(*data.stack(sel, sig), rcond=None)
-        stat = {"delta_bic_eff": float(dbic[i]), "n_eff": float(n_eff), "correlation_ratio": float(Nh / n_eff),
+        n1 = n_eff_of(out.design, sigma)  # the larger model's, as an F-test takes its noise from the larger model
+        eff = float(n1 * log_ratio[i] + m_bic[i] * np.log(n1))
+        stat = {"delta_bic_eff": eff, "n_eff": float(n1), "correlation_ratio": float(Nh / n1),
                 "delta_bic_selection": float(dbic_iid[i]), "selection_gain": float(gain[i]), "F": float(F),
                 "p_value": p_value, "rank": m}
         periods = ripple_periods(term, span)
         if periods is not None:
             stat["periods_seen"] = periods
+        stat["named"] = bool(eff < opts.bic_threshold) and (periods is None or term.effect != "cogging" or periods >= MIN_PERIODS)
         out.steps.append(Step(term, stat, data.selection_errors(sel, theta_all), out.design, theta_all))
     else:
         out.stop_reason = f"stopped after {opts.max_steps} steps"

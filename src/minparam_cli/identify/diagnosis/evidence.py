@@ -97,23 +97,9 @@ def term_evidence(terms, steps) -> dict:
     for t in terms:
         for term, stat in reversed(added):
             if term.effect == t.effect and term.hyper == t.hyper and set(t.joints) <= set(term.joints):
-                keys = ("delta_bic_eff", "n_eff", "correlation_ratio", "delta_bic_selection", "selection_gain",
-                        "periods_seen", "replaces")
+                keys = ("named", "delta_bic_eff", "n_eff", "correlation_ratio", "delta_bic_selection",
+                        "selection_gain", "periods_seen", "replaces")
                 out[t] = {k: stat[k] for k in keys if k in stat}
                 break
     return out
-
-
-def evidence_text(ev: dict | None) -> str:
-    """The evidence of one effect in a line (report and generated code)."""
-    if not ev:
-        return "no evidence recorded"
-    parts = []
-    if "delta_bic_eff" in ev:
-        parts.append(f"ΔBIC_eff {ev['delta_bic_eff']:.1f} (N_eff {ev.get('n_eff', float('nan')):.0f})")
-    if ev.get("periods_seen") is not None:
-        parts.append(f"{ev['periods_seen']:.2g} periods seen")
-    if ev.get("replaces"):
-        parts.append(f"replaces {ev['replaces']}")
-    return ", ".join(parts) if parts else "no evidence recorded"
 

@@ -113,6 +113,15 @@ def explain(term: Term, c: np.ndarray, design: Design, motion=None) -> str:
     return EFFECTS[e].explanation
 
 
+def unnamed(term: Term, ev: dict) -> str:
+    """A term kept for prediction whose evidence does not hold under correlated residuals: what it is."""
+    cols = ", ".join(EFFECTS[term.effect].column_names)
+    return (f"a model error of the form of {term.effect} (columns {cols}) on {_on(term.joints)}, kept because it "
+            f"predicts the selection data better (ΔBIC {ev.get('delta_bic_selection', float('nan')):.1f} as if the samples "
+            f"were independent), not named {term.effect}: under correlated residuals its evidence is ΔBIC_eff "
+            f"{ev.get('delta_bic_eff', float('nan')):.1f} (N_eff {ev.get('n_eff', float('nan')):.0f}), short of -10")
+
+
 def describe_terms(design: Design, fit, motion=None, evidence=None) -> list[dict]:
     """The final model's added effects: ids, joints, coefficients, a line written from them, and the
     evidence that added each (``evidence``: term -> dict, from ``diagnose.term_evidence``)."""
@@ -124,6 +133,8 @@ def describe_terms(design: Design, fit, motion=None, evidence=None) -> list[dict
                  "explanation": explain(t, c, design, motion)}
         if evidence is not None and t in evidence:
             entry["evidence"] = dict(evidence[t])
+            if not entry["evidence"].get("named", True):
+                entry["explanation"] = unnamed(t, entry["evidence"])
         out.append(entry)
     return out
 
