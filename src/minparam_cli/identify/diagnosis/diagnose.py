@@ -11,8 +11,8 @@ At every step, with Gautier's per-joint weights from the current fit:
    refactoring);
 3. score each candidate on the selection data (never on the fit data, never
    on the test data): ΔBIC = N_s ln(RSS_s1/RSS_s0) + m ln N_s (m = the rank
-   of E⊥, so columns already in the model cost nothing and gain nothing),
-   with the fit-data F-test beside it;
+   of E⊥, so columns already in the model cost nothing and gain nothing, plus
+   one for a grid value the search chose), with the fit-data F-test beside it;
 4. a candidate qualifies when ΔBIC < −10 (very strong evidence, Kass &
    Raftery 1995), it removes at least ``min_gain`` of the weighted selection
    residual energy, the unweighted selection error falls, and its fitted
@@ -24,6 +24,13 @@ At every step, with Gautier's per-joint weights from the current fit:
    pass stops.  A candidate that would qualify but for its sign, and beats
    the one added, is kept as a ``rejected`` note: the residual it explains is
    real, its physical name is not.
+5. the term added is **named** only when ΔBIC_eff (the same statistic on the
+   effective sample size of its model's selection residual, ``evidence.py``)
+   is below the threshold too; otherwise it is kept as a model error of that
+   form (``named`` False in its statistic).  A ripple seen over fewer than
+   ``MIN_PERIODS`` periods is searched as position_error, not cogging.
+
+The simplification pass after the forward steps is ``simplify.py``.
 
 Columns that are combinations of the model's (rotor inertia of a joint whose
 axis is fixed in the base, for instance) have E⊥ = 0: they regroup with the
@@ -36,7 +43,7 @@ O(K²) per candidate with K the number of catalogue columns, not O(samples).
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -46,7 +53,8 @@ from minparam_cli.identify.passes.design import Design, Term
 from minparam_cli.dynamics.effects import EFFECT_IDS, EFFECTS, MIN_PERIODS, in_bounds, periods_seen
 from minparam_cli.identify.diagnosis.evidence import long_run_ratio, q_range, ripple_periods, selection_residual
 from minparam_cli.identify.diagnosis.scoring import score
-from minparam_cli.identify.estimate.errors import Errors
+from minparam_cli.identify.diagnosis.steps import SIMPLER, Diagnosis, Rejected, Step, present_effects
+from minparam_cli.identify.diagnosis.steps import term_coefficients as term_coefficients  # re-exported
 
 BIC_THRESHOLD = -10.0
 # a selection error below this (relative) is the data's own rounding: no effect is looked for in it
@@ -54,12 +62,8 @@ ROUNDING = 1e-9
 DEFAULT_MIN_GAIN = 0.02
 MAX_STEPS = 25
 PER_JOINT_ONLY = {"cogging", "position_error"}
-# a term that contains a simpler one, tried again after the forward pass (simplify.py): the greedy path can
-# pick asymmetric Coulomb, which also absorbs part of another effect, where plain Coulomb is enough
-SIMPLER = {"asymmetric_coulomb": ("coulomb",), "load_coulomb": ("coulomb",), "spring": ("offset",)}
 # default correlation horizon of the effective sample size (s): the shortest σ block (uncertainty.MIN_BLOCK_S)
 DEFAULT_HORIZON_S = 1.0
-DECLARED = {"coulomb": "coulomb", "viscous": "viscous", "offset": "offset", "rotor_inertia": "rotor_inertia"}
 
 
 @dataclass(frozen=True)
@@ -70,52 +74,6 @@ class DiagnosisOptions:
     max_steps: int = MAX_STEPS
     weighted: bool = True  # Gautier's per-joint weights (False: OLS, as --ols)
     horizon_s: float = DEFAULT_HORIZON_S  # lags of the effective sample size: the σ block length (evidence.py)
-
-
-@dataclass
-class Step:
-    term: Term | None
-    statistic: dict
-    errors: Errors  # selection data, unweighted
-    design: Design | None = None
-    theta: np.ndarray | None = None
-
-
-@dataclass(frozen=True)
-class Rejected:
-    """A candidate that explained the residual but with coefficients outside its physical range."""
-
-    term: Term
-    coefficients: np.ndarray  # (joints, columns)
-    gain: float  # share of the weighted selection residual energy it would remove
-    delta_bic: float
-
-
-@dataclass
-class Diagnosis:
-    steps: list[Step] = field(default_factory=list)
-    design: Design = field(kw_only=True)  # the model so far
-    candidates_per_step: int = 0
-    stop_reason: str = ""
-    rejected: list[Rejected] = field(default_factory=list)
-
-
-def present_effects(design: Design) -> set[tuple[str, int]]:
-    """(effect, joint) already in the model: declared extras and added terms (asymmetric Coulomb
-    contains plain Coulomb: its two columns sum to sign q̇)."""
-    present = {(t.effect, j) for t in design.terms for j in t.joints}
-    coordinate = {joint: k for k, joint in enumerate(design.chain.coordinates)}  # terms number the data's joints
-    for j, extras in enumerate(design.chain.layout.extras):
-        for e in extras:
-            if j in coordinate:
-                present.add((DECLARED.get(e, e), coordinate[j]))
-    present |= {("coulomb", j) for e, j in list(present) if e == "asymmetric_coulomb"}
-    present |= {("offset", j) for e, j in list(present) if e == "spring"}  # K·(q − q₀) has a constant column
-    tr = design.chain.transmission
-    if tr is not None:  # a declared motor-side column of motor k covers the effect on every joint motor k moves
-        for k, extras in enumerate(tr.motor_extras):
-            present |= {(e, coordinate[j]) for e in extras for j, v in enumerate(tr.matrix[k]) if v != 0 and j in coordinate}
-    return present
 
 
 def _shown(eid: str, joint: int, h: float | None, span: np.ndarray | None) -> bool:
@@ -316,13 +274,3 @@ def _note_rejected(out: Diagnosis, cands, scores, mask, dbic, gain, beat: float,
         return
     noted.add((t.effect, t.joints))
     out.rejected.append(Rejected(t, np.asarray(scores.coefficients[k]), float(gain[k]), float(dbic[k])))
-
-
-def term_coefficients(design: Design, theta: np.ndarray) -> list[np.ndarray]:
-    """Each added term's coefficients in ``theta`` (the design's column order), as (joints, columns)."""
-    out, c = [], len(design.kept)
-    for t in design.terms:
-        w = t.width()
-        out.append(np.asarray(theta[c : c + w]).reshape(len(t.joints), -1))
-        c += w
-    return out

@@ -22,7 +22,7 @@ import numpy as np
 
 from minparam_cli.dynamics.effects import in_bounds
 from minparam_cli.identify.diagnosis.compressed import Compressed
-from minparam_cli.identify.diagnosis.diagnose import SIMPLER, Diagnosis, Step, present_effects, term_coefficients
+from minparam_cli.identify.diagnosis.steps import SIMPLER, Diagnosis, Step, present_effects, term_coefficients
 from minparam_cli.identify.estimate.errors import Errors
 from minparam_cli.identify.passes.design import Design, Term
 
