@@ -116,10 +116,12 @@ def explain(term: Term, c: np.ndarray, design: Design, motion=None) -> str:
 def unnamed(term: Term, ev: dict) -> str:
     """A term kept for prediction whose evidence does not hold under correlated residuals: what it is."""
     cols = ", ".join(EFFECTS[term.effect].column_names)
-    return (f"a model error of the form of {term.effect} (columns {cols}) on {_on(term.joints)}, kept because it "
-            f"predicts the selection data better (ΔBIC {ev.get('delta_bic_selection', float('nan')):.1f} as if the samples "
-            f"were independent), not named {term.effect}: under correlated residuals its evidence is ΔBIC_eff "
-            f"{ev.get('delta_bic_eff', float('nan')):.1f} (N_eff {ev.get('n_eff', float('nan')):.0f}), short of -10")
+    why = (f"kept because it predicts the selection data better (ΔBIC {ev['delta_bic_selection']:.1f} as if the "
+           "samples were independent)") if "delta_bic_selection" in ev else \
+        f"kept in place of {ev.get('replaces', 'a term')} that was not named"
+    return (f"a model error of the form of {term.effect} (columns {cols}) on {_on(term.joints)}, {why}; not named "
+            f"{term.effect}: under correlated residuals its evidence is ΔBIC_eff {ev.get('delta_bic_eff', float('nan')):.1f} "
+            f"(N_eff {ev.get('n_eff', float('nan')):.0f}), short of -10")
 
 
 def describe_terms(design: Design, fit, motion=None, evidence=None) -> list[dict]:
@@ -128,13 +130,14 @@ def describe_terms(design: Design, fit, motion=None, evidence=None) -> list[dict
     out = []
     for t, c in zip(design.terms, term_coefficients(design, full_theta(fit, design.p)), strict=True):
         names = t.names()
-        entry = {"effect": t.effect, "joints": [j + 1 for j in t.joints], "hyper": t.hyper,
-                 "coefficients": {nm: float(v) for nm, v in zip(names, c.reshape(-1), strict=True)},
-                 "explanation": explain(t, c, design, motion)}
+        entry: dict = {"effect": t.effect, "joints": [j + 1 for j in t.joints], "hyper": t.hyper,
+                       "coefficients": {nm: float(v) for nm, v in zip(names, c.reshape(-1), strict=True)},
+                       "explanation": explain(t, c, design, motion)}
         if evidence is not None and t in evidence:
-            entry["evidence"] = dict(evidence[t])
-            if not entry["evidence"].get("named", True):
-                entry["explanation"] = unnamed(t, entry["evidence"])
+            ev = dict(evidence[t])
+            entry["evidence"] = ev
+            if not ev.get("named", True):
+                entry["explanation"] = unnamed(t, ev)
         out.append(entry)
     return out
 

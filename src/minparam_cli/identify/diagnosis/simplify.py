@@ -92,9 +92,18 @@ def simplify(out: Diagnosis, data: Compressed, weighted: bool, n_eff_of) -> None
                     out.design = cand
                     if how == "covered":
                         how = "drops" if new is None else "replaces"
-                    stat = {how: term.label(), "delta_bic_eff": float(score_ - current), "n_eff": float(n_eff)}
+                    stat = {how: term.label(), "delta_bic_eff": float(score_ - current), "n_eff": float(n_eff),
+                            "named": _named(out, term)}  # a replacement is named as the term it replaces was
                     out.steps.append(Step(new if new is not None else term, stat, errs, cand, theta))
                     changed = True
                     break
             if changed:
                 break
+
+
+def _named(out: Diagnosis, term: Term) -> bool:
+    """Whether the step that added ``term`` named it (True for a term no step added)."""
+    for step in reversed(out.steps):
+        if step.term == term:
+            return bool(step.statistic.get("named", True))
+    return True
