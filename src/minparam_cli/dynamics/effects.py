@@ -198,7 +198,8 @@ def evidence_text(ev: dict | None) -> str:
     """The evidence saved with one effect of a model (``identify``'s diagnosis step), in an ASCII line (generated code)."""
     if not ev:
         return "no evidence recorded"
-    parts = [] if ev.get("named", True) else ["not named: its evidence does not hold under correlated residuals"]
+    parts = [] if ev.get("named", True) else \
+        ["a model error of this form, not named (its evidence does not hold under correlated residuals)"]
     if "delta_bic_eff" in ev:
         parts.append(f"delta BIC_eff {ev['delta_bic_eff']:.1f} (N_eff {ev.get('n_eff', float('nan')):.0f})")
     if ev.get("periods_seen") is not None:
