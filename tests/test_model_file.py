@@ -201,8 +201,8 @@ def test_a_version_1_model_file_still_evaluates(run, tmp_path):
         for t in doc["design"]["terms"]:
             t.pop("evidence")
     old = _tampered(run, "v1.json", v1)
-    new = json.loads(cli_ok("evaluate", run["model"], run["test"], "-f", "json", "-q").output)
-    again = json.loads(cli_ok("evaluate", old, run["test"], "-f", "json", "-q").output)
+    new = json.loads(cli_ok("evaluate", run["model"], run["test"], "-f", "json").output)
+    again = json.loads(cli_ok("evaluate", old, run["test"], "-f", "json").output)
     assert again["files"] == new["files"]
 
 
