@@ -186,10 +186,10 @@ def diagnose(design: Design, train: Block, hold: Block, opts: DiagnosisOptions, 
         rssh0 = float(rh0 @ rh0)
         rssh0_plain = float(data.joint_rss(sel, theta, hold=True).sum())
         errs = data.selection_errors(sel, theta)
-        n_eff = n_eff_of(out.design, sigma, theta)
         if step == 0:
-            out.steps.append(Step(None, {"rss_fit_weighted": rss0, "rss_selection_weighted": rssh0, "n_eff": n_eff,
-                                         "n_selection": Nh}, errs, out.design, theta))
+            out.steps.append(Step(None, {"rss_fit_weighted": rss0, "rss_selection_weighted": rssh0,
+                                         "n_eff": n_eff_of(out.design, sigma, theta), "n_selection": Nh},
+                                  errs, out.design, theta))
         if step == opts.max_steps:
             break
         rel = errs.relative_error
