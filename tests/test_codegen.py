@@ -421,13 +421,17 @@ def saved_model_file(tmp_path, robot, smoothing):
     base = derive_qr(chain, seed=0)
     terms = (Term("coulomb", (0, 1)), Term("stribeck", (2,), 0.05), Term("asymmetric_coulomb", (3,)),
              Term("spring", (1,)), Term("cogging", (4,), 6.0), Term("gain", (5,)), Term("load_coulomb", (2,)),
-             Term("offset", (0,)), Term("drift", (1,)))
+             Term("offset", (0,)), Term("drift", (1,)), Term("gravity_error", (3,)), Term("position_error", (5,), 2.0),
+             Term("spring_v1", (4,)))
+    # the evidence saved with each term (identify's diagnosis): one named, one not, the others unknown
+    evidence = ({"named": True, "delta_bic_eff": -25.0, "n_eff": 40.0},
+                {"named": False, "delta_bic_eff": 3.0, "n_eff": 41.0}) + (None,) * (len(terms) - 2)
     rng = np.random.default_rng(SEED + 1)
     theta_model = rng.standard_normal(base.n_base)
     design = Design(chain, base.kept, base.base_names, terms, theta_model, 0.0)
     theta = rng.standard_normal(design.p)
     m = SavedModel(str(robot), sha256_hex(robot.read_bytes()), load, 0, tuple(base.kept), tuple(base.base_names), terms,
-                   theta_model, 0.0, design.names, theta, (None,) * design.p, DataOptions())
+                   theta_model, 0.0, design.names, theta, (None,) * design.p, DataOptions(), evidence=evidence)
     path = tmp_path / f"model_{smoothing}.json"
     path.write_text(dumps(m))
     return path, design, theta
@@ -448,6 +452,10 @@ def test_inverse_dynamics_of_a_saved_model_is_identifys_prediction(tmp_path, smo
     r = cli("codegen", MODEL_ROBOT, "--model", model, "--lang", "python", "-o", tmp_path / "m.py")
     assert r.exit_code == 0, r.output
     assert "left out of inverse_dynamics: drift (joint 2)" in r.output
+    text = (tmp_path / "m.py").read_text()  # each effect named as saved, with its evidence
+    assert "Effect coulomb (joints 1,2): delta BIC_eff -25.0 (N_eff 40)" in text
+    assert "Effect stribeck (joint 3, vs=0.05): a model error of this form, not named" in text
+    assert "Effect position_error (joint 6, k=2): no evidence recorded" in text
     mod = import_file(tmp_path / "m.py", f"m_{int(smoothing * 100)}")
     rng = np.random.default_rng(SEED + 2)
     q = rng.uniform(-np.pi, np.pi, (STATES, 6))

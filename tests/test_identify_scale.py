@@ -184,7 +184,7 @@ def test_compressed_scores_equal_direct_least_squares(panda_setup):
     Xhw, yhw = data.stack(sel, sigma, hold=True)
     rh0 = yhw - Xhw @ theta
     cands = [Term("viscous", (0, 1, 2, 3, 4, 5, 6)), Term("coulomb", (2,)), Term("cogging", (3,), 7.0), Term("spring", (1,)),
-             Term("stribeck", (0, 1, 2, 3, 4, 5, 6), 0.1), Term("rotor_inertia", (0,))]
+             Term("stribeck", (0, 1, 2, 3, 4, 5, 6), 0.1), Term("rotor_inertia", (0,)), Term("gravity_error", (1,))]
     got = score(data, sel, sigma, Q, back, yw - Xw @ theta, rh0, cands)
     y, yh = train.tau, hold.tau
     for k, term in enumerate(cands):
@@ -195,8 +195,9 @@ def test_compressed_scores_equal_direct_least_squares(panda_setup):
         rssh = np.sum(((yh - Xh @ th) / sigma) ** 2)
         rss = np.sum(((y - X @ th) / sigma) ** 2)
         assert got.rssh1[k] == pytest.approx(rssh, rel=1e-9) and got.rss1[k] == pytest.approx(rss, rel=1e-9)
-    # sin q2, cos q2 are in the gravity columns of joint 2; the rotor inertia of joint 1 regroups with Izz1
-    assert got.m.tolist() == [7, 1, 2, 1, 7, 0]
+    # a spring K·(q − q₀) adds q2 and 1; sin q2, cos q2 (gravity_error) are in the gravity columns of joint 2;
+    # the rotor inertia of joint 1 regroups with Izz1
+    assert got.m.tolist() == [7, 1, 2, 2, 7, 0, 0]
 
 
 def test_diagnosis_finds_the_hidden_effects_and_drift_has_one_origin(panda_setup):

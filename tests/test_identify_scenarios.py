@@ -108,3 +108,29 @@ def test_declared_smooth_coulomb_fits_smooth_data_better_than_sign(tmp_path):
     assert smooth["test"]["final"]["rms_total"] <= 1.5 * NOISE
     assert sharp["test"]["final"]["rms_total"] > 2 * smooth["test"]["final"]["rms_total"]
     assert any(k.startswith("Fc") for k in smooth["parameters"])
+
+
+# per robot: a joint that carries gravity load, for a spring with a rest angle K·(q − q₀) (issue 32)
+REST_SPRING = {"puma560_mdh.yaml": 2, "panda.yaml": 2, "ur5.yaml": 2}
+REST_ANGLE = 0.3
+
+
+@pytest.mark.parametrize("robot, seed", [pytest.param(r, s, id=f"{r.split('.')[0]}:seed{s}") for r in REST_SPRING for s in SEEDS])
+def test_spring_with_rest_angle_is_named_a_spring(tmp_path, robot, seed):
+    """K·(q − 0.3) on a gravity-loaded joint (the gravity columns absorb part of it): named a spring on
+    that joint and nothing else, with its evidence, and its rest angle read back from K0 = −K·q₀ against
+    the simulated one (the model declares no offset, so the constant is the spring's)."""
+    joint = REST_SPRING[robot]
+    data, truth = tmp_path / "sim.csv", tmp_path / "truth.json"
+    cli_ok("simulate", f"robots/{robot}", "--noise", NOISE, "--seed", seed, "-o", data, "--truth", truth, "--quiet",
+           "--effects", f"spring@{joint}:amp=0.1:q0={REST_ANGLE}")
+    injected = json.loads(truth.read_text())["effects"][0]["coefficients"][str(joint)]
+    assert injected[1] == pytest.approx(-REST_ANGLE * injected[0])  # the simulated spring is K·(q − q₀)
+    rep = json.loads(cli_ok("identify", f"robots/{robot}", data, "--format", "json", "--quiet").output)
+    found = [(e["effect"], tuple(e["joints"])) for e in rep["effects"]]
+    assert found == [("spring", (joint,))], (rep["stop_reason"], [s.get("label") for s in rep["steps"]])
+    effect = rep["effects"][0]
+    assert effect["evidence"]["named"] and effect["evidence"]["delta_bic_eff"] < -10
+    kq, k0 = effect["coefficients"][f"Kq{joint}"], effect["coefficients"][f"K0{joint}"]
+    assert -k0 / kq == pytest.approx(REST_ANGLE, abs=0.15)
+    assert rep["test"]["final"]["rms_total"] <= 1.5 * NOISE

@@ -89,7 +89,7 @@ def test_model_file_contents_and_json_round_trip(run):
 
     text = run["model"].read_text()
     doc = json.loads(text)
-    assert doc["format"] == "minparam-model" and doc["version"] == 1
+    assert doc["format"] == "minparam-model" and doc["version"] == 2
     assert doc["robot"]["path"] == str(ROBOT) and len(doc["robot"]["sha256"]) == 64
     assert doc["load"] == {"friction": [], "rotor_inertia": False, "gravity": None, "coulomb_smoothing": 0.0,
                            "mimic": "coupled", "floating_base": False}
@@ -97,6 +97,9 @@ def test_model_file_contents_and_json_round_trip(run):
     assert doc["parameters"]["names"] == list(rep["parameters"])
     assert close(doc["parameters"]["theta"], [v["value"] for v in rep["parameters"].values()], rtol=0)
     assert {t["effect"] for t in doc["design"]["terms"]} == {e["effect"] for e in rep["effects"]}
+    # every saved effect says its evidence, as the report does (ΔBIC_eff on N_eff effective samples)
+    assert [t["evidence"] for t in doc["design"]["terms"]] == [e["evidence"] for e in rep["effects"]]
+    assert all(t["evidence"]["n_eff"] > 0 and "delta_bic_eff" in t["evidence"] for t in doc["design"]["terms"])
     assert doc["physical"]["phi_names"] == list(rep["physical"]["phi"])
     assert doc["figures"]["test"]["final"] == rep["test"]["final"]
     assert doc["data"]["cutoff_hz"] == 5.0 and doc["data"]["columns"] == {}
@@ -119,6 +122,7 @@ def _tampered(run, name, edit) -> str:
     (lambda d: d.update(format="other"), "not a minparam model file"),
     (lambda d: d["parameters"]["theta"].pop(), "parameters.theta: expected a list of"),
     (lambda d: d["design"]["terms"][0].update(effect="warp"), "unknown effect 'warp'"),
+    (lambda d: d["design"]["terms"][0].update(evidence=3), "design.terms[0].evidence: expected a JSON object or null"),
     (lambda d: d["robot"].update(sha256="xyz"), "robot.sha256: expected 64 lower-case hex digits"),
     (lambda d: d["data"].update(cutoff_hz="fast"), "data.cutoff_hz: expected a finite number"),
     (lambda d: d["base"].update(kept=d["base"]["kept"][1:] + [d["base"]["kept"][0] + 1], names=d["base"]["names"]),
@@ -188,3 +192,41 @@ def test_evaluate_refuses_a_model_that_is_not_a_regular_file(tmp_path, kind):
     r = subprocess.run([sys.executable, "-m", "minparam_cli", "evaluate", str(model), str(data)],
                        capture_output=True, text=True, timeout=20)
     assert r.returncode == 2 and "expected a regular file" in r.stderr and r.stderr.count("\n") == 1
+
+
+def test_a_version_1_model_file_still_evaluates(run, tmp_path):
+    """A model saved before evidence was kept (format version 1, no evidence) gives the same predictions."""
+    def v1(doc):
+        doc["version"] = 1
+        for t in doc["design"]["terms"]:
+            t.pop("evidence")
+    old = _tampered(run, "v1.json", v1)
+    new = json.loads(cli_ok("evaluate", run["model"], run["test"], "-f", "json").output)
+    again = json.loads(cli_ok("evaluate", old, run["test"], "-f", "json").output)
+    assert again["files"] == new["files"]
+
+
+def test_a_version_1_spring_keeps_its_columns(run):
+    """Version 1's spring had the columns q, sin q, cos q: such a file is read with the legacy effect (the
+    same columns, the same parameter names), never as K·(q − q₀); version 2 saves the new spring."""
+    from minparam_cli.dynamics.effects import EFFECT_IDS, EFFECTS, LEGACY_SPRING, Signals
+    from minparam_cli.model.parse import parse_model
+
+    doc = json.loads(run["model"].read_text())
+    doc["version"] = 1
+    for t in doc["design"]["terms"]:
+        t.pop("evidence")
+    doc["design"]["terms"].append({"effect": "spring", "joints": [2], "hyper": None})
+    doc["parameters"]["names"] += ["Kq2", "Ks2", "Kc2"]
+    doc["parameters"]["theta"] += [0.1, 0.2, 0.3]
+    doc["parameters"]["std_percent"] += [None, None, None]
+    doc["physical"]["theta"] += [0.1, 0.2, 0.3]
+    m = parse_model(json.dumps(doc), "v1")
+    spring = m.terms[-1]
+    assert spring.effect == LEGACY_SPRING and spring.names() == ["Kq2", "Ks2", "Kc2"]
+    assert m.term_evidence(len(m.terms) - 1) is None
+    q = np.linspace(-1, 2, 7)[:, None]
+    s = Signals(q[:, 0], q, q, q)
+    assert np.allclose(EFFECTS[LEGACY_SPRING].columns(s, 0), np.column_stack([q, np.sin(q), np.cos(q)]))
+    assert np.allclose(EFFECTS["spring"].columns(s, 0), np.column_stack([q, np.ones_like(q)]))
+    assert LEGACY_SPRING not in EFFECT_IDS  # neither searched nor injected

@@ -13,7 +13,7 @@ from minparam_cli.chain import build_chain
 from minparam_cli.describe import load_description
 from minparam_cli.dynamics.regressor import regressor
 from minparam_cli.errors import InputError
-from minparam_cli.dynamics.effects import COGGING_GRID, EFFECTS, STRIBECK_GRID, Signals
+from minparam_cli.dynamics.effects import COGGING_GRID, EFFECT_IDS, EFFECTS, STRIBECK_GRID, Signals
 from minparam_cli.dynamics.inertia import pseudo_inertia_from_standard, random_inertia, standard_from_com
 from minparam_cli.experiment.simulate import simulate
 from minparam_cli.experiment.simulate_spec import SimulationOptions, data_columns, parse_effects
@@ -178,9 +178,12 @@ def test_effect_spec_parsing():
     assert specs[3].joints == (1, 2) and specs[3].hyper == 0.05
     assert 0.05 in STRIBECK_GRID and 12.0 in COGGING_GRID
     assert parse_effects("", 3) == ()
-    assert set(EFFECTS) == {"coulomb", "viscous", "offset", "rotor_inertia", "stribeck", "asymmetric_coulomb",
-                            "spring", "cogging", "load_coulomb", "gain", "drift",
-                            "motor_coulomb", "motor_viscous", "motor_inertia"}  # coupled motors (issue 16)
+    assert set(EFFECT_IDS) == {"coulomb", "viscous", "offset", "rotor_inertia", "stribeck", "asymmetric_coulomb",
+                               "spring", "gravity_error", "cogging", "position_error", "load_coulomb", "gain", "drift",
+                               "motor_coulomb", "motor_viscous", "motor_inertia"}  # coupled motors (issue 16)
+    assert set(EFFECTS) == set(EFFECT_IDS) | {"spring_v1"}  # version 1 model files' spring: read, never injected
+    rest = parse_effects("spring@2:amp=0.1:q0=0.3", 3)[0]
+    assert rest.rest == 0.3 and rest.amplitude == 0.1
 
 
 @pytest.mark.parametrize(

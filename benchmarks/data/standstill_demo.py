@@ -19,8 +19,8 @@ from pathlib import Path
 
 import numpy as np
 
-from minparam_cli.identify.simulate import rigid_torque, simulate
-from minparam_cli.identify.simulate_spec import SimulationOptions, parse_effects
+from minparam_cli.experiment.simulate import rigid_torque, simulate
+from minparam_cli.experiment.simulate_spec import SimulationOptions, parse_effects
 from minparam_cli.robot import DeriveOptions, load_chain
 
 ROBOT = Path(__file__).resolve().parents[2] / "robots" / "puma560_mdh.yaml"

@@ -38,7 +38,8 @@ def model_chain(model: Path, robot: Path, robot_bytes: bytes, which: str | None)
     design = model_design(m, chain, str(model))
     kind = which if which is not None else ("physical" if m.physical is not None else "fit")
     base = derive_qr(chain, seed=m.seed)
-    params = ModelParameters(str(model), kind, m.fit_theta(kind), design.names, tuple(m.terms), m.theta_model)
+    params = ModelParameters(str(model), kind, m.fit_theta(kind), design.names, tuple(m.terms), m.theta_model,
+                             tuple(m.term_evidence(i) for i in range(len(m.terms))))
     return chain, base, params
 
 

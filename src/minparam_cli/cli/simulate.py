@@ -32,13 +32,16 @@ Examples:
 \b
 Effect items: ID[@JOINTS][:key=value...], comma-separated.
   ID      coulomb viscous offset rotor_inertia stribeck asymmetric_coulomb
-          spring cogging load_coulomb gain drift
+          spring gravity_error cogging position_error load_coulomb gain
+          motor_coulomb motor_viscous motor_inertia drift
   JOINTS  2, 1-3 or 1+4-5 (numbered from 1; default: every joint)
   keys    amp=A  RMS of the injected torque in N·m or N (default: --strength
                  times the RMS of that joint's rigid-body torque)
           g=G    gain error for 'gain' (adds G·tau_rigid; default --strength)
           vs=V   Stribeck velocity, rad/s (default 0.05; on identify's grid)
-          k=K    cogging periods per revolution (default 12; integer 2..60)
+          k=K    cogging (position_error) periods per revolution (default 12 (2);
+                 integer 2..60)
+          q0=Q   rest angle of 'spring', K·(q − Q) (default 0 rad)
 
 \b
 Columns: t, q1..qn, dq1..dqn, ddq1..ddqn, tau1..taun in s, rad or m, rad/s or

@@ -40,6 +40,7 @@ class ModelParameters:
     names: tuple[str, ...]
     terms: tuple = ()
     theta_model: np.ndarray | None = None
+    evidence: tuple = ()  # per term, the evidence saved with it (None: a model saved before evidence was kept)
 
 
 @dataclass(frozen=True)
@@ -117,6 +118,11 @@ def header_lines(chain, base, meta: Meta, counts: dict, model: ModelParameters |
     ]
     if model is not None:
         lines.append(f"Model: {model.source} ({model.fit} parameters, {len(model.theta)} values)")
+        from minparam_cli.dynamics.effects import evidence_text
+
+        for i, t in enumerate(model.terms):
+            ev = model.evidence[i] if i < len(model.evidence) else None
+            lines.append(f"Effect {t.label()}: {evidence_text(ev)}")
         for t in omitted:
             lines.append(f"Left out of inverse_dynamics: {t.label()}: not a function of (q, qd, qdd)")
     for name, c in counts.items():

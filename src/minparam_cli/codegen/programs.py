@@ -264,8 +264,12 @@ def effect_columns(prog: Program, effect: str, q, qd, qdd, tau_model, hyper, smo
             return [0.5 * (1.0 + g), -0.5 * (1.0 - g)]
         return [prog.call("pos", qd), -prog.call("negind", qd)]
     if effect == "spring":
+        return [q, 1.0]
+    if effect == "gravity_error":
+        return [prog.call("sin", q), prog.call("cos", q)]
+    if effect == "spring_v1":  # the spring of model files of format version 1
         return [q, prog.call("sin", q), prog.call("cos", q)]
-    if effect == "cogging":
+    if effect in ("cogging", "position_error"):
         return [prog.call("sin", hyper * q), prog.call("cos", hyper * q)]
     if effect == "load_coulomb":
         return [sgn() * prog.call("abs", tau_model)]

@@ -63,6 +63,7 @@ class Effect:
         return [f"{c}{joint + 1}{tag}" for c in self.column_names]
 
 
+LEGACY_SPRING = "spring_v1"
 STRIBECK_GRID = (0.005, 0.01, 0.02, 0.05, 0.1, 0.2, 0.5)
 COGGING_GRID = tuple(float(k) for k in range(2, 61))
 
@@ -125,10 +126,17 @@ EFFECTS: dict[str, Effect] = {
                build=lambda s, j, h: _asymmetric(s, j), bounds=POSITIVE,
                misfit="a torque that helps the motion in one direction: a gravity or offset error that "
                       "correlates with the direction of motion, not friction"),
-        Effect("spring", "a position-dependent torque: spring, cable or gravity compensator, or a gravity model error",
-               ("Kq", "Ks", "Kc"),
-               build=lambda s, j, h: np.stack([s.q[:, j], np.sin(s.q[:, j]), np.cos(s.q[:, j])], axis=1)),
+        Effect("spring", "a spring with a rest angle (spring, cable, gravity compensator): K·(q − q₀) = Kq·q + K0",
+               ("Kq", "K0"),
+               build=lambda s, j, h: np.stack([s.q[:, j], np.ones_like(s.q[:, j])], axis=1)),
+        Effect("gravity_error", "a torque of the form of a joint's own gravity load, A·sin q + B·cos q: a gravity "
+               "model error (a link mass or centre of mass the rigid-body model gets wrong)", ("Gs", "Gc"),
+               build=lambda s, j, h: np.stack([np.sin(s.q[:, j]), np.cos(s.q[:, j])], axis=1)),
         Effect("cogging", "a torque ripple periodic in the joint angle (motor cogging, gear tooth meshing)", ("Cs", "Cc"),
+               COGGING_GRID, "k",
+               build=lambda s, j, h: np.stack([np.sin(h * s.q[:, j]), np.cos(h * s.q[:, j])], axis=1)),
+        Effect("position_error", "a smooth position-dependent model error, on the basis sin kq, cos kq: the data "
+               "cover too few of its periods to call it a ripple (cogging)", ("Ps", "Pc"),
                COGGING_GRID, "k",
                build=lambda s, j, h: np.stack([np.sin(h * s.q[:, j]), np.cos(h * s.q[:, j])], axis=1)),
         Effect("load_coulomb", "gear friction that grows with the load the joint carries: sign(q̇)·|τ_model|", ("Fl",),
@@ -150,10 +158,23 @@ EFFECTS: dict[str, Effect] = {
                misfit="a negative inertia: a lag between the torque and acceleration signals, not a rotor"),
         Effect("drift", "a slow linear drift of the torque signal (temperature, sensor drift)", ("D",),
                build=lambda s, j, h: s.t - (s.t[0] if s.t0 is None else s.t0)),
+        # model files of format version 1 saved this as "spring"; read there, never searched nor injected
+        Effect(LEGACY_SPRING, "a position-dependent torque Kq·q + Ks·sin q + Kc·cos q (the spring of model files "
+               "of format version 1)", ("Kq", "Ks", "Kc"),
+               build=lambda s, j, h: np.stack([s.q[:, j], np.sin(s.q[:, j]), np.cos(s.q[:, j])], axis=1)),
     )
 }
 
-EFFECT_IDS = tuple(EFFECTS)
+# the catalogue searched by identify and injected by simulate (the legacy spring only reads old model files)
+EFFECT_IDS = tuple(e for e in EFFECTS if e != LEGACY_SPRING)
+# a ripple is called cogging only when the data cover at least this many of its periods; below, the same
+# columns are a smooth position-dependent model error (position_error)
+MIN_PERIODS = 3.0
+
+
+def periods_seen(q_range: float, k: float) -> float:
+    """How many periods of sin kq, cos kq a motion spanning ``q_range`` (rad) covers."""
+    return float(q_range) * float(k) / (2.0 * math.pi)
 
 
 def source_columns(sources, first: int = 0) -> tuple[dict, int]:
@@ -171,3 +192,19 @@ def in_bounds(effect_id: str, coefficients) -> bool:
     b = EFFECTS[effect_id].bounds
     c = np.asarray(coefficients, dtype=float)
     return b is None or bool(np.all((c >= b[0]) & (c <= b[1])))
+
+
+def evidence_text(ev: dict | None) -> str:
+    """The evidence saved with one effect of a model (``identify``'s diagnosis step), in an ASCII line (generated code)."""
+    if not ev:
+        return "no evidence recorded"
+    parts = [] if ev.get("named", True) else \
+        ["a model error of this form, not named (its evidence does not hold under correlated residuals)"]
+    if "delta_bic_eff" in ev:
+        parts.append(f"delta BIC_eff {ev['delta_bic_eff']:.1f} (N_eff {ev.get('n_eff', float('nan')):.0f})")
+    if ev.get("periods_seen") is not None:
+        parts.append(f"{ev['periods_seen']:.2g} periods seen")
+    if ev.get("replaces"):
+        parts.append(f"replaces {ev['replaces']}")
+    return ", ".join(parts) if parts else "no evidence recorded"
+

@@ -46,6 +46,8 @@ def effect_coefficients(spec: EffectSpec, grams: list[np.ndarray], samples: int,
             usable = col_rms > 0
             c = np.zeros(m)
             c[usable] = signs[usable] * weights[usable] / col_rms[usable]
+            if spec.effect == "spring":  # K·(q − q₀), q₀ given by q0= (default 0), K of a random sign
+                c = signs[0] * np.array([1.0, -(spec.rest or 0.0)])
             size = math.sqrt(max(float(c @ gram @ c), 0.0) / samples)
             if size == 0.0:
                 raise InputError(f"effect {spec.text!r}: gives no torque on joint {j + 1} along this trajectory")

@@ -11,12 +11,12 @@ from dataclasses import dataclass
 import numpy as np
 
 from minparam_cli.errors import InputError
-from minparam_cli.dynamics.effects import EFFECTS
+from minparam_cli.dynamics.effects import EFFECT_IDS, EFFECTS
 from minparam_cli.experiment.trajectory import LIMIT_MARGIN
 
 # Hyper-parameter of the grid effects: spec key and default (each default lies on its effect's grid).
-HYPER_KEY: dict[str, str] = {"stribeck": "vs", "cogging": "k"}
-HYPER_DEFAULT: dict[str, float] = {"stribeck": 0.05, "cogging": 12.0}
+HYPER_KEY: dict[str, str] = {"stribeck": "vs", "cogging": "k", "position_error": "k"}
+HYPER_DEFAULT: dict[str, float] = {"stribeck": 0.05, "cogging": 12.0, "position_error": 2.0}
 
 
 @dataclass(frozen=True)
@@ -29,6 +29,7 @@ class EffectSpec:
     gain: float | None = None  # only for 'gain'; None = strength
     hyper: float | None = None  # the grid value (stribeck vs, cogging k); None for effects without one
     text: str = ""  # the item as written, for messages
+    rest: float | None = None  # only for 'spring': the rest angle q₀ of K·(q − q₀); None = 0
 
 
 @dataclass(frozen=True)
@@ -129,7 +130,7 @@ def _on_grid(effect: str, value: float, item: str) -> float:
     grid = np.asarray(EFFECTS[effect].grid, dtype=float)
     hit = np.flatnonzero(np.abs(grid - value) <= 1e-9 * np.abs(grid))
     if hit.size == 0:
-        shown = f"{grid[0]:g}..{grid[-1]:g} in steps of 1" if effect == "cogging" else ", ".join(f"{g:g}" for g in grid)
+        shown = f"{grid[0]:g}..{grid[-1]:g} in steps of 1" if EFFECTS[effect].grid_name == "k" else ", ".join(f"{g:g}" for g in grid)
         raise InputError(f"effect {item!r}: {HYPER_KEY[effect]}={value:g} is not on the grid searched by identify ({shown})")
     return float(grid[hit[0]])
 
@@ -151,10 +152,11 @@ def parse_effects(text: str, n: int) -> tuple[EffectSpec, ...]:
         head, *pairs = item.split(":")
         name, _, joints_text = head.partition("@")
         name = name.strip()
-        if name not in EFFECTS:
-            raise InputError(f"unknown effect {name!r} in {item!r}; expected one of {', '.join(EFFECTS)}")
+        if name not in EFFECT_IDS:
+            raise InputError(f"unknown effect {name!r} in {item!r}; expected one of {', '.join(EFFECT_IDS)}")
         joints = _joint_set(joints_text.strip(), n, item) if "@" in head else tuple(range(n))
-        allowed = ("g",) if name == "gain" else ("amp",) + ((HYPER_KEY[name],) if name in HYPER_KEY else ())
+        allowed = ("g",) if name == "gain" else ("amp",) + ((HYPER_KEY[name],) if name in HYPER_KEY else ()) \
+            + (("q0",) if name == "spring" else ())
         values: dict[str, float] = {}
         for pair in pairs:
             key, eq, val = (s.strip() for s in pair.partition("="))
@@ -182,7 +184,7 @@ def parse_effects(text: str, n: int) -> tuple[EffectSpec, ...]:
             if key3 in seen:
                 raise InputError(f"effect {item!r}: {name} is already injected on joint {j + 1}")
             seen.add(key3)
-        specs.append(EffectSpec(name, joints, amp, values.get("g"), hyper, item))
+        specs.append(EffectSpec(name, joints, amp, values.get("g"), hyper, item, values.get("q0")))
     return tuple(specs)
 
 

@@ -24,6 +24,7 @@ from minparam_cli.measured.blocks import time_span
 from minparam_cli.measured.records import Block, DataOptions
 from minparam_cli.identify.passes.design import Design
 from minparam_cli.identify.diagnosis.diagnose import DiagnosisOptions, diagnose
+from minparam_cli.identify.diagnosis.evidence import term_evidence
 from minparam_cli.identify.estimate.fit import Errors, errors, full_theta, solve
 from minparam_cli.identify.estimate.records import Estimate, Step, TestFigures, TestFile
 from minparam_cli.identify.diagnosis.explain import describe_rejected, describe_terms, nominal_notes
@@ -114,12 +115,13 @@ def _identify(chain: Chain, data_path: Path, opts: IdentifyOptions, progress) ->
     steps_out = [Step(None, (), None, before)]
     stop_reason = "diagnosis off (--no-diagnose)"
     final_fit, after, final_design, acc_final = fit0, before, design, acc
-    diag_info, rejected = {}, []
+    diag_info, rejected, diag_steps = {}, [], []
     artifacts = Artifacts()
     if opts.diagnose:
         train, hold = thin[FIT].block(), thin[SELECTION].block()
-        diag_opts = replace(opts.diagnosis, weighted=opts.weighted)
+        diag_opts = replace(opts.diagnosis, weighted=opts.weighted, horizon_s=grams.length)  # σ's blocks: N_eff's lags
         d = diagnose(design, train, hold, diag_opts, progress)
+        diag_steps = d.steps
         stop_reason = d.stop_reason
         rejected = d.rejected
         artifacts.hold = hold
@@ -129,8 +131,10 @@ def _identify(chain: Chain, data_path: Path, opts: IdentifyOptions, progress) ->
         steps_out[0] = replace(steps_out[0], statistic=d.steps[0].statistic)
         for s_ in d.steps[1:]:
             assert s_.term is not None  # only the first step (the rigid body) has no term
+            label = ("drop " if "drops" in s_.statistic else "") + s_.term.label() \
+                + (" [model error, not named]" if s_.statistic.get("named") is False else "")
             steps_out.append(Step(s_.term.effect, tuple(j + 1 for j in s_.term.joints), s_.statistic, s_.errors,
-                                  s_.term.hyper, s_.term.label()))
+                                  s_.term.hyper, label))
         if d.design.terms:
             final_design = d.design
             maps = final_maps(final_design, slots)
@@ -152,6 +156,7 @@ def _identify(chain: Chain, data_path: Path, opts: IdentifyOptions, progress) ->
                 # the last step's errors are the refit on all the fit data, measured on all selection samples
                 steps_out[-1] = replace(steps_out[-1], errors=after)
     tests_final = {k: errors(acc_final[k], final_fit.theta, final_fit.columns) for k in test_keys}
+    evidence = term_evidence(final_design.terms, diag_steps)
     final_fit, artifacts.uncertainty = _honest_sigma(grams, maps, final_fit, opts, progress)
     artifacts.grams = (grams, maps)
     essential = None
@@ -202,7 +207,7 @@ def _identify(chain: Chain, data_path: Path, opts: IdentifyOptions, progress) ->
         before=before,
         after=after,
         test=_test_figures(roles, tests_rigid, tests_final, acc),
-        effects=tuple(describe_terms(final_design, final_fit, motion)),
+        effects=tuple(describe_terms(final_design, final_fit, motion, evidence)),
         rejected=tuple(describe_rejected(r, data_reports) for r in rejected),
         parameters=tuple(Estimate(nm, float(v), _finite(s), _finite(s0))
                          for nm, v, s, s0 in zip(final_fit.names, final_fit.theta, final_fit.std_percent, _textbook(artifacts, final_fit), strict=True)),

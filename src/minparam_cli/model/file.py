@@ -39,7 +39,10 @@ if TYPE_CHECKING:
     from minparam_cli.identify.result import IdentifyResult
 
 FORMAT = "minparam-model"
-VERSION = 1
+# version 2 (issue 32): the spring is K·(q − q₀) (columns q, 1), each term carries its evidence; version 1
+# files are read with their spring as it was (columns q, sin q, cos q: effects.LEGACY_SPRING) and no evidence
+VERSION = 2
+READS = (1, 2)
 # DataOptions fields a version-1 model stores (all of them)
 DATA_KEYS = ("columns", "cutoff_hz", "force_filter", "chunk_rows", "decimate", "step_s", "still_speed", "trim_still_s")
 
@@ -98,6 +101,7 @@ class SavedModel:
     physical: PhysicalParameters | None = None
     figures: dict = field(default_factory=dict)
     uncertainty: dict | None = None  # {"sigma", "columns", "covariance", "residual_sigma_per_joint"}: prediction bands
+    evidence: tuple[dict | None, ...] = ()  # per term: what added it (ΔBIC_eff, N_eff, periods seen); () or None: unknown
 
     def to_dict(self) -> dict:
         out: dict[str, Any] = {
@@ -107,7 +111,8 @@ class SavedModel:
             "load": self.load.to_dict(),
             "base": {"method": "qr", "seed": self.seed, "kept": list(self.kept), "names": list(self.base_names)},
             "design": {
-                "terms": [{"effect": t.effect, "joints": [j + 1 for j in t.joints], "hyper": t.hyper} for t in self.terms],
+                "terms": [{"effect": t.effect, "joints": [j + 1 for j in t.joints], "hyper": t.hyper,
+                           "evidence": self.term_evidence(i)} for i, t in enumerate(self.terms)],
                 "theta_model": None if self.theta_model is None else [float(x) for x in self.theta_model],
                 "t0": self.t0,
             },
@@ -130,6 +135,10 @@ class SavedModel:
             out["physical"] = {"phi_names": list(self.physical.phi_names), "phi": [float(x) for x in self.physical.phi],
                                "theta": [float(x) for x in self.physical.theta]}
         return out
+
+    def term_evidence(self, i: int) -> dict | None:
+        """The evidence saved with term i (None: a model saved before evidence was kept)."""
+        return self.evidence[i] if i < len(self.evidence) else None
 
     def fit_theta(self, which: str) -> np.ndarray:
         """θ of the unconstrained fit ("fit") or of the physical fit ("physical")."""
@@ -164,7 +173,17 @@ def saved_model(robot: str, robot_bytes: bytes, load: LoadSettings, data: DataOp
         t0=None if d.t0 is None else float(d.t0), names=tuple(d.names), theta=np.asarray(artifacts.theta, dtype=float),
         std_percent=tuple(float(s) if math.isfinite(s) else None for s in artifacts.std_percent),
         data=data, physical=physical, figures=figures, uncertainty=_uncertainty(artifacts, result),
+        evidence=_evidence(d.terms, result),
     )
+
+
+def _evidence(terms, result: IdentifyResult) -> tuple[dict | None, ...]:
+    """Each term's evidence from the report's effects (the same terms, in the same order)."""
+    out: list[dict | None] = [None] * len(terms)
+    for i, (t, e) in enumerate(zip(terms, result.effects, strict=False)):
+        if e.get("effect") == t.effect and "evidence" in e:
+            out[i] = dict(e["evidence"])
+    return tuple(out)
 
 
 def _uncertainty(artifacts, result: IdentifyResult) -> dict | None:

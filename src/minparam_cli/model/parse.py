@@ -10,8 +10,8 @@ from typing import Literal, NoReturn, overload
 import numpy as np
 
 from minparam_cli.identify.passes.design import Term
-from minparam_cli.dynamics.effects import EFFECTS
-from minparam_cli.model.file import DATA_KEYS, FORMAT, VERSION, LoadSettings, ModelError, PhysicalParameters, SavedModel
+from minparam_cli.dynamics.effects import EFFECTS, LEGACY_SPRING
+from minparam_cli.model.file import DATA_KEYS, FORMAT, READS, LoadSettings, ModelError, PhysicalParameters, SavedModel
 from minparam_cli.measured.records import DataOptions
 
 
@@ -95,8 +95,9 @@ def parse_model(text: str, source: str) -> SavedModel:
     if not isinstance(doc, dict) or doc.get("format") != FORMAT:
         raise ModelError(f"{source}: not a minparam model file (expected \"format\": \"{FORMAT}\")")
     version = r.get(doc, "version", "version")
-    if version != VERSION:
-        r.fail("version", f"format version {json.dumps(version)} is not supported (this minparam reads version {VERSION})")
+    if version not in READS:
+        r.fail("version", f"format version {json.dumps(version)} is not supported (this minparam reads versions "
+                          f"{', '.join(str(v) for v in READS)})")
 
     robot = r.get(doc, "robot", "robot")
     path = r.text(r.get(robot, "path", "robot"), "robot.path")
@@ -135,10 +136,12 @@ def parse_model(text: str, source: str) -> SavedModel:
     terms_raw = r.get(dd, "terms", "design")
     if not isinstance(terms_raw, list):
         r.fail("design.terms", "expected a list")
-    terms = []
+    terms, evidence = [], []
     for i, t in enumerate(terms_raw):
         where = f"design.terms[{i}]"
         effect = r.text(r.get(t, "effect", where), f"{where}.effect")
+        if version == 1 and effect == "spring":  # version 1's spring: columns q, sin q, cos q
+            effect = LEGACY_SPRING
         if effect not in EFFECTS:
             r.fail(f"{where}.effect", f"unknown effect {effect!r}")
         joints_raw = r.get(t, "joints", where)
@@ -149,6 +152,10 @@ def parse_model(text: str, source: str) -> SavedModel:
         if (hyper is None) != (not EFFECTS[effect].grid):
             r.fail(f"{where}.hyper", f"effect {effect} {'needs' if EFFECTS[effect].grid else 'takes no'} grid value")
         terms.append(Term(effect, joints, hyper))
+        ev = t.get("evidence") if isinstance(t, dict) else None  # version 2; absent in version 1
+        if ev is not None and not isinstance(ev, dict):
+            r.fail(f"{where}.evidence", "expected a JSON object or null")
+        evidence.append(ev)
     tm = r.get(dd, "theta_model", "design")
     theta_model = None if tm is None else np.array(r.numbers(tm, "design.theta_model"))
     t0 = r.number(r.get(dd, "t0", "design"), "design.t0", allow_none=True)
@@ -193,7 +200,7 @@ def parse_model(text: str, source: str) -> SavedModel:
     if not isinstance(figures, dict):
         r.fail("figures", "expected a JSON object")
     return SavedModel(path, sha, load, seed, kept, base_names, tuple(terms), theta_model, t0, names, theta, std,
-                      data, physical, figures, _parse_uncertainty(r, doc, len(names)))
+                      data, physical, figures, _parse_uncertainty(r, doc, len(names)), tuple(evidence))
 
 
 def _motor_side(r: _Reader, v) -> tuple | None:

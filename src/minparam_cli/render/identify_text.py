@@ -74,6 +74,24 @@ def _physical_lines(p: PhysicalReport) -> list[str]:
     return out
 
 
+def _evidence(st) -> str:
+    """The evidence column of one diagnosis step (ΔBIC_eff: the selection statistic under correlated residuals)."""
+    bic = "ΔBIC_eff" if "delta_bic_eff" in st else "ΔBIC"
+    value = st.get("delta_bic_eff", st.get("delta_bic_selection"))
+    if "replaces" in st or "drops" in st:
+        how = "replaces" if "replaces" in st else "drops"
+        return f"{how} {st.get('replaces') or st.get('drops')}: {bic} {value:.1f}"
+    if "removed" in st:
+        return str(st["why"])
+    if value is None:
+        return f"N_eff {st['n_eff']:.0f} of {st['n_selection']}" if "n_eff" in st else "-"
+    text = f"{bic} {value:.1f}" + (f", N_eff {st['n_eff']:.0f}" if "n_eff" in st else "")
+    text += f", gain {100 * st['selection_gain']:.1f} %"
+    if st.get("periods_seen") is not None:
+        text += f", {st['periods_seen']:.2g} periods"
+    return text
+
+
 def render_identify(r: IdentifyResult) -> str:
     """The report, then the payload's identification when there is one."""
     text = _render(r)
@@ -133,14 +151,7 @@ def _render(r: IdentifyResult) -> str:
     srows = []
     for i, s in enumerate(r.steps):
         st = s.statistic or {}
-        if "replaces" in st:
-            evidence = f"replaces {st['replaces']}: ΔBIC {st['delta_bic_selection']:.1f}"
-        elif "removed" in st:
-            evidence = st["why"]
-        elif "delta_bic_selection" in st:
-            evidence = f"ΔBIC {st['delta_bic_selection']:.1f}, gain {100 * st['selection_gain']:.1f} %"
-        else:
-            evidence = "-"
+        evidence = _evidence(st)
         srows.append((i, s.label or "rigid-body model as declared", evidence, f"{s.errors.rms_total:.4g}", _pct(s.errors.relative_error)))
     out.append(columns(srows, ("step", "effect", "evidence", "rms", "‖r‖/‖τ‖"), right=(0, 3, 4)))
     out.append(f"stop: {r.stop_reason}")

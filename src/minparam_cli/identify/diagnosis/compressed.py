@@ -41,14 +41,20 @@ class Catalogue:
         sources = tuple(
             (eid, h)
             for eid in effects
-            if with_model or not EFFECTS[eid].needs_model
+            if (with_model or not EFFECTS[eid].needs_model) and not (eid in ALIAS and ALIAS[eid] in effects)
             for h in EFFECTS[eid].grid or (None,)
         )
         return Catalogue(p, sources, *source_columns(sources, p))
 
     def columns(self, term: Term) -> list[int]:
-        c0 = self.start[(term.effect, term.hyper)]
+        key = (term.effect, term.hyper)
+        c0 = self.start[key] if key in self.start else self.start[(ALIAS[term.effect], term.hyper)]
         return list(range(c0, c0 + len(EFFECTS[term.effect].column_names)))
+
+
+# effects with the same columns as another (one name where the data show its signature, the other where
+# they do not): when both are searched, the catalogue holds the columns once
+ALIAS = {"position_error": "cogging"}
 
 
 def _factor(design: Design, b: Block, cat: Catalogue, rows: int = 2048) -> list[np.ndarray]:

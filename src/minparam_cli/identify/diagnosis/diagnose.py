@@ -11,8 +11,8 @@ At every step, with Gautier's per-joint weights from the current fit:
    refactoring);
 3. score each candidate on the selection data (never on the fit data, never
    on the test data): ΔBIC = N_s ln(RSS_s1/RSS_s0) + m ln N_s (m = the rank
-   of E⊥, so columns already in the model cost nothing and gain nothing),
-   with the fit-data F-test beside it;
+   of E⊥, so columns already in the model cost nothing and gain nothing, plus
+   one for a grid value the search chose), with the fit-data F-test beside it;
 4. a candidate qualifies when ΔBIC < −10 (very strong evidence, Kass &
    Raftery 1995), it removes at least ``min_gain`` of the weighted selection
    residual energy, the unweighted selection error falls, and its fitted
@@ -24,6 +24,13 @@ At every step, with Gautier's per-joint weights from the current fit:
    pass stops.  A candidate that would qualify but for its sign, and beats
    the one added, is kept as a ``rejected`` note: the residual it explains is
    real, its physical name is not.
+5. the term added is **named** only when ΔBIC_eff (the same statistic on the
+   effective sample size of its model's selection residual, ``evidence.py``)
+   is below the threshold too; otherwise it is kept as a model error of that
+   form (``named`` False in its statistic).  A ripple seen over fewer than
+   ``MIN_PERIODS`` periods is searched as position_error, not cogging.
+
+The simplification pass after the forward steps is ``simplify.py``.
 
 Columns that are combinations of the model's (rotor inertia of a joint whose
 axis is fixed in the base, for instance) have E⊥ = 0: they regroup with the
@@ -36,27 +43,27 @@ O(K²) per candidate with K the number of catalogue columns, not O(samples).
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 
 from minparam_cli.identify.diagnosis.compressed import Compressed
 from minparam_cli.measured.records import Block
 from minparam_cli.identify.passes.design import Design, Term
-from minparam_cli.dynamics.effects import EFFECT_IDS, EFFECTS, in_bounds
+from minparam_cli.dynamics.effects import EFFECT_IDS, EFFECTS, MIN_PERIODS, in_bounds, periods_seen
+from minparam_cli.identify.diagnosis.evidence import long_run_ratio, q_range, ripple_periods, selection_residual
 from minparam_cli.identify.diagnosis.scoring import score
-from minparam_cli.identify.estimate.errors import Errors
+from minparam_cli.identify.diagnosis.steps import SIMPLER, Diagnosis, Rejected, Step, present_effects
+from minparam_cli.identify.diagnosis.steps import term_coefficients as term_coefficients  # re-exported
 
 BIC_THRESHOLD = -10.0
 # a selection error below this (relative) is the data's own rounding: no effect is looked for in it
 ROUNDING = 1e-9
 DEFAULT_MIN_GAIN = 0.02
 MAX_STEPS = 25
-PER_JOINT_ONLY = {"cogging"}
-# a term that contains a simpler one: tried again after the forward pass (the greedy path can
-# pick asymmetric Coulomb, which also absorbs part of another effect, where plain Coulomb is enough)
-SIMPLER = {"asymmetric_coulomb": ("coulomb",), "load_coulomb": ("coulomb",)}
-DECLARED = {"coulomb": "coulomb", "viscous": "viscous", "offset": "offset", "rotor_inertia": "rotor_inertia"}
+PER_JOINT_ONLY = {"cogging", "position_error"}
+# default correlation horizon of the effective sample size (s): the shortest σ block (uncertainty.MIN_BLOCK_S)
+DEFAULT_HORIZON_S = 1.0
 
 
 @dataclass(frozen=True)
@@ -66,54 +73,19 @@ class DiagnosisOptions:
     bic_threshold: float = BIC_THRESHOLD
     max_steps: int = MAX_STEPS
     weighted: bool = True  # Gautier's per-joint weights (False: OLS, as --ols)
+    horizon_s: float = DEFAULT_HORIZON_S  # lags of the effective sample size: the σ block length (evidence.py)
 
 
-@dataclass
-class Step:
-    term: Term | None
-    statistic: dict
-    errors: Errors  # selection data, unweighted
-    design: Design | None = None
-    theta: np.ndarray | None = None
+def _shown(eid: str, joint: int, h: float | None, span: np.ndarray | None) -> bool:
+    """Whether a ripple term goes by this name on this joint: cogging where the data cover at least
+    MIN_PERIODS of its periods, position_error where they cover fewer (every other effect: True)."""
+    if span is None or h is None or eid not in ("cogging", "position_error"):
+        return True
+    return (periods_seen(span[joint], h) >= MIN_PERIODS) == (eid == "cogging")
 
 
-@dataclass(frozen=True)
-class Rejected:
-    """A candidate that explained the residual but with coefficients outside its physical range."""
-
-    term: Term
-    coefficients: np.ndarray  # (joints, columns)
-    gain: float  # share of the weighted selection residual energy it would remove
-    delta_bic: float
-
-
-@dataclass
-class Diagnosis:
-    steps: list[Step] = field(default_factory=list)
-    design: Design = field(kw_only=True)  # the model so far
-    candidates_per_step: int = 0
-    stop_reason: str = ""
-    rejected: list[Rejected] = field(default_factory=list)
-
-
-def present_effects(design: Design) -> set[tuple[str, int]]:
-    """(effect, joint) already in the model: declared extras and added terms (asymmetric Coulomb
-    contains plain Coulomb: its two columns sum to sign q̇)."""
-    present = {(t.effect, j) for t in design.terms for j in t.joints}
-    coordinate = {joint: k for k, joint in enumerate(design.chain.coordinates)}  # terms number the data's joints
-    for j, extras in enumerate(design.chain.layout.extras):
-        for e in extras:
-            if j in coordinate:
-                present.add((DECLARED.get(e, e), coordinate[j]))
-    present |= {("coulomb", j) for e, j in list(present) if e == "asymmetric_coulomb"}
-    tr = design.chain.transmission
-    if tr is not None:  # a declared motor-side column of motor k covers the effect on every joint motor k moves
-        for k, extras in enumerate(tr.motor_extras):
-            present |= {(e, coordinate[j]) for e in extras for j, v in enumerate(tr.matrix[k]) if v != 0 and j in coordinate}
-    return present
-
-
-def candidates(design: Design, allowed: tuple[str, ...]) -> list[Term]:
+def candidates(design: Design, allowed: tuple[str, ...], span: np.ndarray | None = None) -> list[Term]:
+    """Every term the model could gain; ``span``: each joint's range of q over the data (names ripples)."""
     n = design.chain.dof
     present = present_effects(design)
     out = []
@@ -129,7 +101,8 @@ def candidates(design: Design, allowed: tuple[str, ...]) -> list[Term]:
             if len(free) != len(g):
                 continue
             for h in e.grid or (None,):
-                out.append(Term(eid, g, h))
+                if all(_shown(eid, j, h, span) for j in g):
+                    out.append(Term(eid, g, h))
     return out
 
 
@@ -184,11 +157,21 @@ def diagnose(design: Design, train: Block, hold: Block, opts: DiagnosisOptions, 
     """Add effects one at a time while the selection data say they are real and physical.
 
     ``train``: a sample of the fit data; ``hold``: a sample of the selection data."""
+    from minparam_cli.identify.diagnosis.simplify import simplify
+
     simpler = tuple(a for e in opts.effects for a in SIMPLER.get(e, ()) if a not in opts.effects)
     data = Compressed.of(design, train, hold, tuple(opts.effects) + tuple(dict.fromkeys(simpler)))
     out = Diagnosis(design=design)
     N, Nh = data.N * data.n, data.Nh * data.n  # fit and selection equations
     noted: set = set()
+    span = q_range(train, hold)
+
+    def n_eff_of(d: Design, sigma: np.ndarray, theta: np.ndarray | None = None) -> float:
+        """Effective number of selection equations of design ``d``'s residual (evidence.py)."""
+        if theta is None:
+            theta, *_ = np.linalg.lstsq(*data.stack(data.selection(d), sigma), rcond=None)
+        ratio = long_run_ratio(selection_residual(d, hold, theta, sigma), hold.t, opts.horizon_s)
+        return max(Nh / ratio, 2.0)
 
     for step in range(opts.max_steps + 1):
         sel = data.selection(out.design)
@@ -204,7 +187,9 @@ def diagnose(design: Design, train: Block, hold: Block, opts: DiagnosisOptions, 
         rssh0_plain = float(data.joint_rss(sel, theta, hold=True).sum())
         errs = data.selection_errors(sel, theta)
         if step == 0:
-            out.steps.append(Step(None, {"rss_fit_weighted": rss0, "rss_selection_weighted": rssh0}, errs, out.design, theta))
+            out.steps.append(Step(None, {"rss_fit_weighted": rss0, "rss_selection_weighted": rssh0,
+                                         "n_eff": n_eff_of(out.design, sigma, theta), "n_selection": Nh},
+                                  errs, out.design, theta))
         if step == opts.max_steps:
             break
         rel = errs.relative_error
@@ -212,7 +197,7 @@ def diagnose(design: Design, train: Block, hold: Block, opts: DiagnosisOptions, 
             out.stop_reason = (f"the model explains the selection data to their rounding (relative error {rel:.1g}): "
                                "nothing left to trace")
             break
-        cands = candidates(out.design, opts.effects)
+        cands = candidates(out.design, opts.effects, span)
         scores = score(data, sel, sigma, Q, back, r0, rh0, cands)
         usable = np.isfinite(scores.rss1) & (scores.m > 0)
         extra = _restricted(cands, scores, usable)
@@ -225,11 +210,15 @@ def diagnose(design: Design, train: Block, hold: Block, opts: DiagnosisOptions, 
         ok = np.isfinite(scores.rss1) & (scores.m > 0) & (scores.rssh1 > 0) & (rssh0 > 0)
         if not np.any(ok):
             break
-        dbic = np.where(ok, Nh * np.log(np.where(ok, scores.rssh1, 1.0) / rssh0) + scores.m * np.log(Nh), np.inf)
+        log_ratio = np.log(np.where(ok, scores.rssh1, 1.0) / rssh0) if rssh0 > 0 else np.zeros(len(cands))
+        # a grid value (Stribeck vs, ripple order k) is chosen by the search: it counts as a parameter too
+        m_bic = scores.m + np.array([1 if EFFECTS[t.effect].grid else 0 for t in cands])
+        dbic_iid = np.where(ok, Nh * log_ratio + m_bic * np.log(Nh), np.inf)  # as if the samples were independent
         gain = 1.0 - scores.rssh1 / rssh0 if rssh0 > 0 else np.zeros(len(cands))
         plain = (scores.rssh1_joint * sigma**2).sum(axis=1)  # unweighted selection RSS
-        strong = ok & (dbic < opts.bic_threshold) & (gain >= opts.min_gain) & (plain < rssh0_plain)
         physical = _physical(cands, scores)
+        dbic = dbic_iid  # what adds a term to the model (prediction); ΔBIC_eff below decides its name
+        strong = ok & (dbic < opts.bic_threshold) & (gain >= opts.min_gain) & (plain < rssh0_plain)
         wrong_sign = np.array([c is not None and not all(in_bounds(t.effect, row) for row, fresh in zip(c, nw, strict=True) if fresh)
                                for t, c, nw in zip(cands, scores.coefficients, scores.new, strict=True)], dtype=bool)
         qualifies = strong & physical
@@ -242,8 +231,8 @@ def diagnose(design: Design, train: Block, hold: Block, opts: DiagnosisOptions, 
                 t = cands[best_any]
                 out.stop_reason = (
                     f"best remaining candidate {t.label()}: ΔBIC {dbic[best_any]:.1f}, removes "
-                    f"{100 * gain[best_any]:.2f} % of the selection residual energy (needs ΔBIC < {opts.bic_threshold:g}, "
-                    f"{100 * opts.min_gain:g} % and a falling selection error)"
+                    f"{100 * gain[best_any]:.2f} % of the selection residual energy (needs ΔBIC < "
+                    f"{opts.bic_threshold:g}, {100 * opts.min_gain:g} % and a falling selection error)"
                 )
             break
         i = int(np.argmin(np.where(qualifies, dbic, np.inf)))
@@ -257,13 +246,21 @@ def diagnose(design: Design, train: Block, hold: Block, opts: DiagnosisOptions, 
         sel = data.selection(out.design)
         sig = data.joint_sigma(sel, opts.weighted)
         theta_all, *_ = np.linalg.lstsq(*data.stack(sel, sig), rcond=None)
-        stat = {"delta_bic_selection": float(dbic[i]), "selection_gain": float(gain[i]), "F": float(F), "p_value": p_value, "rank": m}
+        n1 = n_eff_of(out.design, sigma)  # the larger model's, as an F-test takes its noise from the larger model
+        eff = float(n1 * log_ratio[i] + m_bic[i] * np.log(n1))
+        stat = {"delta_bic_eff": eff, "n_eff": float(n1), "correlation_ratio": float(Nh / n1),
+                "delta_bic_selection": float(dbic_iid[i]), "selection_gain": float(gain[i]), "F": float(F),
+                "p_value": p_value, "rank": m}
+        periods = ripple_periods(term, span)
+        if periods is not None:
+            stat["periods_seen"] = periods
+        stat["named"] = bool(eff < opts.bic_threshold) and (periods is None or term.effect != "cogging" or periods >= MIN_PERIODS)
         out.steps.append(Step(term, stat, data.selection_errors(sel, theta_all), out.design, theta_all))
     else:
         out.stop_reason = f"stopped after {opts.max_steps} steps"
     if not out.stop_reason:
         out.stop_reason = "no candidate left"
-    _simplify(out, data, opts)
+    simplify(out, data, opts.weighted, n_eff_of)
     return out
 
 
@@ -277,70 +274,3 @@ def _note_rejected(out: Diagnosis, cands, scores, mask, dbic, gain, beat: float,
         return
     noted.add((t.effect, t.joints))
     out.rejected.append(Rejected(t, np.asarray(scores.coefficients[k]), float(gain[k]), float(dbic[k])))
-
-
-def _selection_score(data: Compressed, design: Design, sigma: np.ndarray) -> tuple[float, float, np.ndarray, Errors, bool]:
-    """Selection-data BIC of a design fitted on the fit data under the given weights ``sigma`` (the same
-    for every design compared), its unweighted selection RSS, theta, errors and whether its added
-    terms' coefficients lie in their physical ranges."""
-    sel = data.selection(design)
-    Xw, yw = data.stack(sel, sigma)
-    theta, *_ = np.linalg.lstsq(Xw, yw, rcond=None)
-    sv = np.linalg.svd(Xw, compute_uv=False)
-    # the rank as np.linalg.matrix_rank gives it on the uncompressed rows (its tolerance grows with their number)
-    rank = int(np.sum(sv > sv.max(initial=0.0) * max(data.N * data.n, Xw.shape[1]) * np.finfo(float).eps))
-    Xhw, yhw = data.stack(sel, sigma, hold=True)
-    rssh = float(np.sum((yhw - Xhw @ theta) ** 2))
-    Nh = data.Nh * data.n
-    plain = float(data.joint_rss(sel, theta, hold=True).sum())
-    physical = all(in_bounds(t.effect, c) for t, c in zip(design.terms, term_coefficients(design, theta), strict=True))
-    return Nh * np.log(rssh) + rank * np.log(Nh), plain, theta, data.selection_errors(sel, theta), physical
-
-
-def term_coefficients(design: Design, theta: np.ndarray) -> list[np.ndarray]:
-    """Each added term's coefficients in ``theta`` (the design's column order), as (joints, columns)."""
-    out, c = [], len(design.kept)
-    for t in design.terms:
-        w = t.width()
-        out.append(np.asarray(theta[c : c + w]).reshape(len(t.joints), -1))
-        c += w
-    return out
-
-
-# a simpler term may raise the unweighted selection error by at most this share to replace a larger one
-SIMPLER_TOLERANCE = 0.01
-
-
-def _simplify(out: Diagnosis, data: Compressed, opts: DiagnosisOptions) -> None:
-    """Replace a term by a simpler one when the selection BIC prefers it.
-
-    Never a replacement that is already in the model on one of the term's joints (declared, added, or
-    inside asymmetric Coulomb): that would only delete the term.  Both models are scored under the same
-    weights (those of the current model), the replacement's coefficients must be physical, and its
-    unweighted selection error may rise by at most ``SIMPLER_TOLERANCE``.
-    """
-    from dataclasses import replace
-
-    changed = True
-    while changed:
-        changed = False
-        sigma = data.joint_sigma(data.selection(out.design), opts.weighted)
-        current, plain0, _, _, _ = _selection_score(data, out.design, sigma)
-        for i, term in enumerate(out.design.terms):
-            others = replace(out.design, terms=out.design.terms[:i] + out.design.terms[i + 1 :])
-            present = present_effects(others)  # the model without this term
-            for alt in SIMPLER.get(term.effect, ()):
-                if any((alt, j) in present for j in term.joints):
-                    continue
-                new = Term(alt, term.joints, None)
-                terms = out.design.terms[:i] + (new,) + out.design.terms[i + 1 :]
-                cand = replace(out.design, terms=terms)
-                score_, plain, theta, errs, physical = _selection_score(data, cand, sigma)
-                if score_ < current and physical and plain <= plain0 * (1 + SIMPLER_TOLERANCE) ** 2:
-                    out.design = cand
-                    stat = {"replaces": term.label(), "delta_bic_selection": float(score_ - current)}
-                    out.steps.append(Step(new, stat, errs, cand, theta))
-                    changed = True
-                    break
-            if changed:
-                break

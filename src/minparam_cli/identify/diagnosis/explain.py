@@ -14,7 +14,7 @@ import numpy as np
 
 from minparam_cli.identify.passes.design import Design, Term
 from minparam_cli.identify.diagnosis.diagnose import Rejected, term_coefficients
-from minparam_cli.dynamics.effects import EFFECTS, in_bounds
+from minparam_cli.dynamics.effects import EFFECTS, MIN_PERIODS, in_bounds, periods_seen
 from minparam_cli.identify.estimate.fit import full_theta
 
 
@@ -29,7 +29,6 @@ ONE_COLUMN = {
     "gain": "the measured torque is {v} × the model torque on {on}: a drive gain or torque-constant error",
     "drift": "a drift of {v} {T}/s over the recording on {on} (temperature, sensor drift)",
 }
-MIN_PERIODS = 3  # a ripple seen over fewer periods than this is not told apart from a smooth position error
 
 
 def _units(design: Design, joints) -> tuple[str, str]:
@@ -50,13 +49,26 @@ def _on(joints) -> str:
     return f"joint{'s' if len(joints) > 1 else ''} {', '.join(str(j + 1) for j in joints)}"
 
 
-def _spring_swing(c: np.ndarray, lo: float, hi: float) -> float:
-    """How much Kq·q + Ks·sin q + Kc·cos q varies over [lo, hi]."""
+def _swing(c: np.ndarray, lo: float, hi: float, basis) -> float:
+    """How much Σ c_i·basis_i(q) varies over [lo, hi]."""
     if not (np.isfinite(lo) and np.isfinite(hi)) or hi <= lo:
         return float("nan")
     q = np.linspace(lo, hi, 201)
-    f = c[0] * q + c[1] * np.sin(q) + c[2] * np.cos(q)
+    f = np.asarray(basis(q)).T @ c
     return float(f.max() - f.min())
+
+
+SPRING_BASIS = {
+    "spring": lambda q: [q, np.ones_like(q)],
+    "gravity_error": lambda q: [np.sin(q), np.cos(q)],
+    "spring_v1": lambda q: [q, np.sin(q), np.cos(q)],
+}
+
+
+def _swings(term: Term, c: np.ndarray, motion) -> list[float]:
+    basis = SPRING_BASIS[term.effect]
+    return [_swing(row, motion.lo[j], motion.hi[j], basis) if motion is not None else float("nan")
+            for j, row in zip(term.joints, c, strict=True)]
 
 
 def explain(term: Term, c: np.ndarray, design: Design, motion=None) -> str:
@@ -76,31 +88,57 @@ def explain(term: Term, c: np.ndarray, design: Design, motion=None) -> str:
         return (f"dry friction of {_list(c[:, 0])} {T} in the positive direction and {_list(c[:, 1])} {T} in the "
                 f"negative direction on {on}")
     if e == "spring":
-        swings = [_spring_swing(row, motion.lo[j], motion.hi[j]) if motion is not None else float("nan")
-                  for j, row in zip(term.joints, c, strict=True)]
-        return (f"a torque that depends on position, varying by {_list(swings)} {T} over the fitted motion on {on} "
-                "(Kq·q + Ks·sin q + Kc·cos q): a spring, cable, gravity compensator or a gravity model error")
-    if e == "cogging":
+        rest = [-row[1] / row[0] if row[0] != 0 else float("nan") for row in c]
+        return (f"a spring K·(q − q₀), K = {_list(c[:, 0])} {T} per {V.split('/')[0]}, rest angle q₀ = {_list(rest)}, "
+                f"varying by {_list(_swings(term, c, motion))} {T} over the fitted motion on {on}: a spring, cable or "
+                "gravity compensator (q₀ is only known where the model has no offset of its own)")
+    if e == "gravity_error":
+        return (f"a torque A·sin q + B·cos q of amplitude {_list(np.hypot(c[:, 0], c[:, 1]))} {T} on {on}, varying by "
+                f"{_list(_swings(term, c, motion))} {T} over the fitted motion: a gravity model error (a link mass or "
+                "centre of mass the rigid-body model gets wrong)")
+    if e == "spring_v1":
+        return (f"a torque that depends on position, varying by {_list(_swings(term, c, motion))} {T} over the fitted "
+                f"motion on {on} (Kq·q + Ks·sin q + Kc·cos q; a model file of format version 1)")
+    if e in ("cogging", "position_error"):
         assert term.hyper is not None  # an effect with a grid: its term carries the value
         amp = np.hypot(c[:, 0], c[:, 1])
-        text = f"a ripple of amplitude {_list(amp)} {T}, {term.hyper:g} periods per turn (every {360 / term.hyper:.3g}°) on {on}"
-        if motion is not None:
-            periods = min(float(motion.range[j]) * term.hyper / (2 * math.pi) for j in term.joints)
-            if periods < MIN_PERIODS:
-                return (f"{text}; the fitted motion spans only {periods:.2g} of its periods, so it is as likely a "
-                        "smooth position-dependent model error (gravity, cable) as cogging")
-        return f"{text}: motor cogging or gear meshing"
+        seen = "" if motion is None else \
+            f", seen over {min(periods_seen(motion.range[j], term.hyper) for j in term.joints):.2g} periods"
+        if e == "position_error":
+            return (f"position-dependent model error on {on}: smooth basis sin {term.hyper:g}q, cos {term.hyper:g}q, "
+                    f"amplitude {_list(amp)} {T}{seen} (fewer than {MIN_PERIODS:g}: not told apart from gravity, "
+                    "cable or any smooth error in q)")
+        return (f"a ripple of amplitude {_list(amp)} {T}, {term.hyper:g} periods per turn (every {360 / term.hyper:.3g}°) "
+                f"on {on}{seen}: motor cogging or gear meshing")
     return EFFECTS[e].explanation
 
 
-def describe_terms(design: Design, fit, motion=None) -> list[dict]:
-    """The final model's added effects: ids, joints, coefficients and a line written from them."""
+def unnamed(term: Term, ev: dict) -> str:
+    """A term kept for prediction whose evidence does not hold under correlated residuals: what it is."""
+    cols = ", ".join(EFFECTS[term.effect].column_names)
+    why = (f"kept because it predicts the selection data better (ΔBIC {ev['delta_bic_selection']:.1f} as if the "
+           "samples were independent)") if "delta_bic_selection" in ev else \
+        f"kept in place of {ev.get('replaces', 'a term')} that was not named"
+    return (f"a model error of the form of {term.effect} (columns {cols}) on {_on(term.joints)}, {why}; not named "
+            f"{term.effect}: under correlated residuals its evidence is ΔBIC_eff {ev.get('delta_bic_eff', float('nan')):.1f} "
+            f"(N_eff {ev.get('n_eff', float('nan')):.0f}), short of -10")
+
+
+def describe_terms(design: Design, fit, motion=None, evidence=None) -> list[dict]:
+    """The final model's added effects: ids, joints, coefficients, a line written from them, and the
+    evidence that added each (``evidence``: term -> dict, from ``diagnose.term_evidence``)."""
     out = []
     for t, c in zip(design.terms, term_coefficients(design, full_theta(fit, design.p)), strict=True):
         names = t.names()
-        out.append({"effect": t.effect, "joints": [j + 1 for j in t.joints], "hyper": t.hyper,
-                    "coefficients": {nm: float(v) for nm, v in zip(names, c.reshape(-1), strict=True)},
-                    "explanation": explain(t, c, design, motion)})
+        entry: dict = {"effect": t.effect, "joints": [j + 1 for j in t.joints], "hyper": t.hyper,
+                       "coefficients": {nm: float(v) for nm, v in zip(names, c.reshape(-1), strict=True)},
+                       "explanation": explain(t, c, design, motion)}
+        if evidence is not None and t in evidence:
+            ev = dict(evidence[t])
+            entry["evidence"] = ev
+            if not ev.get("named", True):
+                entry["explanation"] = unnamed(t, ev)
+        out.append(entry)
     return out
 
 

@@ -8,12 +8,12 @@ function (the same on every joint: slot k of joint j is that function of joint
 j's signals), and the final design's factor follows from it by a linear map of
 the columns (``Accumulator.transform``), without reading the file again:
 
-* asymmetric Coulomb, viscous, offset, rotor inertia, spring, drift and every
-  Stribeck grid value have slots of their own;
+* asymmetric Coulomb, viscous, offset, rotor inertia, spring, gravity error, drift
+  and every Stribeck grid value have slots of their own;
 * Coulomb is the sum of the two asymmetric Coulomb slots (sign q̇ = [q̇>0] − [q̇<0]);
 * gain is the model torque X_j·θ_model, a combination of the base columns.
 
-Cogging (59 orders) and load-dependent Coulomb (|τ_model| is not linear in the
+Cogging and position error (59 orders each) and load-dependent Coulomb (|τ_model| is not linear in the
 columns) have no slot: a final design with one of them streams the file again.
 """
 
@@ -25,7 +25,7 @@ from minparam_cli.measured.records import Block
 from minparam_cli.identify.passes.design import Design, Term
 from minparam_cli.dynamics.effects import EFFECTS, Signals, source_columns
 
-SLOTTED = ("asymmetric_coulomb", "viscous", "offset", "rotor_inertia", "spring", "drift", "stribeck")
+SLOTTED = ("asymmetric_coulomb", "viscous", "offset", "rotor_inertia", "spring", "gravity_error", "drift", "stribeck")
 DERIVED = {"coulomb": "asymmetric_coulomb"}  # effect -> the slotted effect it is a combination of
 FROM_MODEL = ("gain",)
 
