@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import json
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -15,37 +16,7 @@ from conftest import cli_ok
 pytest.importorskip("mujoco")
 pytest.importorskip("cvxpy")
 
-# l1: a collision cylinder along z.  l2: a collision capsule along x, a bigger visual box (group 2, no
-# contacts: ignored while a collision geom exists) and a welded tip whose box is turned 45° about z.
-# l3: its joint anchored 0.05 m along x (the link frame sits there), only a visual sphere.
-XML = """<mujoco model="geoms">
-  <compiler angle="degree"/>
-  <option gravity="0 0 -9.81"/>
-  <default><default class="visual"><geom contype="0" conaffinity="0" group="2"/></default></default>
-  <worldbody>
-    <geom type="plane" size="1 1 0.1"/>
-    <body name="l1" pos="0 0 0.1">
-      <joint name="j1" axis="0 0 1" range="-170 170"/>
-      <inertial pos="0 0 0.25" mass="2" diaginertia="0.0429 0.0429 0.0025"/>
-      <geom type="cylinder" size="0.05 0.25" pos="0 0 0.25"/>
-      <body name="l2" pos="0 0 0.5">
-        <joint name="j2" axis="0 1 0" range="-170 170"/>
-        <inertial pos="0.2 0 0" mass="1.5" diaginertia="0.0007 0.02 0.02"/>
-        <geom type="capsule" fromto="0 0 0 0.4 0 0" size="0.03"/>
-        <geom class="visual" type="box" size="0.3 0.1 0.1" pos="0.2 0 0"/>
-        <body name="tip" pos="0.4 0 0" euler="0 0 45">
-          <geom type="box" size="0.05 0.02 0.02"/>
-        </body>
-        <body name="l3" pos="0.4 0 0">
-          <joint name="j3" axis="0 1 0" pos="0.05 0 0" ref="30" range="-170 170"/>
-          <inertial pos="0.1 0 0" mass="0.5" diaginertia="0.00032 0.00032 0.00032"/>
-          <geom class="visual" type="sphere" size="0.04" pos="0.1 0 0"/>
-        </body>
-      </body>
-    </body>
-  </worldbody>
-</mujoco>
-"""
+XML = (Path(__file__).parent / "data" / "mjcf" / "geoms_arm.xml").read_text()
 H = 0.07 / math.sqrt(2)  # the tip's box (half-sizes 0.05, 0.02) turned by 45°: half-width (0.05 + 0.02)/√2 in x and y
 BOXES = [("collision", (-0.05, -0.05, 0.0), (0.05, 0.05, 0.5)),
          ("collision", (-0.03, -H, -0.03), (0.4 + H, H, 0.03)),
