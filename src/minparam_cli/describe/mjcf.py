@@ -20,6 +20,7 @@ DOCTYPE or entity declaration.
 * active ``connect`` and ``weld`` equalities close kinematic loops: the tree of bodies is the spanning
   tree and each equality a cut (``ClosedLoops``, origin "mjcf"; ``mjcf_loops``), the actuated joints
   those an ``<actuator>`` with a joint transmission drives, the reference configuration qpos0;
+* each link's geoms give its box (``JointRecord.geometry``, ``mjcf_geometry``): the physical fit's shape;
 * gravity from ``<option gravity>``, zero when ``<flag gravity="disable"/>``;
 * other free bodies under the world (a ball, a cube beside the robot) are left out, with a warning;
 * refused in one line (exit 2), naming the element: ball joints, a free joint below the world
@@ -121,10 +122,14 @@ def load_mjcf(path: Path, snap_angles: float | None = None, mimic: str = "couple
         raise DescriptionError("--floating-base: an MJCF file declares its floating base itself (a free joint, <freejoint/>), and this one has none", src)
     locked, masters, loops = _equalities(m, names, src, mimic, left_out)
     desc, frames, index = build_description(m, names, src, free, locked, masters, snap_angles, left_out)
-    if not loops:
-        return desc
     from dataclasses import replace
 
+    from minparam_cli.describe.mjcf_geometry import link_boxes
+
+    boxes = link_boxes(m, frames)  # the links' geoms: the physical fit's shapes
+    desc = replace(desc, joints=tuple(j if j.massless else replace(j, geometry=boxes.get(k)) for k, j in enumerate(desc.joints)))
+    if not loops:
+        return desc
     from minparam_cli.describe.mjcf_loops import closed_loops
 
     return replace(desc, loops=closed_loops(m, names, src, loops, frames, index, free, masters))

@@ -198,9 +198,6 @@ def build_description(m, names, src: str, free: int | None, locked: dict[int, fl
         raise NotARobotError("no hinge, slide or free joint: the model does not move (a scene or a fragment to include?)", src)
     if len(records) > MAX_JOINTS:
         raise DescriptionError(f"{len(records)} joints exceed the limit of {MAX_JOINTS}", src)
-    from minparam_cli.describe.mjcf_geometry import link_boxes
-
-    boxes = link_boxes(m, state)
     joints = []
     for k, (r, body_sum) in enumerate(zip(records, phi, strict=True)):
         mimic = None
@@ -209,7 +206,7 @@ def build_description(m, names, src: str, free: int | None, locked: dict[int, fl
                 master, mult, off = masters[j]
                 mimic = (index[master], mult, off)
         inertial = None if r.get("massless") else _inertial(body_sum if body_sum is not None else np.zeros(10))
-        joints.append(JointRecord(**r, inertial=inertial, mimic=mimic, geometry=None if r.get("massless") else boxes.get(k)))
+        joints.append(JointRecord(**r, inertial=inertial, mimic=mimic))
     tool_link, tool = default_tool(attached, records)
     disabled = bool(int(m.opt.disableflags) & DSBL_GRAVITY)
     gravity = (0.0, 0.0, 0.0) if disabled else tuple(float(g) for g in m.opt.gravity)
