@@ -29,6 +29,14 @@ PIN = ('<body name="pin" pos="0 0 1"><joint name="q5" axis="0 1 0"/><inertial po
        '<site name="pin_s" euler="0 30 0"/></body>')
 
 
+def test_enum_values_match_mujoco():
+    from minparam_cli.describe import mjcf_geometry, mjcf_loops
+
+    assert mjcf_loops.OBJ_SITE == int(mujoco.mjtObj.mjOBJ_SITE)
+    assert (mjcf_loops.TRN_JOINT, mjcf_loops.TRN_JOINTINPARENT) == (int(mujoco.mjtTrn.mjTRN_JOINT), int(mujoco.mjtTrn.mjTRN_JOINTINPARENT))
+    assert (mjcf_geometry.GEOM_PLANE, mjcf_geometry.GEOM_HFIELD) == (int(mujoco.mjtGeom.mjGEOM_PLANE), int(mujoco.mjtGeom.mjGEOM_HFIELD))
+
+
 def _pin_variant(tmp_path: Path, weld: str) -> Path:
     text = ARM_XML.read_text()
     text = text.replace('<geom type="capsule" fromto="0 0 0 0 0 1" size="0.02"/>', '<geom type="capsule" fromto="0 0 0 0 0 1" size="0.02"/>' + PIN)
