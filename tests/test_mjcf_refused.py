@@ -61,8 +61,6 @@ def test_free_objects_beside_the_robot_are_left_out(tmp_path):
 
 
 @pytest.mark.parametrize("kind, eq, match", [
-    ("connect", '<connect name="loop" body1="b" body2="world" anchor="0 0 0"/>', r"equality\[loop\]: a connect equality \(a closed kinematic chain\)"),
-    ("weld", '<weld name="w" body1="b"/>', r"equality\[w\]: a weld equality \(a closed kinematic chain\)"),
     ("polynomial", '<joint name="poly" joint1="jb" joint2="ja" polycoef="0 1 0.5 0 0"/>', r"equality\[poly\]: a polynomial joint coupling"),
     ("tendon", '<tendon name="te" tendon1="t1"/>', r"equality\[te\]: a tendon equality \(a tendon coupling\)"),
 ])

@@ -6,13 +6,13 @@ Every loader of a closed chain fills the same record (docs/methods/closed_chains
 * the closed-chain YAML (``kind: closed_chain``, ``describe/closed_yaml.py``);
 * a platform YAML with a ``dynamics:`` section (``describe/platform_chain.py``): the legs and the
   platform become a tree, every leg but the first closed on the platform by a ``connect`` cut;
-* the MJCF reader (another branch): an ``<equality><connect body1 body2 anchor>`` is
-  ``LoopCut(kind="connect", body_a=<index of body1's joint>, body_b=<body2's, -1 for the world>,
-  frame_a=<anchor as a 4x4 translation>, frame_b=None)``; a ``<weld body1 body2 relpose>`` is
-  ``kind="weld"`` with ``frame_a`` the identity and ``frame_b`` the inverse of relpose (or None:
-  where frame_a lies at the reference configuration, MuJoCo's default).  ``frame_b=None`` is the
-  MuJoCo convention: the second body's point is taken where the first body's lies at
-  ``ClosedLoops.reference`` (qpos0), so such a cut closes there by construction.
+* the MJCF reader (``describe/mjcf_loops.py``): an active ``<connect>`` or ``<weld>`` equality is a
+  cut between the links of its two bodies (-1: the world), ``frame_a``/``frame_b`` the compiled
+  ``eq_data``'s points (and a weld's relative orientation on body 1) carried into those links'
+  frames; the actuated joints are those an ``<actuator>`` drives through a joint transmission, the
+  reference qpos0.  ``frame_b=None`` means: body b's point (or frame) is where frame_a lies at
+  ``ClosedLoops.reference``, so such a cut closes there by construction (MuJoCo's convention; the
+  MJCF reader gives the compiler's point itself).
 
 Kinds of cut (the constraint they impose between frame_a on body a and frame_b on body b):
 ``connect`` (the two origins coincide: a ball joint, 3 equations), ``revolute`` (origins and z axes

@@ -17,10 +17,14 @@ DOCTYPE or entity declaration.
   (welded); inactive equalities are ignored;
 * ``armature``, ``damping``, ``frictionloss`` of a joint's dof: its nominal rotor inertia, viscous
   and Coulomb friction (``JointRecord.nominal_extras``), and their columns (``extras``);
+* active ``connect`` and ``weld`` equalities close kinematic loops: the tree of bodies is the spanning
+  tree and each equality a cut (``ClosedLoops``, origin "mjcf"; ``mjcf_loops``), the actuated joints
+  those an ``<actuator>`` with a joint transmission drives, the reference configuration qpos0;
+* each link's geoms give its box (``JointRecord.geometry``, ``mjcf_geometry``): the physical fit's shape;
 * gravity from ``<option gravity>``, zero when ``<flag gravity="disable"/>``;
 * other free bodies under the world (a ball, a cube beside the robot) are left out, with a warning;
 * refused in one line (exit 2), naming the element: ball joints, a free joint below the world
-  body's children or beside other joints, connect/weld/tendon/flex equalities, joint equalities
+  body's children or beside other joints, tendon/flex equalities, joint equalities
   with nonzero quadratic or higher coefficients.
 
 The joint coordinate is MuJoCo's qpos (not qpos - qpos0): the reference ``ref`` is folded into
@@ -40,8 +44,7 @@ from minparam_cli.describe.records import MIMIC_MODES, RobotDescription
 from minparam_cli.errors import DescriptionError, MinparamWarning, NotARobotError, UnsupportedError
 from minparam_cli.safety import read_bounded
 
-EQ_WORDS = {EQ_CONNECT: "a connect equality (a closed kinematic chain)", EQ_WELD: "a weld equality (a closed kinematic chain)",
-            EQ_TENDON: "a tendon equality (a tendon coupling)"}
+EQ_WORDS = {EQ_TENDON: "a tendon equality (a tendon coupling)"}
 
 _WARNING_LOCK = threading.Lock()
 _DECL = re.compile(rb"<!\s*(DOCTYPE|ENTITY)", re.IGNORECASE)
@@ -117,8 +120,19 @@ def load_mjcf(path: Path, snap_angles: float | None = None, mimic: str = "couple
     free, left_out = _check_joints(m, names, src)
     if floating_base and free is None:
         raise DescriptionError("--floating-base: an MJCF file declares its floating base itself (a free joint, <freejoint/>), and this one has none", src)
-    locked, masters = _equalities(m, names, src, mimic, left_out)
-    return build_description(m, names, src, free, locked, masters, snap_angles, left_out)
+    locked, masters, loops = _equalities(m, names, src, mimic, left_out)
+    desc, frames, index = build_description(m, names, src, free, locked, masters, snap_angles, left_out)
+    from dataclasses import replace
+
+    from minparam_cli.describe.mjcf_geometry import link_boxes
+
+    boxes = link_boxes(m, frames)  # the links' geoms: the physical fit's shapes
+    desc = replace(desc, joints=tuple(j if j.massless else replace(j, geometry=boxes.get(k)) for k, j in enumerate(desc.joints)))
+    if not loops:
+        return desc
+    from minparam_cli.describe.mjcf_loops import closed_loops
+
+    return replace(desc, loops=closed_loops(m, names, src, loops, frames, index, free, masters))
 
 
 class _Names:
@@ -187,15 +201,21 @@ def _check_joints(m, names: _Names, src: str) -> tuple[int | None, frozenset[int
     return free, left_out
 
 
-def _equalities(m, names: _Names, src: str, mimic: str, left_out: frozenset[int]) -> tuple[dict[int, float], dict[int, tuple[int, float, float]]]:
-    """({locked joint: its value}, {mimic joint: (independent joint, multiplier, offset)}) from the
-    active joint equalities, q_mimic = multiplier·q_master + offset in qpos units; refuses the others."""
+def _equalities(m, names: _Names, src: str, mimic: str,
+                left_out: frozenset[int]) -> tuple[dict[int, float], dict[int, tuple[int, float, float]], list[int]]:
+    """({locked joint: its value}, {mimic joint: (independent joint, multiplier, offset)}, [connect and
+    weld equalities]) from the active equalities, q_mimic = multiplier·q_master + offset in qpos units;
+    refuses the others."""
     locked: dict[int, float] = {}
     direct: dict[int, tuple[int, float, float]] = {}
+    loops: list[int] = []
     for e in range(m.neq):
         if not m.eq_active0[e]:
             continue  # switched off at the start (it may be switched on by a controller: not modelled)
         kind, where = int(m.eq_type[e]), names.equality[e]
+        if kind in (EQ_CONNECT, EQ_WELD):  # a loop-closing cut (describe/mjcf_loops.py)
+            loops.append(e)
+            continue
         if kind != EQ_JOINT:
             word = EQ_WORDS.get(kind, f"an equality of type {kind} (flex)")
             raise UnsupportedError(f"{word} is not supported yet", src, where)
@@ -235,4 +255,4 @@ def _equalities(m, names: _Names, src: str, mimic: str, left_out: frozenset[int]
     if mimic == "fixed":  # frozen where the master's q = 0 puts them, as for URDF's --mimic fixed
         locked.update({y: o for y, (_, _, o) in masters.items()})
         masters = {}
-    return locked, masters
+    return locked, masters, loops

@@ -143,8 +143,9 @@ def _nominal(m, j: int) -> tuple[tuple[str, float], ...]:
 
 
 def build_description(m, names, src: str, free: int | None, locked: dict[int, float], masters: dict, snap: float | None,
-                      left_out: frozenset[int] = frozenset()) -> RobotDescription:
-    """Walk the compiled bodies (parents come first in MuJoCo's numbering) into joint records."""
+                      left_out: frozenset[int] = frozenset()) -> tuple[RobotDescription, dict, dict[int, int]]:
+    """Walk the compiled bodies (parents come first in MuJoCo's numbering) into joint records: the
+    description, each body's (record, body frame in that record's link frame) and MuJoCo joint -> record."""
     records: list[dict] = []
     phi: list[np.ndarray | None] = []
     changes: list[dict] = []
@@ -209,9 +210,10 @@ def build_description(m, names, src: str, free: int | None, locked: dict[int, fl
     tool_link, tool = default_tool(attached, records)
     disabled = bool(int(m.opt.disableflags) & DSBL_GRAVITY)
     gravity = (0.0, 0.0, 0.0) if disabled else tuple(float(g) for g in m.opt.gravity)
-    return RobotDescription(name=names.model, source=src, convention="mjcf", joints=tuple(joints),
+    desc = RobotDescription(name=names.model, source=src, convention="mjcf", joints=tuple(joints),
                             gravity=gravity, gravity_source="file",  # type: ignore[arg-type]
                             tool=tool, tool_link=tool_link, tool_links=tuple(attached), adjustments=tuple(changes))
+    return desc, state, index
 
 
 def _add_sites(m, names, state: dict, attached: list) -> None:

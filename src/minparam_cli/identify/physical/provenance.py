@@ -97,5 +97,5 @@ def refusal(link: str, informed: int, others: int, prior: str, has_inertials: bo
                f"bound (--mass-bounds LO,HI or --total-mass KG), which with the link's ellipsoid ({ellipsoid}) fixes it")
     else:
         why = ("and the description has no inertials and no shapes for it: give inertials in the robot file "
-               "(--prior nominal), or --mass-bounds with collision geometry in the URDF")
+               "(--prior nominal), or --mass-bounds with collision geometry in the URDF or geoms in the MJCF")
     return f"{head} {why}; nothing written"
