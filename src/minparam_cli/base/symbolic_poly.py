@@ -53,15 +53,14 @@ class ExactContext:
             for mon, coef in terms.items():
                 k = mon[si]
                 if k < 2:
-                    out[mon] = out.get(mon, 0) + coef
+                    _accumulate(out, mon, coef)
                     continue
                 h = k // 2
                 for j in range(h + 1):
                     m = list(mon)
                     m[si] = k % 2
                     m[ci] += 2 * j
-                    key = tuple(m)
-                    out[key] = out.get(key, 0) + coef * comb(h, j) * (-1) ** j
+                    _accumulate(out, tuple(m), coef * (comb(h, j) if j % 2 == 0 else -comb(h, j)))
             terms = {m: c for m, c in out.items() if c}
         return self.R.from_dict(terms) if terms else self.R.zero
 
@@ -189,6 +188,13 @@ class Frac:
         for k, e in self.d.items():
             den *= abs(_float_eval(self.ctx.factors[k], x, False)) ** e
         return _float_eval(self.n, x, True) / den
+
+
+def _accumulate(terms: dict, mon, coef) -> None:
+    """terms[mon] += coef, with no sum with 0 (each rational operation costs: ``reduce`` runs over
+    10⁵ terms on a skewed 4-joint arm)."""
+    old = terms.get(mon)
+    terms[mon] = coef if old is None else old + coef
 
 
 def exact_quotient(n, f):
