@@ -335,6 +335,42 @@ def test_exact_numbers_normal_form_and_zero_test():
     assert not (q * 0) and not (q - q) and q
 
 
+def test_exact_quotient_agrees_with_sympys_division():
+    # the heap division (symbolic_poly.exact_quotient) against sympy's div on random products with
+    # and without a remainder: the quotient when the remainder is zero, None otherwise
+    import random
+
+    from sympy import QQ
+    from sympy.polys.rings import ring
+
+    from minparam_cli.base.symbolic_poly import exact_quotient
+
+    R, a, s, c = ring("a,s,c", QQ)
+    rnd = random.Random(34)
+
+    def poly():
+        return sum(QQ(rnd.randint(-5, 5), rnd.randint(1, 4)) * a ** rnd.randint(0, 3) * s ** rnd.randint(0, 2)
+                   * c ** rnd.randint(0, 3) for _ in range(rnd.randint(1, 7)))
+
+    exact = inexact = 0
+    for _ in range(200):
+        f = poly()
+        if not f:
+            continue
+        n = poly() * f + (poly() if rnd.random() < 0.5 else R.zero)
+        if not n:
+            continue
+        (q,), r = n.div([f])
+        got = exact_quotient(n, f)
+        if r:
+            assert got is None
+            inexact += 1
+        else:
+            assert got == q and got * f == n
+            exact += 1
+    assert exact > 50 and inexact > 50
+
+
 def test_rpy_of_inverts_the_urdf_rotation_including_gimbal_lock():
     # the composed fixed transform is written back as roll, pitch, yaw: R = Rz(yaw)·Ry(pitch)·Rx(roll)
     from minparam_cli.base.symbolic_urdf import _rot, rpy_of

@@ -195,12 +195,12 @@ def _evaluator(exprs, symbols, gravity_values):
     return keys, sp.lambdify(names, [exprs[k].subs(gsubs) for k in keys], "math")
 
 
-def verify(exprs, exact, symbols, gravity_values, beta_of, X) -> float:
+def verify(exprs, exact, symbols, gravity_values, beta_of, X, evaluator=None) -> float:
     """Largest error of the printed expressions against numeric β at points X (gravity at the
     file's value), relative to the size of the exact coefficient's terms there (so that a
     coefficient that happens to vanish at a point is measured against its parts); an entry the
-    exact set lacks counts as error 1."""
-    keys, f = _evaluator(exprs, symbols, gravity_values)
+    exact set lacks counts as error 1.  ``evaluator``: ``_evaluator``'s result for exprs, if built."""
+    keys, f = evaluator or _evaluator(exprs, symbols, gravity_values)
     worst = 0.0
     for x in X:
         B = beta_of(x)
@@ -217,7 +217,7 @@ def verify(exprs, exact, symbols, gravity_values, beta_of, X) -> float:
     return worst
 
 
-def identity_error(exprs, symbols, gravity_values, W_of, kept, dependent, X) -> float:
+def identity_error(exprs, symbols, gravity_values, W_of, kept, dependent, X, evaluator=None) -> float:
     """Largest backward error of the printed β at points X: for each dependent column d,
     ‖W_d − Σ_i β_id W_kept(i)‖ / (‖W_d‖ + Σ_i |β_id| ‖W_kept(i)‖) on the numeric regressor there.
 
@@ -226,7 +226,7 @@ def identity_error(exprs, symbols, gravity_values, W_of, kept, dependent, X) -> 
     the columns' conditioning allows), this measures whether the expressions regroup the
     regressor, to the rounding of one evaluation: the check used at the file's values, where CAD
     numbers (5.55e−17 m, 1.57079 rad) give true coefficients of 1e−17 or 5e−7."""
-    keys, f = _evaluator(exprs, symbols, gravity_values)
+    keys, f = evaluator or _evaluator(exprs, symbols, gravity_values)
     worst = 0.0
     for x in X:
         W = W_of(x)
@@ -298,13 +298,16 @@ def _exact_on(desc, chain, base: BaseSet, generic: BaseSet, forms, ar, fs, stats
     t_exact = time.perf_counter() - t0
     sampler = BetaSampler(desc, chain, symbols, pins, kept, dependent, seed)
     fresh = np.array([random_geometry(symbols, rng) for _ in range(FRESH_POINTS)]).reshape(FRESH_POINTS, len(symbols))
-    err_fresh = verify(exprs, coef, symbols, fs.gravity_values, sampler, fresh)
+    # one evaluator for the three checks: substituting g into and lambdifying 10³-term expressions
+    # takes 20 s each on a skewed RPRR arm
+    ev = _evaluator(exprs, symbols, fs.gravity_values)
+    err_fresh = verify(exprs, coef, symbols, fs.gravity_values, sampler, fresh, ev)
     x_file = np.array([s.value for s in symbols])
     special = base.n_base != generic.n_base or tuple(base.kept) != tuple(kept)
     err_file = None
-    err_identity = identity_error(exprs, symbols, fs.gravity_values, sampler.regressor_at, kept, dependent, fresh)
+    err_identity = identity_error(exprs, symbols, fs.gravity_values, sampler.regressor_at, kept, dependent, fresh, ev)
     if not special:  # the file's (right angles pinned) regressor, regrouped by the printed β
-        err_file = identity_error(exprs, symbols, fs.gravity_values, sampler.regressor_at, kept, dependent, x_file[None, :])
+        err_file = identity_error(exprs, symbols, fs.gravity_values, sampler.regressor_at, kept, dependent, x_file[None, :], ev)
     gravity = {k: v for k, v in fs.gravity_values.items()}
     return {
         "symbols": symbols,

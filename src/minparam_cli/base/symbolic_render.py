@@ -17,6 +17,7 @@ from __future__ import annotations
 import re
 
 from minparam_cli.base.report import Symbolic
+from minparam_cli.base.symbolic_poly import exact_quotient
 
 GREEK = {
     "alpha", "beta", "gamma", "delta", "epsilon", "theta", "phi", "psi", "rho", "sigma", "tau", "omega", "eta", "mu", "nu", "xi", "zeta", "kappa", "lambda", "chi",
@@ -59,10 +60,10 @@ def _cancel_by_division(n, factors):
     out = []
     for f, e in factors:
         while e:
-            q, r = n.div([f])
-            if r:
+            q = exact_quotient(n, f)
+            if q is None:
                 break
-            n, e = q[0], e - 1
+            n, e = q, e - 1
         if e:
             out.append((f, e))
     return n, out
@@ -132,14 +133,21 @@ def field_to_sympy(value, fs):
         circles.append(circle)
     # the normal form (sin² or cos² eliminated) whose expanded form is shorter is factored, only it
     firsts = [expanded(*f) for f in forms]
-    best = min(range(len(forms)), key=lambda i: (len(str(firsts[i][0])), i))
+    printed: dict = {}  # str() of each candidate, once: printing 10³-term expressions takes seconds
+
+    def text(x):
+        if id(x) not in printed:
+            printed[id(x)] = (x, str(x))  # x kept alive, so that its id stays its own
+        return printed[id(x)][1]
+
+    best = min(range(len(forms)), key=lambda i: (len(text(firsts[i][0])), i))
     cands = expr(*forms[best], firsts[best]) + [f[0] for f in firsts]
     lengths = {*fs.lengths, *(g for g, _, _ in fs.gravity)}
     for (n, fl, R), circle, (_, _, syms) in zip(forms, circles, firsts, strict=True):
         c = _collected(n, fl, R, circle, syms, lengths)
         if c is not None:
             cands.append(c)
-    out = min(cands, key=lambda x: (len(str(x)), str(x)))
+    out = min(cands, key=lambda x: (len(text(x)), text(x)))
     cache[key] = out
     return out
 
