@@ -24,6 +24,13 @@ RANK_RTOL = 1e-8
 # kept parameters whose relative residual is below this are weakly identifiable: they are
 # named with their margin and, where one is found, the near-special geometry that keeps them
 WEAK_RTOL = 1e-4
+# A column smaller than the cut cannot be kept, but it is not "without effect" when its size is a
+# real effect (above SMALL_RTOL of the largest column: rounding leaves ~1e-16 on a zero column)
+# that the kept columns reproduce to REGROUP_RTOL of its own size: it regroups with its β (icub's
+# left_hand_mk3, XY4 YZ4 XY5 YZ5 at 2e-9..1e-8 in SI units, reproduced to 1e-15: docs/methods/qr.md,
+# "Small columns").  Those the kept columns do not reproduce are below the cut and have no effect.
+SMALL_RTOL = 1e-12
+REGROUP_RTOL = 1e-6
 # β is accurate to ~1e-13 relative; 12 significant digits drop only rounding noise (1 - 2e-16 -> 1)
 BETA_DIGITS = 12
 
@@ -285,6 +292,20 @@ def beta_from_unit_columns(beta_n: np.ndarray, norms: np.ndarray, effect: np.nda
     beta_n = np.where(np.abs(beta_n) < COEFFICIENT_CUTOFF, 0.0, beta_n)
     scale_d = np.where(effect[dropped], norms[dropped], 0.0)
     return round_significant(beta_n / norms[kept][:, None] * scale_d[None, :])
+
+
+def small_columns_that_regroup(A: np.ndarray, kept: list[int], small: list[int]) -> list[int]:
+    """Of the ``small`` columns of ``A`` (unit norm, below the cut), those within REGROUP_RTOL of the
+    span of the ``kept`` columns: they regroup instead of having no effect (see SMALL_RTOL)."""
+    import numpy as np
+
+    if not small or not kept:
+        return []
+    Q = np.linalg.qr(A[:, kept])[0]
+    S = A[:, small]
+    S = S - Q @ (Q.T @ S)
+    S = S - Q @ (Q.T @ S)  # projected twice (Gram–Schmidt's rule) for a residual at rounding level
+    return [c for c, rho in zip(small, np.linalg.norm(S, axis=0)) if rho < REGROUP_RTOL]
 
 
 def scan_margin(r: np.ndarray, kept: list[int], dropped: list[int], effect: np.ndarray, criterion: str, tol: float, rows: int) -> dict:
