@@ -104,6 +104,12 @@ def test_small_columns_the_kept_ones_carry_regroup_instead_of_having_no_effect()
         assert 1e-10 < size[c] < 1e-7  # small but real (the axes' tilt)
         assert c not in base.unidentifiable
         assert np.count_nonzero(base.K[:, c]) >= 1  # some base parameter carries it
+    # link 1 turns about a = (ax, ay, az) (the file's axis, normalised): its torque holds aᵀ I a =
+    # ay² (YY + 2 (ax/ay) XY + 2 (az/ay) YZ + ...), so YY1 carries XY1 and YZ1 with these coefficients
+    ax, ay, az = (-1.0351589974869193e-08, -0.9999999809599038, 3.3136763531130714e-08)
+    row = list(base.kept).index(names.index("YY1"))
+    assert base.K[row, names.index("XY1")] == pytest.approx(2 * ax / ay, rel=1e-5)
+    assert base.K[row, names.index("YZ1")] == pytest.approx(2 * az / ay, rel=1e-5)
     # what stays without effect has a column at rounding level or one the kept columns do not carry
     for c in base.unidentifiable:
         assert size[c] < 1e-8

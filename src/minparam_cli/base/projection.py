@@ -268,12 +268,13 @@ def _float_result(geom: ProjectionGeometry, stream: dict):
     rel = np.where(effect | small, size / largest if largest > 0 else 0.0, 0.0)
     kept, r = scan_in_order(Zn, rel)  # the keep rule of both routes (result.scan_in_order)
     acts = effect.copy()
-    acts[small_columns_that_regroup(Zn, kept, [int(c) for c in np.flatnonzero(small)])] = True
+    noise = small_columns_that_regroup(Zn, kept, [int(c) for c in np.flatnonzero(small)])
+    acts[list(noise)] = True
     unident = [i for i in range(P) if not acts[i]]
     dropped = [i for i in range(P) if i not in set(kept)]
     if dropped and kept:
         beta_n, *_ = np.linalg.lstsq(Zn[:, kept], np.where(acts[dropped], Zn[:, dropped], 0.0), rcond=None)
-        beta = beta_from_unit_columns(beta_n, norms, acts, kept, dropped)
+        beta = beta_from_unit_columns(beta_n, norms, acts, kept, dropped, noise)
     else:
         beta = np.zeros((len(kept), len(dropped)))
     K = regrouping_matrix(kept, beta, dropped, P)

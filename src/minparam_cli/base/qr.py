@@ -169,8 +169,8 @@ def base_from_regressor(W: np.ndarray, source: str = "", col_scale: np.ndarray |
     position = {int(c): k for k, c in enumerate(cols)}
     small_c = [position[int(c)] for c in np.flatnonzero(small)]
     acts = effect.copy()  # the columns with an effect: above the cut, or small ones that regroup
-    for k in small_columns_that_regroup(R, [position[c] for c in kept], small_c):
-        acts[cols[k]] = True  # a real effect the kept columns carry (result.SMALL_RTOL)
+    noise = {int(cols[k]): rho for k, rho in small_columns_that_regroup(R, [position[c] for c in kept], small_c).items()}
+    acts[list(noise)] = True  # real effects the kept columns carry (result.SMALL_RTOL)
     unident = [i for i in range(P) if not acts[i]]
     kept_set = set(kept)
     dropped = [i for i in range(P) if i not in kept_set]
@@ -182,7 +182,7 @@ def base_from_regressor(W: np.ndarray, source: str = "", col_scale: np.ndarray |
             Rd[:, k] = R[:, position[c]]
     Q1, R1 = np.linalg.qr(Rk)
     beta_n = np.linalg.solve(R1, Q1.T @ Rd)
-    beta = beta_from_unit_columns(beta_n, norms, acts, kept, dropped)
+    beta = beta_from_unit_columns(beta_n, norms, acts, kept, dropped, noise)
     K = regrouping_matrix(kept, beta, dropped, P)
 
     criterion = "distance from the kept columns before it / largest column, columns in physical units (lengths in units of the robot's size), scan order, full-size columns first"

@@ -285,27 +285,32 @@ def round_significant(x: np.ndarray, digits: int = BETA_DIGITS) -> np.ndarray:
     return out
 
 
-def beta_from_unit_columns(beta_n: np.ndarray, norms: np.ndarray, effect: np.ndarray, kept: list[int], dropped: list[int]) -> np.ndarray:
-    """β in the standard parameters' units from β over unit-norm columns: noise cut, then rounding."""
+def beta_from_unit_columns(beta_n: np.ndarray, norms: np.ndarray, effect: np.ndarray, kept: list[int], dropped: list[int],
+                           noise: dict[int, float] | None = None) -> np.ndarray:
+    """β in the standard parameters' units from β over unit-norm columns: noise cut (COEFFICIENT_CUTOFF,
+    or ten times ``noise[column]``, a small column's own rounding), then rounding."""
     import numpy as np
 
-    beta_n = np.where(np.abs(beta_n) < COEFFICIENT_CUTOFF, 0.0, beta_n)
+    cut = np.array([max(COEFFICIENT_CUTOFF, 10.0 * (noise or {}).get(d, 0.0)) for d in dropped])
+    beta_n = np.where(np.abs(beta_n) < cut[None, :], 0.0, beta_n)
     scale_d = np.where(effect[dropped], norms[dropped], 0.0)
     return round_significant(beta_n / norms[kept][:, None] * scale_d[None, :])
 
 
-def small_columns_that_regroup(A: np.ndarray, kept: list[int], small: list[int]) -> list[int]:
+def small_columns_that_regroup(A: np.ndarray, kept: list[int], small: list[int]) -> dict[int, float]:
     """Of the ``small`` columns of ``A`` (unit norm, below the cut), those within REGROUP_RTOL of the
-    span of the ``kept`` columns: they regroup instead of having no effect (see SMALL_RTOL)."""
+    span of the ``kept`` columns, with that distance: they regroup instead of having no effect (see
+    SMALL_RTOL).  The distance is the column's own rounding (~1e-9 for a column at 1e-8 of the
+    largest): the entries of its normalised β below ten times it are noise (``beta_from_unit_columns``)."""
     import numpy as np
 
     if not small or not kept:
-        return []
+        return {}
     Q = np.linalg.qr(A[:, kept])[0]
     S = A[:, small]
     S = S - Q @ (Q.T @ S)
     S = S - Q @ (Q.T @ S)  # projected twice (Gram–Schmidt's rule) for a residual at rounding level
-    return [c for c, rho in zip(small, np.linalg.norm(S, axis=0)) if rho < REGROUP_RTOL]
+    return {c: float(rho) for c, rho in zip(small, np.linalg.norm(S, axis=0)) if rho < REGROUP_RTOL}
 
 
 def scan_margin(r: np.ndarray, kept: list[int], dropped: list[int], effect: np.ndarray, criterion: str, tol: float, rows: int) -> dict:
