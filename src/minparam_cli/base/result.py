@@ -310,7 +310,7 @@ def small_columns_that_regroup(A: np.ndarray, kept: list[int], small: list[int])
     S = A[:, small]
     S = S - Q @ (Q.T @ S)
     S = S - Q @ (Q.T @ S)  # projected twice (Gram–Schmidt's rule) for a residual at rounding level
-    return {c: float(rho) for c, rho in zip(small, np.linalg.norm(S, axis=0)) if rho < REGROUP_RTOL}
+    return {c: float(rho) for c, rho in zip(small, np.linalg.norm(S, axis=0), strict=True) if rho < REGROUP_RTOL}
 
 
 def scan_margin(r: np.ndarray, kept: list[int], dropped: list[int], effect: np.ndarray, criterion: str, tol: float, rows: int) -> dict:
