@@ -30,7 +30,17 @@ from typing import Callable
 import numpy as np
 
 from minparam_cli.base.echelon import ExactRowSpace, FloatRowSpace, integer_rref
-from minparam_cli.base.result import RANK_RTOL, BaseSet, beta_from_unit_columns, physical_scales, regrouping_matrix, scan_in_order, scan_margin
+from minparam_cli.base.result import (
+    RANK_RTOL,
+    SMALL_RTOL,
+    BaseSet,
+    beta_from_unit_columns,
+    physical_scales,
+    regrouping_matrix,
+    scan_in_order,
+    scan_margin,
+    small_columns_that_regroup,
+)
 from minparam_cli.chain import REVOLUTE, Chain
 from minparam_cli.dynamics.projection import KINETIC, KINETIC_DIM, POTENTIAL_DIM, energy_blocks
 from minparam_cli.dynamics.projection_rows import basis_dimension, produced_rows, row_maps
@@ -251,15 +261,20 @@ def _float_result(geom: ProjectionGeometry, stream: dict):
     size = norms * physical_scales(chain.layout, chain.types, chain.length_scale)[0]
     largest = size.max() if P else 0.0
     effect = size > RANK_RTOL * largest if largest > 0 else np.zeros(P, dtype=bool)
+    # columns below the cut but above rounding: never kept, they regroup or have no effect (as on QR)
+    small = (size > SMALL_RTOL * largest) & ~effect if largest > 0 else np.zeros(P, dtype=bool)
     Zn = np.zeros_like(Zs)
-    Zn[:, effect] = Zs[:, effect] / norms[effect]
-    rel = np.where(effect, size / largest if largest > 0 else 0.0, 0.0)
+    Zn[:, effect | small] = Zs[:, effect | small] / norms[effect | small]
+    rel = np.where(effect | small, size / largest if largest > 0 else 0.0, 0.0)
     kept, r = scan_in_order(Zn, rel)  # the keep rule of both routes (result.scan_in_order)
-    unident = [i for i in range(P) if not effect[i]]
+    acts = effect.copy()
+    noise = small_columns_that_regroup(Zn, kept, [int(c) for c in np.flatnonzero(small)])
+    acts[list(noise)] = True
+    unident = [i for i in range(P) if not acts[i]]
     dropped = [i for i in range(P) if i not in set(kept)]
     if dropped and kept:
-        beta_n, *_ = np.linalg.lstsq(Zn[:, kept], Zn[:, dropped], rcond=None)
-        beta = beta_from_unit_columns(beta_n, norms, effect, kept, dropped)
+        beta_n, *_ = np.linalg.lstsq(Zn[:, kept], np.where(acts[dropped], Zn[:, dropped], 0.0), rcond=None)
+        beta = beta_from_unit_columns(beta_n, norms, acts, kept, dropped, noise)
     else:
         beta = np.zeros((len(kept), len(dropped)))
     K = regrouping_matrix(kept, beta, dropped, P)

@@ -37,7 +37,17 @@ import time
 
 import numpy as np
 
-from minparam_cli.base.result import RANK_RTOL, BaseSet, beta_from_unit_columns, physical_scales, regrouping_matrix, scan_in_order, scan_margin
+from minparam_cli.base.result import (
+    RANK_RTOL,
+    SMALL_RTOL,
+    BaseSet,
+    beta_from_unit_columns,
+    physical_scales,
+    regrouping_matrix,
+    scan_in_order,
+    scan_margin,
+    small_columns_that_regroup,
+)
 from minparam_cli.chain import Chain
 from minparam_cli.dynamics.regressor import random_states, regressor
 from minparam_cli.errors import ComputationError, InputError
@@ -132,7 +142,9 @@ def base_from_regressor(W: np.ndarray, source: str = "", col_scale: np.ndarray |
     size = norms * (col_scale if col_scale is not None else 1.0)  # column norms in physical units
     largest = size.max() if P else 0.0
     effect = size > RANK_RTOL * largest if largest > 0 else np.zeros(P, dtype=bool)
-    cols = np.flatnonzero(effect)
+    # columns below the cut but above rounding: never kept, they regroup or have no effect (below)
+    small = (size > SMALL_RTOL * largest) & ~effect if largest > 0 else np.zeros(P, dtype=bool)
+    cols = np.flatnonzero(effect | small)
     Wn = W[:, cols]
     Wn *= 1.0 / norms[cols]
     # one Householder QR: Wn = Q R, Q orthogonal, so R's columns have Wn's inner products and
@@ -144,27 +156,33 @@ def base_from_regressor(W: np.ndarray, source: str = "", col_scale: np.ndarray |
     r = np.zeros(P)
     r[cols] = r_c
     kept = [int(cols[i]) for i in kept_c]
-    unident = [i for i in range(P) if not effect[i]]
 
-    # independent confirmation of the count: singular values of the same matrix, cut against the same
-    # scale as the scan (the largest column, not the largest singular value, which can be up to √P larger)
-    sv = np.linalg.svd(R * rel, compute_uv=False) if cols.size else np.zeros(0)
+    # independent confirmation of the count: singular values of the same matrix (the columns above
+    # the cut), cut against the same scale as the scan (the largest column, not the largest singular
+    # value, which can be up to √P larger)
+    big = effect[cols]
+    sv = np.linalg.svd(R[:, big] * rel[big], compute_uv=False) if big.any() else np.zeros(0)
     rank_svd = int(np.sum(sv > RANK_RTOL * float(rel.max()))) if sv.size else 0
     if rank_svd != len(kept):
         near = [i for i in range(P) if effect[i] and RANK_RTOL / BAND < r[i] < RANK_RTOL * BAND]
         raise RankUndecided(source, len(kept), rank_svd, [(i, float(r[i])) for i in near])
+    position = {int(c): k for k, c in enumerate(cols)}
+    small_c = [position[int(c)] for c in np.flatnonzero(small)]
+    acts = effect.copy()  # the columns with an effect: above the cut, or small ones that regroup
+    noise = {int(cols[k]): rho for k, rho in small_columns_that_regroup(R, [position[c] for c in kept], small_c).items()}
+    acts[list(noise)] = True  # real effects the kept columns carry (result.SMALL_RTOL)
+    unident = [i for i in range(P) if not acts[i]]
     kept_set = set(kept)
     dropped = [i for i in range(P) if i not in kept_set]
     # paper 003: a second QR of the kept columns, R[:, kept] = Q1 R1, beta = R1^-1 Q1^T R[:, dropped]
-    position = {int(c): k for k, c in enumerate(cols)}
     Rk = R[:, [position[c] for c in kept]]
     Rd = np.zeros((R.shape[0], len(dropped)))
     for k, c in enumerate(dropped):
-        if c in position:
+        if acts[c]:
             Rd[:, k] = R[:, position[c]]
     Q1, R1 = np.linalg.qr(Rk)
     beta_n = np.linalg.solve(R1, Q1.T @ Rd)
-    beta = beta_from_unit_columns(beta_n, norms, effect, kept, dropped)
+    beta = beta_from_unit_columns(beta_n, norms, acts, kept, dropped, noise)
     K = regrouping_matrix(kept, beta, dropped, P)
 
     criterion = "distance from the kept columns before it / largest column, columns in physical units (lengths in units of the robot's size), scan order, full-size columns first"

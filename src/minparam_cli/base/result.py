@@ -24,6 +24,13 @@ RANK_RTOL = 1e-8
 # kept parameters whose relative residual is below this are weakly identifiable: they are
 # named with their margin and, where one is found, the near-special geometry that keeps them
 WEAK_RTOL = 1e-4
+# A column smaller than the cut cannot be kept, but it is not "without effect" when its size is a
+# real effect (above SMALL_RTOL of the largest column: rounding leaves ~1e-16 on a zero column)
+# that the kept columns reproduce to REGROUP_RTOL of its own size: it regroups with its β (icub's
+# left_hand_mk3, XY4 YZ4 XY5 YZ5 at 2e-9..1e-8 in SI units, reproduced to 1e-15: docs/methods/qr.md,
+# "Small columns").  Those the kept columns do not reproduce are below the cut and have no effect.
+SMALL_RTOL = 1e-12
+REGROUP_RTOL = 1e-6
 # β is accurate to ~1e-13 relative; 12 significant digits drop only rounding noise (1 - 2e-16 -> 1)
 BETA_DIGITS = 12
 
@@ -278,13 +285,32 @@ def round_significant(x: np.ndarray, digits: int = BETA_DIGITS) -> np.ndarray:
     return out
 
 
-def beta_from_unit_columns(beta_n: np.ndarray, norms: np.ndarray, effect: np.ndarray, kept: list[int], dropped: list[int]) -> np.ndarray:
-    """β in the standard parameters' units from β over unit-norm columns: noise cut, then rounding."""
+def beta_from_unit_columns(beta_n: np.ndarray, norms: np.ndarray, effect: np.ndarray, kept: list[int], dropped: list[int],
+                           noise: dict[int, float] | None = None) -> np.ndarray:
+    """β in the standard parameters' units from β over unit-norm columns: noise cut (COEFFICIENT_CUTOFF,
+    or ten times ``noise[column]``, a small column's own rounding), then rounding."""
     import numpy as np
 
-    beta_n = np.where(np.abs(beta_n) < COEFFICIENT_CUTOFF, 0.0, beta_n)
+    cut = np.array([max(COEFFICIENT_CUTOFF, 10.0 * (noise or {}).get(d, 0.0)) for d in dropped])
+    beta_n = np.where(np.abs(beta_n) < cut[None, :], 0.0, beta_n)
     scale_d = np.where(effect[dropped], norms[dropped], 0.0)
     return round_significant(beta_n / norms[kept][:, None] * scale_d[None, :])
+
+
+def small_columns_that_regroup(A: np.ndarray, kept: list[int], small: list[int]) -> dict[int, float]:
+    """Of the ``small`` columns of ``A`` (unit norm, below the cut), those within REGROUP_RTOL of the
+    span of the ``kept`` columns, with that distance: they regroup instead of having no effect (see
+    SMALL_RTOL).  The distance is the column's own rounding (~1e-9 for a column at 1e-8 of the
+    largest): the entries of its normalised β below ten times it are noise (``beta_from_unit_columns``)."""
+    import numpy as np
+
+    if not small or not kept:
+        return {}
+    Q = np.linalg.qr(A[:, kept])[0]
+    S = A[:, small]
+    S = S - Q @ (Q.T @ S)
+    S = S - Q @ (Q.T @ S)  # projected twice (Gram–Schmidt's rule) for a residual at rounding level
+    return {c: float(rho) for c, rho in zip(small, np.linalg.norm(S, axis=0), strict=True) if rho < REGROUP_RTOL}
 
 
 def scan_margin(r: np.ndarray, kept: list[int], dropped: list[int], effect: np.ndarray, criterion: str, tol: float, rows: int) -> dict:
