@@ -254,3 +254,28 @@ def test_a_diagnosed_gain_is_the_motor_gear():
     assert terms.effects[0]["coefficients"] == {"Kq3": 1.0, "Ks3": 2.0, "Kc3": 3.0}
     model = mujoco.MjModel.from_xml_string(export_mjcf.mjcf_from_chain(chain, phi, terms))
     assert np.allclose(model.actuator_gear[:, 0], terms.gear, rtol=1e-15)
+
+
+def test_side_file_says_which_terms_lack_the_evidence_for_their_name():
+    """A diagnosed term kept as model error (evidence ``named: False``, docs/methods/selection.md) is still
+    written where the format has a field for it (damping here), so the export reproduces the identified
+    torques, but the side file and its summary line name it; a term listed in the side file carries its
+    evidence.  A named term is not listed."""
+    from minparam_cli.identify.passes.design import Term
+
+    chain, phi = chain_and_phi("puma560_mdh.yaml")
+    terms = (Term("viscous", (0, 1)), Term("coulomb", (2,)), Term("spring", (3,)))
+    coefficients = [0.5, 0.25, 0.1, 2.0, -0.3]  # Fv1, Fv2 | Fc3 | Kq4, K04
+    evidence = ({"named": False, "delta_bic_eff": 3.0, "n_eff": 80.0}, {"named": True, "delta_bic_eff": -40.0},
+                {"named": False, "delta_bic_eff": 1.0, "n_eff": 90.0})
+    terms_out = export_extra.joint_terms(chain, phi, terms, coefficients, evidence=evidence)
+    alone = export_extra.joint_terms(chain, phi)  # φ's own extras only
+    assert np.allclose(terms_out.damping[:2] - alone.damping[:2], [0.5, 0.25], rtol=1e-14)
+    assert np.isclose(terms_out.friction[2] - alone.friction[2], 0.1, rtol=1e-14)
+    doc = export_extra.side_document("mjcf", "x.xml", "r.yaml", terms_out)
+    names = chain.joint_names
+    assert doc["unnamed_in_export"]["terms"] == [f"viscous ({names[0]}, {names[1]})"]
+    (spring,) = doc["effects"]
+    assert spring["named"] is False and spring["evidence"] == {"delta_bic_eff": 1.0, "n_eff": 90.0}
+    line = export_extra.side_summary(doc)
+    assert "lack the evidence" in line and f"viscous ({names[0]}, {names[1]})" in line and "coulomb" not in line

@@ -105,14 +105,15 @@ def _joint_terms(chain, saved: SavedModel, phi, identified=None):
     from minparam_cli.model.export_extra import joint_terms
 
     tail = () if saved.physical is None else saved.physical.theta[len(saved.kept):]
+    evidence = tuple(saved.term_evidence(i) for i in range(len(saved.terms)))
     if identified is not None:
-        return joint_terms(chain, phi, saved.terms, tail, identified, "drive gains identified with --payload-data")
+        return joint_terms(chain, phi, saved.terms, tail, identified, "drive gains identified with --payload-data", evidence)
     gains = None
     if saved.data.motor_side is not None and saved.data.motor_side[2] is not None:
         gains = saved.data.motor_side[2]
     elif chain.transmission is not None and chain.transmission.drive_gains is not None:
         gains = chain.transmission.drive_gains
-    return joint_terms(chain, phi, saved.terms, tail, gains)
+    return joint_terms(chain, phi, saved.terms, tail, gains, evidence=evidence)
 
 
 def _write_with_side(text: str, path: Path, fmt: str, robot: str, terms, gravity, lacks: tuple[str, ...]) -> str:

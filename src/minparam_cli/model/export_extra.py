@@ -44,14 +44,18 @@ class JointTerms:
     motors: list[dict] = field(default_factory=list)  # motor-side terms of coupled motors
     smoothing: float = 0.0  # Coulomb friction is tanh(q̇/v_c) when > 0
     has_friction: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=bool))  # a viscous or Coulomb term
+    # diagnosed terms written into the format's own fields (damping, frictionloss, armature, gear, offsets)
+    # whose evidence did not earn them their physical name (docs/methods/selection.md): "effect (joints)"
+    unnamed: list[str] = field(default_factory=list)
 
 
 def joint_terms(chain, phi: np.ndarray, terms=(), coefficients=(), drive_gains=None,
-                gains_source: str = "declared drive gains") -> JointTerms:
+                gains_source: str = "declared drive gains", evidence=()) -> JointTerms:
     """The per-joint terms of the full parameters ``phi`` (chain.layout order) and of the diagnosed
     ``terms`` (``identify.passes.design.Term``) with their ``coefficients`` (θ's tail, in term order).
     ``drive_gains``: the drive gains per motor (declared, or identified with a payload; ``gains_source``
-    says which), or None."""
+    says which), or None; ``evidence``: per term, the evidence saved with it (``named``: whether it earned
+    its physical name), or None."""
     from minparam_cli.dynamics.effects import EFFECTS
 
     n, layout = chain.n, chain.layout
@@ -77,11 +81,14 @@ def joint_terms(chain, phi: np.ndarray, terms=(), coefficients=(), drive_gains=N
                 out.motors.append({"motor": j + 1, "term": kind, "value": value,
                                    "row": [float(x) for x in N[j]]})
     at = 0
-    for t in terms:
+    for ti, t in enumerate(terms):
         width = t.width()
         values = [float(x) for x in coefficients[at : at + width]]
         at += width
         per = len(EFFECTS[t.effect].column_names)
+        ev = evidence[ti] if ti < len(evidence) else None
+        if ev is not None and ev.get("named") is False and t.effect in FOLDED_EFFECTS:
+            out.unnamed.append(f"{t.effect} ({', '.join(chain.joint_names[j] for j in t.joints)})")
         for i, j in enumerate(t.joints):
             mine = values[i * per : (i + 1) * per]
             if t.effect in field_of:
@@ -94,9 +101,13 @@ def joint_terms(chain, phi: np.ndarray, terms=(), coefficients=(), drive_gains=N
                 out.gear_source = "identified gain effect"
             else:
                 names = EFFECTS[t.effect].names(j, t.hyper)
-                out.effects.append({"effect": t.effect, "joint": chain.joint_names[j], "hyper": t.hyper,
-                                    "coefficients": dict(zip(names, mine, strict=True)),
-                                    "meaning": EFFECTS[t.effect].explanation})
+                entry = {"effect": t.effect, "joint": chain.joint_names[j], "hyper": t.hyper,
+                         "coefficients": dict(zip(names, mine, strict=True)),
+                         "meaning": EFFECTS[t.effect].explanation}
+                if ev is not None:
+                    entry["named"] = bool(ev.get("named", True))
+                    entry["evidence"] = {k: v for k, v in ev.items() if k != "named"}
+                out.effects.append(entry)
     if drive_gains is not None and out.gear_source == "none":
         for k, g in enumerate(drive_gains):
             row = np.flatnonzero(N[k])
@@ -106,6 +117,11 @@ def joint_terms(chain, phi: np.ndarray, terms=(), coefficients=(), drive_gains=N
                 out.motors.append({"motor": k + 1, "term": "drive_gain", "value": float(g), "row": [float(x) for x in N[k]]})
         out.gear_source = gains_source
     return out
+
+
+# diagnosed effects folded into the formats' own fields (armature, damping, frictionloss, offsets, gear); the others
+# are listed term by term in the side file, with their evidence
+FOLDED_EFFECTS = ("rotor_inertia", "viscous", "coulomb", "offset", "gain")
 
 
 def side_path(path) -> str:
@@ -141,6 +157,12 @@ def side_document(fmt: str, export_name: str, robot: str, terms: JointTerms, gra
         doc["effects"] = terms.effects
     if terms.motors:
         doc["coupled_motors"] = terms.motors
+    if terms.unnamed:
+        doc["unnamed_in_export"] = {
+            "terms": list(terms.unnamed),
+            "why": "written into the export's own fields (damping, friction, armature, offsets, gear) so that it "
+                   "reproduces the identified torques, but their evidence under correlated residuals did not earn "
+                   "them the physical name (docs/methods/selection.md): read them as model error of that form"}
     return doc
 
 
@@ -160,6 +182,8 @@ def side_summary(doc: dict) -> str:
         parts.append("effects " + ", ".join(sorted({f"{e['effect']} ({e['joint']})" for e in doc["effects"]})))
     if doc.get("coupled_motors"):
         parts.append("coupled-motor terms")
+    if doc.get("unnamed_in_export"):
+        parts.append("which folded terms lack the evidence for their name (" + ", ".join(doc["unnamed_in_export"]["terms"]) + ")")
     return "; ".join(parts)
 
 
