@@ -249,9 +249,9 @@ def test_a_diagnosed_gain_is_the_motor_gear():
     from minparam_cli.identify.passes.design import Term
 
     chain, phi = chain_and_phi("puma560_mdh.yaml")
-    terms = export_extra.joint_terms(chain, phi, (Term("gain", (1, 3)), Term("spring", (2,))), [0.25, -0.2, 1.0, 2.0, 3.0])
+    terms = export_extra.joint_terms(chain, phi, (Term("gain", (1, 3)), Term("spring", (2,))), [0.25, -0.2, 1.0, 2.0])
     assert terms.gear.tolist() == [1.0, 0.8, 1.0, 1.25, 1.0, 1.0] and terms.gear_source == "identified gain effect"
-    assert terms.effects[0]["coefficients"] == {"Kq3": 1.0, "Ks3": 2.0, "Kc3": 3.0}
+    assert terms.effects[0]["coefficients"] == {"Kq3": 1.0, "K03": 2.0}  # the spring K·(q − q₀): columns q and 1
     model = mujoco.MjModel.from_xml_string(export_mjcf.mjcf_from_chain(chain, phi, terms))
     assert np.allclose(model.actuator_gear[:, 0], terms.gear, rtol=1e-15)
 
