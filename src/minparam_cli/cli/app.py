@@ -118,7 +118,9 @@ def __getattr__(name: str):
 
 def _one_line_warnings() -> None:
     """The library's MinparamWarning notes (e.g. MuJoCo's compiler warnings on an MJCF file) printed as
-    'minparam: warning: ...', one line; every other warning as Python shows it.  Our own process only."""
+    'minparam: warning: ...', one line; cvxpy's "Solution may be inaccurate" not at all (the physical fit's
+    report gives the solver status and checks the constraints); every other warning as Python shows it.
+    Our own process only."""
     import warnings
 
     from minparam_cli.errors import MinparamWarning
@@ -130,6 +132,8 @@ def _one_line_warnings() -> None:
     def show(message, category, filename, lineno, file=None, line=None):
         if issubclass(category, MinparamWarning):
             print(f"minparam: warning: {message}", file=sys.stderr)
+        elif "Solution may be inaccurate" in str(message):
+            pass  # cvxpy's, in identify --physical: the report's solver status and its constraint check say it
         else:
             shown(message, category, filename, lineno, file, line)
 

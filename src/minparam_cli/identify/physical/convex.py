@@ -52,7 +52,6 @@ grow with the number of samples.
 
 from __future__ import annotations
 
-import warnings
 from dataclasses import dataclass
 
 import numpy as np
@@ -231,9 +230,7 @@ def _solve(cp, problem, solvers: list[str], violation) -> str:
     whys = []
     for solver in solvers:
         try:
-            with warnings.catch_warnings():  # "Solution may be inaccurate": the status and the check below report it
-                warnings.simplefilter("ignore", UserWarning)
-                problem.solve(solver=solver)
+            problem.solve(solver=solver)
         except cp.error.SolverError as e:
             whys.append(f"{solver} failed ({str(e).split('.')[0]})")
             continue
