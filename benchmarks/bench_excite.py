@@ -10,9 +10,11 @@
   optimising the one it is compared on;
 * the same with Coulomb and viscous friction columns declared (Panda, TX40);
 * time to design a Panda trajectory on one core: the whole `minparam excite`
-  process pinned to one CPU (taskset), wall and CPU time, peak RSS [<= 60 s].
+  process pinned to one CPU (taskset), wall and CPU time, peak RSS [<= 60 s; issue 34: <= 15 s, and
+  the wall time within 1.3x of the CPU time once the wait for the core held by other jobs (the
+  run-queue time, from /proc) is taken out: no idle waiting of its own], the load average beside it.
 
-Run: python benchmarks/bench_excite.py [--random 10] [--quick]
+Run: python benchmarks/bench_excite.py [--random 10] [--quick] [--one-core]
 """
 
 from __future__ import annotations
@@ -22,15 +24,13 @@ import os
 for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
     os.environ.setdefault(_var, "1")  # before numpy: as the CLI does (common.py sets it too, but after numpy here)
 import argparse
-import resource
 import shutil
 import statistics
-import subprocess
 import sys
 import time
 
 import numpy as np
-from common import ROOT, minparam_cmd, peak_rss_mb
+from common import ROOT, load_average, minparam_cmd, peak_rss_mb, run_scheduled
 from tabulate import tabulate
 
 sys.path.insert(0, str(ROOT / "src"))
@@ -60,34 +60,24 @@ def random_conds(chain, kept, limits, options, seeds):
     return np.array(out)
 
 
-def one_core_run(robot: str) -> tuple[float, float, float]:
-    """Wall s, CPU s and peak RSS MB of `minparam excite ROBOT` on one core."""
+def one_core_run(robot: str) -> dict[str, float]:
+    """`minparam excite ROBOT` pinned to one core: wall, CPU and run-queue time, context switches,
+    peak RSS (common.run_scheduled)."""
     cmd = [*minparam_cmd(), "excite", robot, "-o", os.devnull, "-q"]
     if shutil.which("taskset"):
-        cmd = ["taskset", "-c", "0", *cmd]
-    before = resource.getrusage(resource.RUSAGE_CHILDREN)
-    t0 = time.perf_counter()
-    gnu = os.path.exists("/usr/bin/time")
-    rss_file = ROOT / ".bench_excite_rss"
-    full = ["/usr/bin/time", "-f", "%M", "-o", str(rss_file), *cmd] if gnu else cmd
-    p = subprocess.run(full, cwd=ROOT, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
-    wall = time.perf_counter() - t0
-    if p.returncode != 0:
-        raise SystemExit(f"excite failed: {p.stderr.strip()}")
-    after = resource.getrusage(resource.RUSAGE_CHILDREN)
-    cpu = (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
-    rss = float("nan")
-    if gnu and rss_file.exists():
-        rss = float(rss_file.read_text().split()[-1]) / 1024
-        rss_file.unlink()
-    return wall, cpu, rss
+        cmd = ["taskset", "-c", "0", *cmd]  # taskset execs the command: the same process
+    return run_scheduled(cmd)
 
 
 def main() -> None:
     ap = argparse.ArgumentParser()
     ap.add_argument("--random", type=int, default=10, help="random series per robot (seeds 0..R-1)")
     ap.add_argument("--quick", action="store_true", help="one start of 40 iterations (a smoke run, not the figures)")
+    ap.add_argument("--one-core", action="store_true", help="only the one-core timing of the Panda's design")
     args = ap.parse_args()
+    if args.one_core:
+        one_core_table()
+        return
     rows = []
     cases = [(r, ()) for r in ROBOTS] + list(WITH_FRICTION)
     for robot, friction in cases:
@@ -118,15 +108,30 @@ def main() -> None:
                                   "other cond of the design", "wall s", "CPU s"], tablefmt="github"))
     print(f"peak RSS of this process: {peak_rss_mb():.0f} MB")
     if not args.quick:
-        runs = [one_core_run("robots/panda.yaml") for _ in range(3)]
-        wall = statistics.median(r[0] for r in runs)
-        cpu = statistics.median(r[1] for r in runs)
-        rss = max(r[2] for r in runs)
-        print()
-        print(tabulate([["minparam excite robots/panda.yaml (defaults)", f"{wall:.1f}", f"{cpu:.1f}", f"{rss:.0f}", "60"]],
-                       headers=["one core (taskset -c 0), median of 3", "wall s", "CPU s", "peak RSS MB", "goal s"],
-                       tablefmt="github"))
+        one_core_table()
 
+
+def one_core_table(repeats: int = 3) -> None:
+    """The Panda's design on one core [issue 34 targets: <= 15 s; wall within 1.3x of the CPU time,
+    no idle waiting]: on a shared machine the pinned core is shared with the other jobs, so the
+    wall time is split into the CPU time, the run-queue wait (the other jobs) and the rest (the
+    program's own waiting: sleep, I/O, locks), with the load average beside it."""
+    load_before = load_average()
+    runs = [one_core_run("robots/panda.yaml") for _ in range(repeats)]
+    load_after = load_average()
+
+    def med(key: str) -> float:
+        return statistics.median(r[key] for r in runs)
+
+    print()
+    print(tabulate([["minparam excite robots/panda.yaml (defaults)", f"{med('wall'):.1f}", f"{med('cpu'):.1f}",
+                     f"{med('runqueue'):.1f}", f"{med('wall') - med('runqueue'):.1f}", f"{med('own_wait'):.2f}",
+                     f"{(med('wall') - med('runqueue')) / med('cpu'):.2f}", f"{med('voluntary'):.0f} / {med('involuntary'):.0f}",
+                     f"{max(r['peak'] for r in runs):.0f}", "15"]],
+                   headers=[f"one core (taskset -c 0), median of {repeats}", "wall s", "CPU s", "run-queue wait s",
+                            "wall - wait s", "own wait s", "(wall - wait) / CPU", "ctx switches vol / invol",
+                            "peak RSS MB", "goal s"], tablefmt="github"))
+    print(f"{load_before} before, {load_after.split(' on ')[0].removeprefix('load ')} after")
 
 if __name__ == "__main__":
     main()

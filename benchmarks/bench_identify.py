@@ -10,7 +10,7 @@ fit over the full parameters, on the accumulated triangular factors: its
 program does not grow with the samples); the table then adds the solver's own
 time from the report [issue 13 target: <= 5 s for the convex solve].
 
-Each size is run with identify's two CSV readers (pyarrow's, the [arrow] extra,
+Each size is run with identify's two CSV readers (pyarrow's, a core dependency,
 and numpy's loadtxt, forced with MINPARAM_CSV_READER=numpy) [issue 20 target:
 1 M samples x 7 joints <= 6 s end to end, peak <= 300 MB], and the table of
 parse throughput compares the readers alone (in this process, MB/s of CSV).
@@ -20,11 +20,16 @@ system seconds of the identify process, all its threads) moves less with the
 machine's load than the wall time: identify's streaming pass runs on two
 threads, so on an idle 2-core machine the wall time is below the CPU time.
 
-Each command runs --repeats times (default 3): the table gives the median wall time, the mean CPU
-time and the largest peak, as the other benchmarks do (common.run_process), so that one run slowed
-by the host's neighbours does not stand for the code.
+The floor [issue 34 target: identify <= 1.5x, stretch 1.2x, peak <= 300 MB]: the same file read into
+memory by pyarrow alone (pyarrow.csv.read_csv, its default threads, in a process of its own, start-up
+included as in identify's).  The commands run --repeats rounds (default 3), in turn (floor, identify,
+floor, identify, ...): the table gives the median wall and CPU time and the largest peak, and 'x
+floor' is the median over the rounds of identify's wall time over the floor's in the same round, so
+that a change in the load of the shared machine hits both alike.  The load average before and after
+is printed beside the figures.
 
 Run: python benchmarks/bench_identify.py [--sizes 100000,300000,1000000] [--physical] [--readers pyarrow,numpy] [--repeats 3]
+     [--cpus 0,1]
 """
 
 from __future__ import annotations
@@ -32,13 +37,14 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import statistics
 import sys
 import tempfile
 import time
 from pathlib import Path
 
 import numpy as np
-from common import ROOT, minparam_cmd, run_process
+from common import ROOT, load_average, minparam_cmd, run_measured
 from tabulate import tabulate
 
 sys.path.insert(0, str(ROOT / "src"))
@@ -72,15 +78,6 @@ def write_data(path: Path, samples: int, seed: int = 0) -> None:
             np.savetxt(fh, np.hstack([t[:, None], q, dq, ddq, tau]), delimiter=",", fmt="%.9g")
 
 
-def _children_cpu() -> float:
-    """User + system CPU seconds of the finished child processes (and theirs): on a shared machine
-    the CPU a run took varies less than its wall time, which waits for the other jobs."""
-    import resource
-
-    r = resource.getrusage(resource.RUSAGE_CHILDREN)
-    return r.ru_utime + r.ru_stime
-
-
 def calibration() -> float:
     """Seconds of a fixed CPU task (numpy and Python): a slower figure means a busier machine."""
     t0 = time.perf_counter()
@@ -103,14 +100,20 @@ def parse_rate(path: Path, reader: str) -> float:
     return os.path.getsize(path) / 1e6 / (time.perf_counter() - t0)
 
 
+FLOOR = "import sys, pyarrow.csv; pyarrow.csv.read_csv(sys.argv[1])"  # the file into memory, pyarrow alone
+
+
 def main() -> None:
     ap = argparse.ArgumentParser()
     ap.add_argument("--sizes", default="100000,300000,1000000")
     ap.add_argument("--physical", action="store_true", help="also time identify --physical")
-    ap.add_argument("--readers", default="pyarrow,numpy", help="CSV readers to compare (pyarrow needs the [arrow] extra)")
-    ap.add_argument("--repeats", type=int, default=3, help="runs of each command (median wall time, largest peak)")
+    ap.add_argument("--readers", default="pyarrow,numpy", help="CSV readers to compare (numpy: MINPARAM_CSV_READER=numpy)")
+    ap.add_argument("--repeats", type=int, default=3, help="rounds of the commands, run in turn (median wall time)")
+    ap.add_argument("--cpus", default="", help="run every command on these CPUs (taskset -c, e.g. 0,1: a 2-core machine)")
     args = ap.parse_args()
+    pin = ["taskset", "-c", args.cpus] if args.cpus else []
     readers = [r.strip() for r in args.readers.split(",") if r.strip()]
+    repeats = max(1, args.repeats)
     rows, rates = [], []
     before = calibration()
     with tempfile.TemporaryDirectory() as tmp:
@@ -120,23 +123,42 @@ def main() -> None:
             size_mb = os.path.getsize(data) / 1e6
             rates.append([f"{n:,}", f"{size_mb:.0f} MB"] + [f"{parse_rate(data, r):.0f} MB/s" for r in readers])
             report = Path(tmp) / "report.json"
+            # (label, reader, extra arguments, command): the floor first, then identify's runs
+            runs: list[tuple[str, str, list[str], list[str]]] = [("pyarrow.csv.read_csv alone (floor)", "", [],
+                                                                   [*pin, sys.executable, "-c", FLOOR, str(data)])]
             for reader in readers:
-                os.environ["MINPARAM_CSV_READER"] = reader
                 for extra in ([], ["--physical"]) if args.physical else ([],):
-                    cmd = minparam_cmd() + ["identify", "robots/panda.yaml", str(data), "--format", "json", "--quiet",
+                    cmd = pin + minparam_cmd() + ["identify", "robots/panda.yaml", str(data), "--format", "json", "--quiet",
                                             "-o", str(report), *extra]
-                    before_cpu = _children_cpu()
-                    t, peak = run_process(cmd, repeats=max(1, args.repeats))
-                    cpu = (_children_cpu() - before_cpu) / max(1, args.repeats)
-                    solve = json.loads(report.read_text())["physical"]["elapsed_s"] if extra else None
-                    rows.append([f"{n:,}", f"{size_mb:.0f} MB", reader, "physical" if extra else "least squares", f"{t:.1f} s", f"{cpu:.1f} s",
-                                 "-" if solve is None else f"{solve:.2f} s", f"{peak:.0f} MB"])
+                    runs.append(("physical" if extra else "least squares", reader, extra, cmd))
+            # in turn (floor, identify, ..., floor, identify, ...): a change in the machine's load hits all alike
+            measured: list[list[tuple[float, float, float]]] = [[] for _ in runs]
+            solve: dict[int, float] = {}
+            load_before = load_average()
+            for _ in range(repeats):
+                for i, (_, reader, extra, cmd) in enumerate(runs):
+                    os.environ["MINPARAM_CSV_READER"] = reader or "pyarrow"
+                    measured[i].append(run_measured(cmd))
+                    if extra:
+                        solve[i] = json.loads(report.read_text())["physical"]["elapsed_s"]
+            load_after = load_average()
+            floor = [m[0] for m in measured[0]]
+            for i, (label, reader, _, _) in enumerate(runs):
+                walls = [m[0] for m in measured[i]]
+                ratio = statistics.median(w / f for w, f in zip(walls, floor, strict=True))  # per round: the same load
+                rows.append([f"{n:,}", f"{size_mb:.0f} MB", reader or "-", label, f"{statistics.median(walls):.1f} s",
+                             f"{statistics.median(m[1] for m in measured[i]):.1f} s", "-" if i == 0 else f"{ratio:.2f}",
+                             f"{solve[i]:.2f} s" if i in solve else "-", f"{max(m[2] for m in measured[i]):.0f} MB",
+                             f"{load_before} / {load_after.split(' on ')[0].removeprefix('load ')}"])
             data.unlink()
     os.environ.pop("MINPARAM_CSV_READER", None)
     after = calibration()
     print("minparam identify, Panda (7 joints), CSV with q, dq, ddq, tau; Coulomb + viscous hidden; diagnosis on;"
-          f" median of {max(1, args.repeats)} runs (CPU time: their mean; peak: the largest)")
-    print(tabulate(rows, headers=["samples", "file", "CSV reader", "fit", "wall time", "CPU time", "convex solve", "peak RSS"], tablefmt="github"))
+          f" {repeats} rounds, the commands in turn; median wall and CPU time, largest peak; 'x floor': the median over"
+          " rounds of identify's wall time over the floor's in the same round"
+          + (f"; every command on CPUs {args.cpus} (taskset)" if pin else ""))
+    print(tabulate(rows, headers=["samples", "file", "CSV reader", "run", "wall time", "CPU time", "x floor",
+                                  "convex solve", "peak RSS", "load before / after"], tablefmt="github"))
     print("\nCSV parsing alone (measured.reading.raw_chunks, all columns to float64), MB of CSV per second")
     print(tabulate(rates, headers=["samples", "file"] + readers, tablefmt="github"))
     print(f"\nCPU calibration (a fixed numpy + Python task; larger on a busier machine): {before:.2f} s before, {after:.2f} s after")

@@ -52,6 +52,61 @@ def run_processes_alternating(cmds: list[list[str]], repeats: int = 21) -> list[
     return [(statistics.median(t), max(m)) for t, m in zip(times, peaks)]
 
 
+def run_measured(cmd: list[str]) -> tuple[float, float, float]:
+    """Wall time (s), CPU time (user + system s, all threads) and peak RSS (MB) of one run of a
+    whole process, the CPU and peak from GNU time (nan without it)."""
+    gnu_time = os.path.exists("/usr/bin/time")
+    with tempfile.NamedTemporaryFile("r") as out:
+        full = ["/usr/bin/time", "-f", "%U %S %M", "-o", out.name, *cmd] if gnu_time else cmd
+        t0 = time.perf_counter()
+        p = subprocess.run(full, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, cwd=ROOT)
+        wall = time.perf_counter() - t0
+        if p.returncode != 0:
+            raise SystemExit(f"command failed: {' '.join(cmd)}")
+        text = out.read().strip().splitlines()
+    if not (gnu_time and text):
+        return wall, float("nan"), float("nan")
+    user, system, peak = text[-1].split()
+    return wall, float(user) + float(system), float(peak) / 1024
+
+
+def run_scheduled(cmd: list[str], poll_s: float = 0.05) -> dict[str, float]:
+    """One run of a whole process, with where its wall time went (Linux): ``wall``, ``cpu`` (user +
+    system s, all threads), ``runqueue`` (s its threads were ready to run but waited for a core
+    held by another process: /proc/PID/task/*/schedstat, read every ``poll_s`` while it runs, so
+    the last ``poll_s`` are missed), ``own_wait`` (wall - cpu - runqueue for one thread: sleeping,
+    I/O, locks; a negative value is the CPU of threads that ran side by side), ``voluntary`` and
+    ``involuntary`` context switches, and ``peak`` RSS (MB).  On a shared machine the run-queue
+    wait is the load of the other jobs, not the program's."""
+    import glob
+
+    t0 = time.perf_counter()
+    p = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, cwd=ROOT)
+    waits: dict[str, float] = {}
+    while True:
+        for f in glob.glob(f"/proc/{p.pid}/task/*/schedstat"):
+            try:
+                waits[f] = int(open(f).read().split()[1]) / 1e9
+            except (OSError, IndexError, ValueError):
+                pass  # the thread ended between the listing and the read
+        pid, status, usage = os.wait4(p.pid, os.WNOHANG)
+        if pid:
+            break
+        time.sleep(poll_s)
+    wall = time.perf_counter() - t0
+    if os.waitstatus_to_exitcode(status) != 0:
+        raise SystemExit(f"command failed: {' '.join(cmd)}")
+    cpu = usage.ru_utime + usage.ru_stime
+    runqueue = sum(waits.values())
+    return {"wall": wall, "cpu": cpu, "runqueue": runqueue, "own_wait": wall - cpu - runqueue,
+            "voluntary": usage.ru_nvcsw, "involuntary": usage.ru_nivcsw, "peak": usage.ru_maxrss / 1024}
+
+
+def load_average() -> str:
+    """The machine's 1-minute load average and its cores, to print beside a timing."""
+    return f"load {os.getloadavg()[0]:.1f} on {os.cpu_count()} cores"
+
+
 def best_of(fn, repeats: int = 7) -> float:
     """Median in-process time (s) of fn()."""
     out = []
