@@ -1,5 +1,4 @@
-"""The fast CSV path of ``identify``: pyarrow's C++ CSV parser (a core dependency; without it
-numpy's reader does the same work, slower).
+"""The fast CSV path of ``identify``: pyarrow's C++ CSV parser (optional extra ``minparam[arrow]``).
 
 numpy's loadtxt parses about 45 MB/s; pyarrow's streaming reader several times that.  It is only a
 faster way to the same numbers: its rows fill tables of exactly ``rows`` lines (the chunks numpy's
@@ -28,7 +27,7 @@ ENV = "MINPARAM_CSV_READER"  # "numpy" forces the numpy reader (benchmarks, test
 
 
 def pyarrow_csv():
-    """pyarrow.csv, or None when pyarrow is not installed."""
+    """pyarrow.csv, or None when pyarrow (the [arrow] extra) is not installed."""
     try:
         import pyarrow.csv as pacsv
     except ImportError:
