@@ -126,6 +126,17 @@ def key_list(keys, shown: int = 5) -> str:
     return f"{names[:shown]}{more}"
 
 
+def mapping_entry(value, allowed, src: str, where: str, expected: str) -> dict:
+    """One entry of a description's list (a joint, a loop cut): a mapping whose keys are all ``allowed``;
+    else a DescriptionError at ``where`` ("expected a mapping with {expected}", or the unknown keys)."""
+    if not isinstance(value, dict):
+        raise DescriptionError(f"expected a mapping with {expected}", src, where)
+    unknown = set(value) - set(allowed)
+    if unknown:
+        raise DescriptionError(f"unknown key(s) {key_list(unknown)}", src, where)
+    return value
+
+
 def _small(v, budget: int = 64) -> bool:
     """Whether a nested list/dict holds at most ``budget`` items in all (so repr() is cheap)."""
     stack, seen = [v], 0

@@ -32,7 +32,7 @@ from minparam_cli.describe.records import GeomValue, JointRecord, RobotDescripti
 from minparam_cli.describe.yaml_dh import (ANGLE_UNITS, JOINT_TYPES, LENGTH_UNITS, _bool, _friction, _inertial, _number,
                                            _positive, _text, _vector, _vector3)
 from minparam_cli.errors import DescriptionError
-from minparam_cli.safety import MAX_JOINTS, key_list, short_repr
+from minparam_cli.safety import MAX_JOINTS, key_list, mapping_entry, short_repr
 
 TOP_KEYS = {"kind", "name", "description", "units", "gravity", "friction", "rotor_inertia", "joints", "loops"}
 JOINT_KEYS = {"name", "parent", "type", "origin", "axis", "actuated", "reference", "limits", "velocity", "acceleration",
@@ -86,11 +86,7 @@ def closed_from_mapping(doc: dict, src: str) -> RobotDescription:
     joints, actuated, reference = [], [], []
     for i, jd in enumerate(items):
         where = f"joints[{i + 1}]"
-        if not isinstance(jd, dict):
-            raise DescriptionError("expected a mapping with name, parent, type, origin, axis", src, where)
-        unknown = set(jd) - JOINT_KEYS
-        if unknown:
-            raise DescriptionError(f"unknown key(s) {key_list(unknown)}", src, where)
+        mapping_entry(jd, JOINT_KEYS, src, where, "name, parent, type, origin, axis")
         for key in ("name", "parent", "type", "origin"):
             if key not in jd:
                 raise DescriptionError(f"missing required field '{key}'", src, where)
@@ -157,11 +153,7 @@ def _cuts(items: Any, index: dict[str, int], scale: float, angle: float, src: st
     cuts = []
     for c, cd in enumerate(items):
         where = f"loops[{c + 1}]"
-        if not isinstance(cd, dict):
-            raise DescriptionError("expected a mapping with type, between, at", src, where)
-        unknown = set(cd) - CUT_KEYS
-        if unknown:
-            raise DescriptionError(f"unknown key(s) {key_list(unknown)}", src, where)
+        mapping_entry(cd, CUT_KEYS, src, where, "type, between, at")
         kind = cd.get("type", "connect")
         if kind not in CUT_KINDS:
             raise DescriptionError(f"unknown cut type {short_repr(kind)}; expected one of {list(CUT_KINDS)}", src, f"{where}.type")

@@ -26,7 +26,7 @@ from typing import Any
 
 from minparam_cli.describe.angles import parse_angle
 from minparam_cli.describe.records import GeomValue, Inertial, JointRecord, RobotDescription
-from minparam_cli.safety import MAX_JOINTS, finite_number, key_list, read_yaml, short_repr
+from minparam_cli.safety import MAX_JOINTS, finite_number, key_list, mapping_entry, read_yaml, short_repr
 from minparam_cli.errors import DescriptionError, NotARobotError
 from minparam_cli.params import FRICTION_KINDS
 
@@ -93,11 +93,7 @@ def description_from_mapping(doc: Any, src: str) -> RobotDescription:
     for i, jd in enumerate(joints_in):
         j = i + 1
         where = f"joints[{j}]"
-        if not isinstance(jd, dict):
-            raise DescriptionError("expected a mapping with type, alpha, a, d, theta", src, where)
-        unknown = set(jd) - JOINT_KEYS
-        if unknown:
-            raise DescriptionError(f"unknown key(s) {key_list(unknown)}", src, where)
+        mapping_entry(jd, JOINT_KEYS, src, where, "type, alpha, a, d, theta")
         jtype = jd.get("type")
         if jtype is None:
             raise DescriptionError("missing required field 'type'", src, where)
