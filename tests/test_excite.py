@@ -8,7 +8,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from conftest import ARM, arm  # the shared two-link arm
+from conftest import ARM, ROOT, arm  # the shared two-link arm; the repository root
 from typer.testing import CliRunner
 
 from minparam_cli.base.qr import derive_qr
@@ -296,3 +296,48 @@ def test_logdet_criterion_improves_on_its_start(tmp_path, app):
     record = json.loads(js.read_text())
     assert record["criterion"]["name"] == "logdet"
     assert all(s["end"] < s["start"] for s in record["starts"])
+
+
+# --- --floor: link origins above a table or floor (issue 32) ----------------------------------------
+
+
+def _ur5_heights_on_a_fine_grid(js: Path) -> np.ndarray:
+    """Lowest height of every link origin and the tool point of robots/ur5.urdf along the designed motion."""
+    _, chain = load_chain(ROOT / "robots" / "ur5.urdf", DeriveOptions())
+    traj = from_json(js)
+    q, _, _ = traj.evaluate(np.linspace(0.0, 1.0 / traj.base_frequency, 4001))
+    return cons.heights(chain, q).min(axis=0)
+
+
+def test_floor_keeps_every_link_origin_above_it(tmp_path, app):
+    """Without --floor the UR5's design takes link origins below its own mounting plane (the issue: q2 near
+    150°); with --floor 0.05 every link origin and the tool point stay 5 cm above it on a grid finer than the
+    optimiser's, checked again by MuJoCo's forward kinematics of the same robot written as MJCF."""
+    free, floor = tmp_path / "free.json", tmp_path / "floor.json"
+    ur5 = str(ROOT / "robots" / "ur5.urdf")
+    r = runner.invoke(app, ["excite", ur5, "-o", str(tmp_path / "a.csv"), "--json", str(free), *FAST])
+    assert r.exit_code == 0, r.output
+    assert _ur5_heights_on_a_fine_grid(free).min() < 0.0
+    r = runner.invoke(app, ["excite", ur5, "-o", str(tmp_path / "b.csv"), "--json", str(floor), "--floor", "0.05", *FAST])
+    assert r.exit_code == 0, r.output
+    assert _ur5_heights_on_a_fine_grid(floor).min() >= 0.05 - 1e-6
+    record = json.loads(floor.read_text())["limits"]
+    assert record["floor"] == 0.05 and min(record["lowest_heights"]) >= 0.05 - 1e-9
+    mujoco = pytest.importorskip("mujoco")
+    model = mujoco.MjModel.from_xml_path(str(ROOT / "robots" / "ur5.xml"))
+    data = mujoco.MjData(model)
+    traj = from_json(floor)
+    q, _, _ = traj.evaluate(np.linspace(0.0, 1.0 / traj.base_frequency, 401))
+    lowest = np.inf
+    for qs in q:
+        data.qpos[:] = qs
+        mujoco.mj_kinematics(model, data)
+        moving = [b for b in range(1, model.nbody) if model.body_dofnum[b] > 0]
+        lowest = min(lowest, float(data.xpos[moving, 2].min()))
+    assert lowest >= 0.05 - 1e-6
+
+
+def test_a_floor_no_design_can_meet_is_one_line(tmp_path, app):
+    r = runner.invoke(app, ["excite", str(ROOT / "robots" / "ur5.urdf"), "-o", str(tmp_path / "a.csv"), "--floor", "2", *FAST])
+    assert r.exit_code == 2 and "infeasible limits: --floor 2 m" in r.output and len(r.output.strip().splitlines()) == 1
+    assert not (tmp_path / "a.csv").exists()

@@ -64,7 +64,19 @@ def prepare_excite(robot: Path, opts: ExciteOptions) -> Prepared:
     point = np.array(opts.point, dtype=float) if opts.point is not None else None
     if box is not None and point is None:
         point = np.zeros(3) if chain.tool is None else np.asarray(chain.tool, dtype=float)
-    limits = chain_limits(chain, design.margin, box, point)
+    limits = chain_limits(chain, design.margin, box, point, opts.floor)
+    if opts.floor is not None:  # a point that stays below the floor wherever the joints go: no design exists
+        from minparam_cli.errors import InputError
+        from minparam_cli.experiment.excite.constraints import heights
+
+        lo, hi = limits.shrunk_range()
+        q = lo + (hi - lo) * np.random.default_rng(opts.seed).random((256, limits.n))
+        top = heights(chain, q).max(axis=0)
+        low = int(np.argmin(top - opts.floor))
+        if top[low] < opts.floor:
+            what = "the tool point" if low == chain.n else f"link {low + 1}'s origin"
+            raise InputError(f"infeasible limits: --floor {opts.floor:g} m: {what} is at most {top[low]:.4g} m high "
+                             "in 256 positions within the joint limits")
     notes = []
     if limits.defaulted:
         js = ", ".join(str(j + 1) for j in limits.defaulted)
@@ -110,14 +122,15 @@ def after_notes(prep: Prepared) -> list[str]:
 def excite(robot: Robot | str | Path, *, harmonics: int = 5, base_frequency: float = 0.1, rate: float = 200.0,
            periods: int = 1, criterion: str = "cond", scaling: str = "si", rest: bool = False, margin: float = 0.1,
            friction: str | Iterable[str] | None = None, rotor_inertia: bool | None = None, box: Any = None,
-           point: Any = None, starts: int = 4, max_iterations: int = 150, seed: int = 0, mimic: str | None = None,
+           point: Any = None, floor: float | None = None, starts: int = 4, max_iterations: int = 150, seed: int = 0, mimic: str | None = None,
            progress: ProgressArg = False) -> Excitation:
     """Design an excitation trajectory (``minparam excite``): a finite Fourier series (Swevers et al.
     1997) that minimises the condition number (``criterion="cond"``) or −log det (``"logdet"``) of the
     base regressor, declared friction / rotor inertia included, within the joint position, velocity,
     acceleration and effort limits (``margin`` kept free) and, with ``box`` ([[XMIN, XMAX], [YMIN,
     YMAX], [ZMIN, ZMAX]] in m, None for a free side, or the CLI's "XMIN:XMAX,..." text), keeping
-    ``point`` (the tool point by default) inside a Cartesian box.  ``starts`` random starts from one
+    ``point`` (the tool point by default) inside a Cartesian box; with ``floor`` (m) every link frame's
+    origin and the tool point at least that high against gravity.  ``starts`` random starts from one
     generator seeded with ``seed``.  A Robot's own friction, rotor inertia and mimic mode apply unless
     given here.  ``to_dict()`` is the ``--json`` record, ``to_csv()`` the CSV of ``-o``.
     """
@@ -127,7 +140,7 @@ def excite(robot: Robot | str | Path, *, harmonics: int = 5, base_frequency: flo
                          scaling=scaling, rest=rest, margin=margin,
                          friction=cast(Any, friction if friction is not None else (own.friction if own else ())),
                          rotor_inertia=bool(rotor_inertia) if rotor_inertia is not None else (own.rotor_inertia if own else False),
-                         box=box, point=point, starts=starts, max_iterations=max_iterations, seed=seed,
+                         box=box, point=point, floor=floor, starts=starts, max_iterations=max_iterations, seed=seed,
                          mimic=mimic if mimic is not None else (own.mimic if own else "coupled"))
     prep = prepare_excite(robot_path(robot), opts)
     warn(prep.notes)

@@ -94,6 +94,9 @@ def json_record(result, robot: str, robot_name: str, seed: int, effects: dict) -
         record["limits"]["point"] = lim.point.tolist()
         p = result.box_path
         record["limits"]["point_range"] = [[float(p[:, c].min()), float(p[:, c].max())] for c in range(3)]
+    if lim.floor is not None and result.lowest is not None:
+        record["limits"]["floor"] = lim.floor
+        record["limits"]["lowest_heights"] = [float(h) for h in result.lowest]  # link origins 1..n, then the tool point
     return record
 
 
@@ -123,5 +126,9 @@ def summary_text(result, robot_name: str, seed: int) -> str:
         p = result.box_path
         lines.append("box        point " + ", ".join(f"{a} [{p[:, c].min():.3f}, {p[:, c].max():.3f}]" for c, a in enumerate("xyz"))
                      + " m")
+    if result.lowest is not None:
+        k = int(result.lowest.argmin())
+        what = "the tool point" if k == result.lowest.size - 1 else f"link {k + 1}'s origin"
+        lines.append(f"floor      lowest point {result.lowest[k]:.3f} m ({what}), floor {result.limits.floor:g} m")
     lines.append(f"time       {result.elapsed_s:.1f} s ({result.cpu_s:.1f} s CPU)")
     return "\n".join(lines) + "\n"

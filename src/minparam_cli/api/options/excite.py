@@ -19,7 +19,8 @@ class ExciteOptions:
 
     ``box``: the Cartesian box of the tool point, base frame, m: the command line's
     "XMIN:XMAX,YMIN:YMAX,ZMIN:ZMAX" (a side may be empty) or [[XMIN, XMAX], ...] with None for a free
-    side; held as ((min, max),) * 3 with NaN for free sides.  ``point``: X,Y,Z in the last link's frame."""
+    side; held as ((min, max),) * 3 with NaN for free sides.  ``point``: X,Y,Z in the last link's frame.
+    ``floor``: m; every link frame's origin and the tool point stay at least this high against gravity."""
 
     harmonics: int = 5
     base_frequency: float = 0.1
@@ -33,6 +34,7 @@ class ExciteOptions:
     rotor_inertia: bool = False
     box: Any = None
     point: tuple[float, float, float] | None = None
+    floor: float | None = None
     starts: int = 4
     max_iterations: int = 150
     seed: int = 0
@@ -53,6 +55,16 @@ class ExciteOptions:
         if self.point is not None:
             p = float_option(self.point, 3, "--point")
             put(self, "point", (p[0], p[1], p[2]))
+        if self.floor is not None:
+            import math
+
+            try:
+                f = float(self.floor)
+            except (TypeError, ValueError):
+                raise InputError(f"--floor: expected a height in m, got {self.floor!r}") from None
+            if not math.isfinite(f):
+                raise InputError(f"--floor: expected a finite height in m, got {self.floor!r}")
+            put(self, "floor", f)
         put(self, "criterion", choice_option(self.criterion, CRITERIA, "--criterion"))
         put(self, "scaling", choice_option(self.scaling, SCALINGS, "--scaling"))
         put(self, "mimic", choice_option(self.mimic, MIMIC_MODES, "--mimic"))

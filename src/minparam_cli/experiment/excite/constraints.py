@@ -9,7 +9,9 @@ Every limit is a set of inequalities at the samples of one period (the
   their exact Jacobian;
 * torque, |τ_j| ≤ (1 − m)·e_j with τ = Y(q, q̇, q̈)·φ_nominal (only when the
   description gives every link's inertial values and an effort limit);
-* a Cartesian box for a point on the last link: lo_c ≤ p_c(q) ≤ hi_c.
+* a Cartesian box for a point on the last link: lo_c ≤ p_c(q) ≤ hi_c;
+* a floor (``--floor``): every link frame's origin and the tool point at least that high against
+  gravity, h_p(q) ≥ floor (points, not the links' volumes: no collision geometry is used).
 
 m is the margin (a fraction).  Between grid points a motion can exceed what
 the grid saw, so the result is checked again afterwards:
@@ -58,6 +60,7 @@ class Limits:
     defaulted: tuple[int, ...] = ()  # 0-based joints whose position range is a default
     box: np.ndarray | None = None  # (3, 2) lower, upper per axis (NaN: free), base frame, m
     point: np.ndarray | None = None  # (3,) on the last link, in its frame, m
+    floor: float | None = None  # --floor: every link origin and the tool point at least this high (m, against gravity)
 
     @property
     def n(self) -> int:
@@ -117,6 +120,33 @@ def box_point(chain: Chain, q: np.ndarray, point: np.ndarray) -> np.ndarray:
     T, _, _ = forward_kinematics(chain, joint_states(chain, q))
     Tl = T[:, -1]
     return Tl[:, :3, :3] @ point + Tl[:, :3, 3]
+
+
+def up_direction(chain: Chain) -> np.ndarray:
+    """The unit vector against gravity in the base frame (z when the description has no gravity)."""
+    g = np.asarray(chain.gravity, dtype=float)
+    return -g / np.linalg.norm(g) if np.any(g) else np.array([0.0, 0.0, 1.0])
+
+
+def heights(chain: Chain, q: np.ndarray) -> np.ndarray:
+    """(N, links + 1): the height against gravity (base frame, m) of every link frame's origin and of the
+    tool point (the file's ``tool:``, else the last link's origin) at every sample (``--floor``)."""
+    T, _, _ = forward_kinematics(chain, joint_states(chain, q))
+    tool = np.zeros(3) if chain.tool is None else np.asarray(chain.tool, dtype=float)
+    points = np.concatenate([T[:, :, :3, 3], (T[:, -1, :3, :3] @ tool + T[:, -1, :3, 3])[:, None, :]], axis=1)
+    return points @ up_direction(chain)
+
+
+def heights_jacobian(chain: Chain, q: np.ndarray) -> np.ndarray:
+    """∂h_p/∂q_k at every sample (N, points, n), central differences."""
+    N, n = q.shape
+    out = np.empty((N, chain.n + 1, n))
+    for k in range(n):
+        qp, qm = q.copy(), q.copy()
+        qp[:, k] += BOX_Q_STEP
+        qm[:, k] -= BOX_Q_STEP
+        out[:, :, k] = (heights(chain, qp) - heights(chain, qm)) / (2 * BOX_Q_STEP)
+    return out
 
 
 def box_point_jacobian(chain: Chain, q: np.ndarray, point: np.ndarray) -> np.ndarray:
@@ -203,4 +233,9 @@ def nonlinear_violations(chain: Chain, traj: FourierTrajectory, limits: Limits, 
                 out.append(f"tool {axis} {p[:, c].min():.4g} m < box {lo:.4g} m")
             if np.isfinite(hi) and p[:, c].max() > hi:
                 out.append(f"tool {axis} {p[:, c].max():.4g} m > box {hi:.4g} m")
+    if limits.floor is not None:
+        h = heights(chain, q).min(axis=0)
+        for k in np.flatnonzero(h < limits.floor):
+            what = "the tool point" if k == chain.n else f"link {k + 1}'s origin"
+            out.append(f"{what} {h[k]:.4g} m < floor {limits.floor:.4g} m")
     return out

@@ -87,6 +87,7 @@ class ExciteResult:
     grid_points: int
     cpu_s: float = 0.0  # CPU time of this process (the one-core figure on a busy machine)
     extra: dict = field(default_factory=dict)
+    lowest: np.ndarray | None = None  # --floor: per link origin (then the tool point), its lowest height, m
 
 
 def validate(options: ExciteOptions) -> None:
@@ -112,7 +113,7 @@ def validate(options: ExciteOptions) -> None:
         raise InputError(f"--criterion must be one of {', '.join(CRITERIA)}, got {o.criterion!r}")
 
 
-def chain_limits(chain: Chain, margin: float, box=None, point=None) -> cons.Limits:
+def chain_limits(chain: Chain, margin: float, box=None, point=None, floor: float | None = None) -> cons.Limits:
     """The description's limits for the independent coordinates (position defaults as simulate's)."""
     from minparam_cli.experiment.trajectory import joint_ranges
 
@@ -127,7 +128,7 @@ def chain_limits(chain: Chain, margin: float, box=None, point=None) -> cons.Limi
         return np.array([np.nan if values[j] is None else float(values[j]) for j in coords])
 
     lim = cons.Limits(ranges[:, 0], ranges[:, 1], per(chain.velocity_limits), per(chain.acceleration_limits),
-                      per(chain.effort_limits), float(margin), defaulted, box, point)
+                      per(chain.effort_limits), float(margin), defaulted, box, point, floor)
     for j in range(lim.n):
         if not lim.upper[j] > lim.lower[j]:
             raise InputError(f"joint {j + 1}: empty position range [{lim.lower[j]:g}, {lim.upper[j]:g}]")
@@ -218,8 +219,7 @@ def design(chain: Chain, base: BaseSet, options: ExciteOptions, limits: cons.Lim
         assert point is not None  # the box comes with its point (api.excitation.prepare_excite)
         axes = [(c, side) for c in range(3) for side in (0, 1) if np.isfinite(box[c, side])]
 
-        tb = np.arange(BOX_GRID_POINTS_PER_HARMONIC * max(H, 4)) * (period / (BOX_GRID_POINTS_PER_HARMONIC * max(H, 4)))
-        Bq_box = basis(tb, options.base_frequency, H)[0]
+        Bq_box = Bq_grid(options, H, period)
 
         def box_fun(x):
             p = cons.box_point(chain, Bq_box @ x.reshape(n, m).T, point)
@@ -235,6 +235,9 @@ def design(chain: Chain, base: BaseSet, options: ExciteOptions, limits: cons.Lim
             return np.vstack(rows)
 
         constraints.append({"type": "ineq", "fun": box_fun, "jac": box_jac})
+        slack.append(BOX_MARGIN / 2)
+    if limits.floor is not None:
+        constraints.append(_floor_constraint(chain, limits.floor, Bq_grid(options, H, period), n, m))
         slack.append(BOX_MARGIN / 2)
 
     margins = getattr(chain.coupling, "limit_margins", None)
@@ -307,6 +310,7 @@ def design(chain: Chain, base: BaseSet, options: ExciteOptions, limits: cons.Lim
     if limits.box is not None:
         assert limits.point is not None  # the box comes with its point (api.excitation.prepare_excite)
         box_path = cons.box_point(chain, q, limits.point)
+    lowest = None if limits.floor is None else cons.heights(chain, q).min(axis=0)
     qg, dqg, ddqg = traj.evaluate(tg)
     final = criterion_value(base_regressor(chain, kept, qg, dqg, ddqg), kind, options.scaled)
     return ExciteResult(
@@ -314,8 +318,28 @@ def design(chain: Chain, base: BaseSet, options: ExciteOptions, limits: cons.Lim
         cond_output=condition_number(W), cond_output_si=condition_number(W, scaled=False), t=t, q=q, dq=dq, ddq=ddq, tau=tau, box_path=box_path,
         starts=tuple(records), best_start=best, repair_scale=tuple(float(s) for s in scale),
         base_names=base.base_names, elapsed_s=time.perf_counter() - t0, grid_points=N,
-        cpu_s=time.process_time() - c0,
+        cpu_s=time.process_time() - c0, lowest=lowest,
     )
+
+
+def Bq_grid(options: ExciteOptions, H: int, period: float) -> np.ndarray:
+    """The position basis on the fine grid of the Cartesian constraints (box, floor)."""
+    points = BOX_GRID_POINTS_PER_HARMONIC * max(H, 4)
+    return basis(np.arange(points) * (period / points), options.base_frequency, H)[0]
+
+
+def _floor_constraint(chain: Chain, floor: float, Bq: np.ndarray, n: int, m: int) -> dict:
+    """--floor as an SLSQP inequality: every link origin and the tool point BOX_MARGIN above the floor."""
+
+    def fun(x):
+        return (cons.heights(chain, Bq @ x.reshape(n, m).T) - floor - BOX_MARGIN).ravel(order="F")
+
+    def jac(x):
+        dh = cons.heights_jacobian(chain, Bq @ x.reshape(n, m).T)  # (N, points, n)
+        zero = np.zeros((dh.shape[0], 1, n))
+        return np.vstack([cons.state_jacobian(dh[:, p:p + 1], zero, zero, Bq, Bq, Bq) for p in range(dh.shape[1])])
+
+    return {"type": "ineq", "fun": fun, "jac": jac}
 
 
 def _checked(chain, traj: FourierTrajectory, limits: cons.Limits, phi, t):
@@ -325,7 +349,7 @@ def _checked(chain, traj: FourierTrajectory, limits: cons.Limits, phi, t):
     the limits still broken (empty: none)."""
     scale = cons.rigorous_scale(traj, limits)
     traj = cons.scaled(traj, scale)
-    if phi is None and limits.box is None:
+    if phi is None and limits.box is None and limits.floor is None:
         return traj, scale, []
     check_t = cons.dense_times(traj, t)
     broken: list[str] = []
