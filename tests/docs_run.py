@@ -44,6 +44,8 @@ FENCE = re.compile(r"^```console[ \t]*\n(.*?)^```[ \t]*$", re.S | re.M)
 HEREDOC = re.compile(r"<<-?\s*['\"]?(\w+)['\"]?")
 NEEDS_SHARED = "needs ../shared/data"
 TIMEOUT_S = 600
+# what --update itself writes as the marker: a wall-clock time, a temporary path
+VARIABLE = [re.compile(r"(?<=elapsed )[0-9.]+(?:e[-+]?[0-9]+)?(?= m?s\b)"), re.compile(r"/tmp/[^\s'\"]+")]
 
 
 @dataclass
@@ -122,9 +124,11 @@ def matches(expected: list[str], actual: list[str]) -> bool:
 
 
 def merged(expected: list[str], actual: list[str]) -> list[str]:
-    """The lines --update writes: the actual output, with the page's marker lines kept where they fit."""
+    """The lines --update writes: the actual output, with the page's marker lines kept where they fit
+    and times and temporary paths marked."""
     if matches(expected, actual):
         return expected
+    actual = [_mark_variable(a) for a in actual]
     segments: list[list[str]] = [[]]
     for line in expected:
         if line.strip() == MARK:
@@ -156,6 +160,12 @@ def merged(expected: list[str], actual: list[str]) -> list[str]:
     return out
 
 
+def _mark_variable(line: str) -> str:
+    for pattern in VARIABLE:
+        line = pattern.sub(MARK, line)
+    return line
+
+
 def scratch() -> Path:
     """A scratch folder laid out as the pages assume; returns the folder the commands run in."""
     top = Path(tempfile.mkdtemp(prefix="minparam-docs-"))
@@ -168,7 +178,7 @@ def scratch() -> Path:
     bin_dir = top / "bin"
     bin_dir.mkdir()
     launcher = bin_dir / "minparam"
-    launcher.write_text(f'#!/bin/sh\nexec "{sys.executable}" -m minparam_cli.cli.app "$@"\n')
+    launcher.write_text(f'#!/bin/sh\nexec "{sys.executable}" -m minparam_cli "$@"\n')
     launcher.chmod(0o755)
     return work
 
