@@ -178,7 +178,8 @@ def scratch() -> Path:
     bin_dir = top / "bin"
     bin_dir.mkdir()
     launcher = bin_dir / "minparam"
-    launcher.write_text(f'#!/bin/sh\nexec "{sys.executable}" -m minparam_cli "$@"\n')
+    # as pip's entry point would: the program name in messages is `minparam`
+    launcher.write_text(f"#!{sys.executable}\nimport sys\nfrom minparam_cli.cli.app import entry\nsys.exit(entry())\n")
     launcher.chmod(0o755)
     return work
 
