@@ -13,9 +13,10 @@ only where that folder exists (the real recordings are not shipped; a clean clon
 is counted as "needs ../shared/data" otherwise, with the later blocks of the same page (they may
 use its files).
 
-All blocks of a page run in order in one scratch folder laid out as the pages assume: robots/ and
-examples/ copied from the repository, `../shared` linking to the repository's `../shared` when it
-exists, and `minparam` on PATH running this checkout's code.
+All blocks of a page run in order in one scratch folder laid out as the pages assume: `../shared`
+linking to the repository's `../shared` when it exists, `minparam` on PATH running this checkout's
+code, robots/, examples/, benchmarks/ and tests/data/ copied from the repository (what a page may use that it does not create itself),
+and an empty docs/img/ takes the figures a page draws.
 
 `python -m tests.docs_run PAGE...` checks pages and prints a diff per differing block;
 `python -m tests.docs_run --update PAGE...` re-runs them and writes what the commands print into
@@ -43,6 +44,7 @@ NOT_RUN = re.compile(r"<!--\s*not run:\s*(.*?)\s*-->\s*\n\s*$")
 FENCE = re.compile(r"^```console[ \t]*\n(.*?)^```[ \t]*$", re.S | re.M)
 HEREDOC = re.compile(r"<<-?\s*['\"]?(\w+)['\"]?")
 NEEDS_SHARED = "needs ../shared/data"
+SHIPPED = ("robots", "examples", "benchmarks", "tests/data")  # what a page may use, copied into the scratch folder
 TIMEOUT_S = 600
 # what --update itself writes as the marker: a wall-clock time, a temporary path
 VARIABLE = [re.compile(r"(?<=elapsed )[0-9.]+(?:e[-+]?[0-9]+)?(?= m?s\b)"), re.compile(r"/tmp/[^\s'\"]+")]
@@ -171,8 +173,9 @@ def scratch() -> Path:
     top = Path(tempfile.mkdtemp(prefix="minparam-docs-"))
     work = top / "minparam"
     work.mkdir()
-    for name in ("robots", "examples"):
-        shutil.copytree(ROOT / name, work / name)
+    for name in SHIPPED:
+        shutil.copytree(ROOT / name, work / name, ignore=shutil.ignore_patterns("__pycache__", "*.pyc"))
+    (work / "docs" / "img").mkdir(parents=True)  # pages that draw a figure write it here
     if SHARED.is_dir():
         (top / "shared").symlink_to(SHARED)
     bin_dir = top / "bin"
