@@ -10,8 +10,8 @@ of lines (none included).
 A console block right after `<!-- not run: REASON -->` is counted, not run (a cluster address,
 a file that is not shipped, benchmark output). A block whose commands name `../shared/data` runs
 only where that folder exists (the real recordings are not shipped; a clean clone lacks them) and
-is counted as "needs ../shared/data" otherwise, with the later blocks of the same page (they may
-use its files).
+is counted as "needs ../shared/data" otherwise (a block that uses files made from them names
+../shared/data itself, by making them again).
 
 All blocks of a page run in order in one scratch folder laid out as the pages assume: `../shared`
 linking to the repository's `../shared` when it exists, `minparam` on PATH running this checkout's
@@ -224,13 +224,12 @@ def run_page(page: Path, update: bool = False) -> Report:
     work = scratch()
     env = environment(work)
     edits: list[tuple[int, int, str]] = []
-    missing_shared = False
     try:
         for block in blocks:
             reason = block.skip
-            if reason is None and (missing_shared or (not SHARED.joinpath("data").is_dir()
-                                                      and any("../shared/data" in s.command for s in block.steps))):
-                reason, missing_shared = NEEDS_SHARED, True
+            if reason is None and not SHARED.joinpath("data").is_dir() and any(
+                    "../shared/data" in s.command for s in block.steps):
+                reason = NEEDS_SHARED
             if reason is not None:
                 report.not_run[reason] = report.not_run.get(reason, 0) + 1
                 continue
