@@ -2,7 +2,9 @@
 
 A page's runs are ```console blocks: a line starting with `$ ` is a command (a line ending in `\\`
 continues it; a here-document `<<'EOF'` takes the lines up to its terminator), the lines after it,
-up to the next command, are its output (stdout and stderr merged). One marker, `[…]`, stands for
+up to the next command, are its output (stdout and stderr merged). Each command runs in its own
+`bash -c` (files carry over to the next command, shell variables, `cd` and `$?` do not: a page
+shows an exit code with `; echo "exit $?"` on the command's own line). One marker, `[…]`, stands for
 what differs from run to run (timings, temporary paths, dates) or what the page leaves out:
 inside a line it matches any text within that line; a line that is only `[…]` matches any number
 of lines (none included).
@@ -46,8 +48,10 @@ HEREDOC = re.compile(r"<<-?\s*['\"]?(\w+)['\"]?")
 NEEDS_SHARED = "needs ../shared/data"
 SHIPPED = ("robots", "examples", "benchmarks", "tests/data")  # what a page may use, copied into the scratch folder
 TIMEOUT_S = 600
-# what --update itself writes as the marker: a wall-clock time, a temporary path
-VARIABLE = [re.compile(r"(?<=elapsed )[0-9.]+(?:e[-+]?[0-9]+)?(?= m?s\b)"), re.compile(r"/tmp/[^\s'\"]+")]
+# what --update itself writes as the marker: a wall-clock time (`elapsed 0.3 s`, `generated in 0.3 s`,
+# `seed 0, 0.3 s`), a temporary path
+VARIABLE = [(re.compile(r"(elapsed |generated in |seed \d+, )[0-9.]+(?:e[-+]?[0-9]+)?( m?s)\b"), r"\1[…]\2"),
+            (re.compile(r"/tmp/[^\s'\"]+"), "[…]")]
 
 
 @dataclass
@@ -143,28 +147,25 @@ def merged(expected: list[str], actual: list[str]) -> list[str]:
     out: list[str] = []
     pos = 0
     for k, seg in enumerate(segments):
-        if k == len(segments) - 1:  # the last segment is the end of the output
-            take = actual[max(pos, len(actual) - len(seg)):]
-        elif k == 0:
+        if k == 0:  # the first segment is the start of the output
             take = actual[:len(seg)]
-        else:  # a middle segment: where its first line best fits after pos
+        elif not seg:  # a marker at the end (or two in a row) stands for the rest
+            out.append(MARK)
+            continue
+        else:  # a later one: where it best fits after pos; the last one runs to the end of the output
             best = max(range(pos, max(pos + 1, len(actual) - len(seg) + 1)), default=pos,
                        key=lambda j: difflib.SequenceMatcher(None, seg, actual[j:j + len(seg)]).ratio())
-            take = actual[best:best + len(seg)]
+            take = actual[best:] if k == len(segments) - 1 else actual[best:best + len(seg)]
             out.append(MARK)
-            out.extend(take)
-            pos = best + len(seg)
-            continue
-        if k:
-            out.append(MARK)
-        out.extend(merged(seg, take) if seg else [])
+            pos = best
+        out.extend(merged(seg, take) if seg and len(take) == len(seg) else take)
         pos += len(take)
     return out
 
 
 def _mark_variable(line: str) -> str:
-    for pattern in VARIABLE:
-        line = pattern.sub(MARK, line)
+    for pattern, replacement in VARIABLE:
+        line = pattern.sub(replacement, line)
     return line
 
 
