@@ -49,8 +49,9 @@ NEEDS_SHARED = "needs ../shared/data"
 SHIPPED = ("robots", "examples", "benchmarks", "tests/data")  # what a page may use, copied into the scratch folder
 TIMEOUT_S = 600
 # what --update itself writes as the marker: a wall-clock time (`elapsed 0.3 s`, `generated in 0.3 s`,
-# `seed 0, 0.3 s`, a solver's `optimal, 0.3 s`), a temporary path
+# `seed 0, 0.3 s`, a solver's `optimal, 0.3 s`, excite's `time 12 s (8 s CPU)`), a temporary path
 VARIABLE = [(re.compile(r"(elapsed |generated in |seed \d+, |optimal, )[0-9.]+(?:e[-+]?[0-9]+)?( m?s)\b"), r"\1[…]\2"),
+            (re.compile(r"^(time +)[0-9.]+( s \()[0-9.]+( s CPU\))"), r"\1[…]\2[…]\3"),
             (re.compile(r"/tmp/[^\s'\"]+"), "[…]")]
 
 
