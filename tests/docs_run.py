@@ -52,6 +52,7 @@ TIMEOUT_S = 600
 # `seed 0, 0.3 s`, a solver's `optimal, 0.3 s`, excite's `time 12 s (8 s CPU)`), a temporary path
 VARIABLE = [(re.compile(r"(elapsed |generated in |seed \d+, |optimal, )[0-9.]+(?:e[-+]?[0-9]+)?( m?s)\b"), r"\1[…]\2"),
             (re.compile(r"^(time +)[0-9.]+( s \()[0-9.]+( s CPU\))"), r"\1[…]\2[…]\3"),
+            (re.compile(r'("(?:elapsed|exact)_s": )[0-9.e-]+'), r"\1[…]"),
             (re.compile(r"/tmp/[^\s'\"]+"), "[…]")]
 
 
@@ -110,7 +111,11 @@ def page_blocks(page: Path) -> list[Block]:
         before = NOT_RUN.search(text[: m.start()])
         block = Block(page, k + 1, text.count("\n", 0, m.start()) + 1, m.start(1), m.group(1),
                       before.group(1) if before else None)
-        block.steps = parse_steps(m.group(1))
+        try:
+            block.steps = parse_steps(m.group(1))
+        except ValueError as exc:
+            if block.skip is None:  # a pasted output that is not run need not show its command
+                raise ValueError(f"{page.name} line {block.line}: {exc}") from None
         out.append(block)
     return out
 
