@@ -148,8 +148,9 @@ def merged(expected: list[str], actual: list[str]) -> list[str]:
         else:
             segments[-1].append(line)
     if len(segments) == 1:  # no line marker: line by line, a marked line kept where it still fits
-        return [e if MARK in e and i < len(actual) and re.fullmatch(_line_regex(e), actual[i]) else a
-                for i, (e, a) in enumerate(zip(expected + [""] * len(actual), actual))]
+        padded = expected + [""] * max(0, len(actual) - len(expected))
+        return [e if MARK in e and re.fullmatch(_line_regex(e), a) else a
+                for e, a in zip(padded[:len(actual)], actual, strict=True)]
     out: list[str] = []
     pos = 0
     for k, seg in enumerate(segments):
