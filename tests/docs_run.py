@@ -11,7 +11,8 @@ of lines (none included).
 
 A console block right after `<!-- not run: REASON -->` is counted, not run (a cluster address,
 a file that is not shipped, benchmark output). A block whose commands name `../shared/data` runs
-only where that folder exists (the real recordings are not shipped; a clean clone lacks them) and
+only where that folder exists (the real recordings are not shipped; a clean clone lacks them), as
+does a block that names a shipped file pointing there (examples/tx40.recording.yaml), and
 is counted as "needs ../shared/data" otherwise (a block that uses files made from them names
 ../shared/data itself, by making them again).
 
@@ -170,6 +171,18 @@ def merged(expected: list[str], actual: list[str]) -> list[str]:
     return out
 
 
+def _uses_shared_data(command: str) -> bool:
+    """Whether a command names ../shared/data, or a shipped file that does (a recording description)."""
+    if "../shared/data" in command:
+        return True
+    for word in re.findall(r"[\w./-]+\.ya?ml", command):
+        path = ROOT / word
+        if path.is_file() and path.stat().st_size < 100_000 and re.search(
+                r"path:\s*\S*shared/data", path.read_text(encoding="utf-8")):
+            return True
+    return False
+
+
 def _mark_variable(line: str) -> str:
     for pattern, replacement in VARIABLE:
         line = pattern.sub(replacement, line)
@@ -236,7 +249,7 @@ def run_page(page: Path, update: bool = False) -> Report:
         for block in blocks:
             reason = block.skip
             if reason is None and not SHARED.joinpath("data").is_dir() and any(
-                    "../shared/data" in s.command for s in block.steps):
+                    _uses_shared_data(s.command) for s in block.steps):
                 reason = NEEDS_SHARED
             if reason is not None:
                 report.not_run[reason] = report.not_run.get(reason, 0) + 1
