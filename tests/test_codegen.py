@@ -483,7 +483,7 @@ def test_the_documented_c_example_compiles_and_prints_the_regressor(tmp_path):
     """docs/commands/codegen.md's C example, compiled against the generated PUMA code, prints
     what the generated NumPy code computes at the same state."""
     doc = (ROOT / "docs" / "commands" / "codegen.md").read_text()
-    example = re.search(r"```c\n(#include <stdio.h>.*?)```", doc, re.DOTALL).group(1)
+    example = re.search(r"\$ cat > main.c <<'EOF'\n(#include <stdio.h>.*?\n)EOF\n", doc, re.DOTALL).group(1)
     puma = ROOT / "robots" / "puma560.yaml"
     for lang, out in (("c", tmp_path / "puma.c"), ("python", tmp_path / "puma_np.py")):
         r = cli("codegen", puma, "--lang", lang, "-o", out)
