@@ -109,8 +109,8 @@ class CsvWriter:
     def __enter__(self) -> "CsvWriter":
         return self
 
-    def __exit__(self, kind, value, tb) -> None:
-        if kind is None:
+    def __exit__(self, *exc) -> None:
+        if exc[0] is None:
             self.close()
         else:
             self._shutdown()
