@@ -211,7 +211,12 @@ def scratch() -> Path:
 def environment(work: Path) -> dict[str, str]:
     env = {k: v for k, v in os.environ.items() if not k.startswith(("PYTEST", "COLUMNS", "LINES"))}
     env["PATH"] = f"{work.parent / 'bin'}{os.pathsep}{env.get('PATH', '')}"
-    env["PYTHONPATH"] = str(ROOT / "src") + (os.pathsep + env["PYTHONPATH"] if env.get("PYTHONPATH") else "")
+    # the minparam this process imports (an editable checkout's src/, or the site-packages CI installed into,
+    # with its compiled kernel: src/ of a clean clone has none, and the numpy regressor rounds differently)
+    import minparam_cli
+
+    where = str(Path(minparam_cli.__file__).resolve().parents[1])
+    env["PYTHONPATH"] = where + (os.pathsep + env["PYTHONPATH"] if env.get("PYTHONPATH") else "")
     env.update(NO_COLOR="1", TERM="dumb", LC_ALL="C.UTF-8", PYTHONHASHSEED="0", TZ="UTC")
     return env
 
