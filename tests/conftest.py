@@ -85,17 +85,3 @@ def cli_ok(*args):
     assert r.exit_code == 0, r.output
     return r
 
-
-# --- the fast tier: python -m pytest -m "not slow" ----------------------------------------------------
-# tests/slow_tests.txt lists the slow tests (node ids, or a prefix of one: a file, a test without its
-# parameters), one a line, each with a faster sibling on a smaller case elsewhere in the suite; they get
-# the ``slow`` marker here, in one place, so that the list is the only thing to tune.
-_SLOW = [line.split("#")[0].strip() for line in (Path(__file__).parent / "slow_tests.txt").read_text().splitlines()]
-_SLOW = [s for s in _SLOW if s]
-
-
-def pytest_collection_modifyitems(config, items):
-    for item in items:
-        node = item.nodeid
-        if any(node == s or node.startswith(s + "[") or node.startswith(s + "::") for s in _SLOW):
-            item.add_marker(pytest.mark.slow)
