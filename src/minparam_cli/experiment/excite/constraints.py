@@ -137,28 +137,30 @@ def heights(chain: Chain, q: np.ndarray) -> np.ndarray:
     return points @ up_direction(chain)
 
 
-def heights_jacobian(chain: Chain, q: np.ndarray) -> np.ndarray:
-    """∂h_p/∂q_k at every sample (N, points, n), central differences."""
+def _central_differences(f, q: np.ndarray) -> np.ndarray:
+    """∂f/∂q_k at every sample, (N, m, n), by central differences of step BOX_Q_STEP; f: (N, n) -> (N, m)."""
     N, n = q.shape
-    out = np.empty((N, chain.n + 1, n))
+    out = None
     for k in range(n):
         qp, qm = q.copy(), q.copy()
         qp[:, k] += BOX_Q_STEP
         qm[:, k] -= BOX_Q_STEP
-        out[:, :, k] = (heights(chain, qp) - heights(chain, qm)) / (2 * BOX_Q_STEP)
+        d = (f(qp) - f(qm)) / (2 * BOX_Q_STEP)
+        if out is None:
+            out = np.empty((N, d.shape[1], n))
+        out[:, :, k] = d
+    assert out is not None  # n >= 1: a chain has a joint
     return out
+
+
+def heights_jacobian(chain: Chain, q: np.ndarray) -> np.ndarray:
+    """∂h_p/∂q_k at every sample (N, points, n), central differences."""
+    return _central_differences(lambda x: heights(chain, x), q)
 
 
 def box_point_jacobian(chain: Chain, q: np.ndarray, point: np.ndarray) -> np.ndarray:
     """∂p_c/∂q_k at every sample (N, 3, n), central differences."""
-    N, n = q.shape
-    out = np.empty((N, 3, n))
-    for k in range(n):
-        qp, qm = q.copy(), q.copy()
-        qp[:, k] += BOX_Q_STEP
-        qm[:, k] -= BOX_Q_STEP
-        out[:, :, k] = (box_point(chain, qp, point) - box_point(chain, qm, point)) / (2 * BOX_Q_STEP)
-    return out
+    return _central_differences(lambda x: box_point(chain, x, point), q)
 
 
 def all_time_bounds(traj: FourierTrajectory) -> tuple[np.ndarray, ...]:
