@@ -341,3 +341,17 @@ def test_a_floor_no_design_can_meet_is_one_line(tmp_path, app):
     r = runner.invoke(app, ["excite", str(ROOT / "robots" / "ur5.urdf"), "-o", str(tmp_path / "a.csv"), "--floor", "2", *FAST])
     assert r.exit_code == 2 and "infeasible limits: --floor 2 m" in r.output and len(r.output.strip().splitlines()) == 1
     assert not (tmp_path / "a.csv").exists()
+
+
+@pytest.mark.parametrize("floor", ["nan", "inf", "abc"])
+def test_a_floor_that_is_not_a_finite_height_is_one_line(tmp_path, app, floor):
+    """The command line refuses it (one line, exit 2) and so does the options record behind minparam.excite."""
+    from minparam_cli.api.options.excite import ExciteOptions
+    from minparam_cli.errors import InputError
+
+    r = runner.invoke(app, ["excite", str(ROOT / "robots" / "ur5.urdf"), "-o", str(tmp_path / "a.csv"), "--floor", floor, *FAST])
+    assert r.exit_code == 2 and "--floor" in r.output and len(r.output.strip().splitlines()) == 1
+    assert not (tmp_path / "a.csv").exists()
+    value = floor if floor == "abc" else float(floor)
+    with pytest.raises(InputError, match="--floor: expected a"):
+        ExciteOptions(floor=value)
