@@ -114,3 +114,88 @@ def test_a_massless_link_with_inertial_data_is_refused(tmp_path):
                                              "inertial: {mass: 1, com: [0, 0, 0], inertia: [1, 0, 0, 1, 0, 1]},"))
     with pytest.raises(DescriptionError, match="massless link has no inertial"):
         derive_file(bad, DeriveOptions())
+
+
+# Schappler's parallel-robot library (github.com/SchapplM/robsynth-parroblib, snapshot 01c8d77) gives each
+# robot's minimal parameter vector under its own assumption: all legs identical (one parameter set per leg
+# link, in the leg's own frames) and the platform's own ten parameters
+# (sym_<dof>/<robot>/hd_G1A0/<robot>G1A0_minimal_parameter_para.m).  Under that assumption the torque
+# route's columns of the legs' links add up (rotated into the leg's frame where the legs' frames differ).
+
+def _rotation_map(theta):
+    """10×10 map from a link's parameters in a frame turned by theta about z to the same link's parameters
+    in the base-aligned frame (inertia R I Rᵀ, first moment R ms, mass)."""
+    c, s = np.cos(theta), np.sin(theta)
+    R = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+    out = np.zeros((10, 10))
+    for k in range(10):
+        e = np.eye(10)[k]
+        inertia = R @ np.array([[e[0], e[1], e[2]], [e[1], e[3], e[4]], [e[2], e[4], e[5]]]) @ R.T
+        out[:, k] = [inertia[0, 0], inertia[0, 1], inertia[0, 2], inertia[1, 1], inertia[1, 2], inertia[2, 2], *(R @ e[6:9]), e[9]]
+    return out
+
+
+def _shared_legs(path, groups, platform, turns=None, gravity=None, samples=150):
+    """Base set of the actuated torques when the links of each group (one per leg) share one parameter
+    set: (count, K rows by kept column) over [group 1, group 2, ..., platform] columns."""
+    from minparam_cli.base.qr import base_from_regressor
+    from minparam_cli.loops.derive import actuated_regressor
+    from minparam_cli.loops.model import closed_model
+    from minparam_cli.loops.sample import manifold_states
+    from minparam_cli.robot import load_chain
+
+    opts = DeriveOptions(gravity=gravity) if gravity else DeriveOptions()
+    desc, chain = load_chain(path, opts.stage(), loops=True)
+    model = closed_model(desc, chain)
+    q, qd, qdd, G = manifold_states(model, samples, 0)
+    W = actuated_regressor(model, q, qd, qdd, G).reshape(-1, chain.layout.size)
+    slot = {j: i for i, j in enumerate(chain.layout.links_with_columns)}
+    names = chain.joint_names
+
+    def cols(link, k=0):
+        block = W[:, 10 * slot[names.index(link)]:10 * slot[names.index(link)] + 10]
+        return block @ _rotation_map(turns[k]) if turns is not None else block
+
+    blocks = [sum(cols(link, k) for k, link in enumerate(group)) for group in groups] + [cols(platform)]
+    kept, K, _, margin = base_from_regressor(np.concatenate(blocks, axis=1))
+    assert margin["first_dropped"] < 1e-12 < margin["last_kept"]
+    return len(kept), kept, K
+
+
+def test_3rrr_with_identical_legs_has_one_parameter_fewer_than_the_parroblib_vector():
+    """parroblib sym_2T1R/P3RRR1 (planar 3-RRR, identical legs): MPV of 10 — the leg's 6 (ZZ1 + a2²·M2,
+    MX1 + a2·M2, MY1, ZZ2, MX2, MY2) and the platform's ZZ, MX, MY, M.  Gravity in the plane, as the
+    vector's first moments need.  With identical legs a point mass δ/3 at each platform joint moves with
+    the platform or with each leg's tip: the platform's mass regroups onto the legs and 9 remain."""
+    n, kept, K = _shared_legs(ROOT / "robots" / "planar_3rrr.yaml", [("a1", "a2", "a3"), ("b1", "b2", "b3")], "c1",
+                              gravity=(0.0, -9.81, 0.0))
+    assert n == 9
+    assert 29 not in kept  # the platform's M (column 10·2 + 9)
+    # the point mass δ/3 at the three joints: 0.3 m along each distal link (MX) and its square (ZZ)
+    ZZb, MXb = list(kept).index(15), list(kept).index(16)
+    assert K[MXb, 29] == pytest.approx(0.3 / 3) and K[ZZb, 29] == pytest.approx(0.09 / 3)
+
+
+def test_gough_stewart_with_identical_legs_has_one_parameter_fewer_than_the_parroblib_vector():
+    """parroblib sym_3T3R/P6RRPRRR14V3 (6-UPS Gough–Stewart, identical legs): MPV of 24 — 14 of the leg
+    (the universal joint's first cross carries MX1 and adds to two others) and the platform's 10; with a
+    massless cross, as robots/platforms/hexapod_6_6.yaml has, 13 + 10 = 23 entries remain.  minparam: 22,
+    the leg's 13 and the platform's 9 (its mass regroups onto the pistons: δ/6 at each ball joint)."""
+    legs = [tuple(f"L{i}_u2" for i in range(1, 7)), tuple(f"L{i}" for i in range(1, 7))]
+    n, kept, K = _shared_legs(ROOT / "robots" / "platforms" / "hexapod_6_6.yaml", legs, "L1_s3")
+    assert n == 22
+    assert 29 not in kept  # the platform's mass
+    assert len([k for k in kept if k < 20]) == 13 and len([k for k in kept if k >= 20]) == 9
+
+
+def test_delta_with_identical_legs_has_one_parameter_fewer_than_the_parroblib_vector():
+    """parroblib sym_3T0R/P3RRRRR2 (3-RUU Delta equivalent, joint groups 1-1-2-2-1, identical legs): MPV of
+    14 — arm 3, elbow cross 2 (MX2 and MY2 − MZ3; Izz2 adds to the rod's Iyy3), rod 8, the platform's mass;
+    with a massless elbow cross, as robots/delta.yaml has, 13 remain.  minparam: 12, arm 3 and rod 9, the
+    platform's mass regrouped onto the rods' tips (δ/3 each).  robots/delta.yaml's legs are turned copies
+    (0, 120, 240 deg about z) in base-aligned frames: each leg's columns are mapped into leg 1's frames."""
+    turns = np.radians([0.0, 120.0, 240.0])
+    n, kept, K = _shared_legs(DELTA, [("a1", "a2", "a3"), ("r1", "r2", "r3")], "platform", turns=turns, samples=200)
+    assert n == 12
+    assert 29 not in kept
+    assert len([k for k in kept if k < 10]) == 3 and len([k for k in kept if 10 <= k < 20]) == 9
