@@ -1,0 +1,102 @@
+"""identify --export-mjcf on a closed chain (issue 35): the loops are written as site-to-site
+``<connect>`` equalities (one per point pair of a cut), only the actuated joints get a motor, and the
+bodies stand at the assembled reference (each joint's ``ref``: qpos0 is the assembled mechanism).  Checked with MuJoCo itself: its constraints hold at
+minparam's states on the manifold, and its constrained inverse dynamics, projected on the tangent
+space its own constraint Jacobian defines, gives minparam's actuated torques Gᵀ·Y_tree·φ; minparam's
+MJCF reader gives the YAML's base set back."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+mujoco = pytest.importorskip("mujoco")
+
+from minparam_cli.api.options.derive import DeriveOptions  # noqa: E402
+from minparam_cli.loops.derive import actuated_regressor  # noqa: E402
+from minparam_cli.loops.sample import manifold_states  # noqa: E402
+from minparam_cli.model.export_extra import joint_terms  # noqa: E402
+from minparam_cli.model.export_mjcf import mjcf_from_chain  # noqa: E402
+from minparam_cli.robot import load_chain  # noqa: E402
+
+ROOT = Path(__file__).resolve().parents[1]
+ROBOTS = ["parallelogram_arm.yaml", "fourbar_hybroblib.yaml", "delta.yaml", "planar_3rrr.yaml"]
+
+
+def _export(path: Path, tmp_path: Path):
+    from minparam_cli.loops.coupling import with_loops
+
+    desc, tree = load_chain(path, DeriveOptions().stage(), loops=True)
+    chain = with_loops(desc, tree)
+    phi = np.zeros(chain.layout.size)  # the nominal bodies; friction columns (identify's own) zero
+    phi[: len(chain.phi_nominal)] = chain.phi_nominal
+    xml = tmp_path / (path.stem + ".xml")
+    xml.write_text(mjcf_from_chain(chain, phi, joint_terms(chain, phi)))
+    return desc, chain, xml
+
+
+@pytest.mark.parametrize("name", ROBOTS)
+def test_exported_loops_hold_mujocos_constrained_inverse_dynamics(name, tmp_path):
+    desc, chain, xml = _export(ROOT / "robots" / name, tmp_path)
+    model = chain.coupling.model
+    q, qd, qdd, G = manifold_states(model, 8, 5)
+    n_in = chain.layout.n_inertial
+    tau = actuated_regressor(model, q, qd, qdd, G)[:, :, :n_in] @ chain.phi_nominal[:n_in]
+    m = mujoco.MjModel.from_xml_path(str(xml))
+    m.opt.jacobian = int(mujoco.mjtJacobian.mjJAC_DENSE)
+    assert m.nu == len(model.actuated) and m.neq == len(model.cut_of_pair)
+    d = mujoco.MjData(m)
+    dof = [int(m.joint(j).dofadr[0]) for j in chain.joint_names]
+    adr = [int(m.joint(j).qposadr[0]) for j in chain.joint_names]
+    a = [dof[k] for k in model.actuated]
+    p = [i for i in range(m.nv) if i not in a]
+    # qpos0 is the assembled reference (the joints' ref): MuJoCo's residual vanishes there
+    assert np.allclose(m.qpos0[adr], model.reference, atol=1e-12)
+    mujoco.mj_forward(m, d)
+    assert np.abs(d.efc_pos[d.efc_type == int(mujoco.mjtConstraint.mjCNSTR_EQUALITY)]).max() < 1e-9
+    for s in range(len(q)):
+        d.qpos[adr], d.qvel[dof] = q[s], qd[s]
+        d.qacc[:] = 0.0
+        d.qacc[dof] = qdd[s]
+        mujoco.mj_forward(m, d)
+        eq = d.efc_type == int(mujoco.mjtConstraint.mjCNSTR_EQUALITY)
+        Jc = d.efc_J.reshape(d.nefc, m.nv)[eq]
+        assert np.abs(d.efc_pos[eq]).max() < 1e-9 * chain.length_scale  # MuJoCo's loops close at minparam's state
+        Gm = np.zeros((m.nv, len(a)))
+        Gm[a] = np.eye(len(a))
+        Gm[p] = -np.linalg.pinv(Jc[:, p], rcond=1e-9) @ Jc[:, a]  # MuJoCo's tangent map, from its own Jacobian
+        d.qacc[:] = 0.0
+        d.qacc[dof] = qdd[s]
+        m.dof_damping[:] = 0.0  # the inertial part (friction is minparam's own column)
+        m.dof_frictionloss[:] = 0.0
+        mujoco.mj_inverse(m, d)
+        got = Gm.T @ d.qfrc_inverse
+        assert np.abs(got - tau[s]).max() < 1e-7 * np.abs(tau[s]).max(), (got, tau[s])
+
+
+@pytest.mark.parametrize("name", ["parallelogram_arm.yaml", "fourbar_hybroblib.yaml"])
+def test_exported_mjcf_reads_back_as_the_same_closed_chain(name, tmp_path):
+    """minparam's MJCF reader on the exported file: the same actuated joints and base set (robots whose
+    links all carry parameters: a massless link comes back as a token body with columns of its own)."""
+    from minparam_cli.api.derivation import derive_file
+
+    _, _, xml = _export(ROOT / "robots" / name, tmp_path)
+    yaml_base, xml_base = derive_file(ROOT / "robots" / name, DeriveOptions()), derive_file(xml, DeriveOptions())
+    assert xml_base.extra["closed_chain"]["actuated"] == yaml_base.extra["closed_chain"]["actuated"]
+    assert xml_base.kept_names == yaml_base.kept_names
+    assert np.allclose(xml_base.K, yaml_base.K, atol=1e-9)
+
+
+def test_a_mimic_coupling_is_still_refused():
+    from minparam_cli.chain import Coupling
+    from minparam_cli.errors import InputError
+    from minparam_cli.model.export_mjcf import check_mjcf_chain
+
+    _, tree = load_chain(ROOT / "robots" / "planar2r.yaml", DeriveOptions().stage())
+    from dataclasses import replace
+
+    coupled = replace(tree, coupling=Coupling((0,), np.array([[1.0], [1.0]]), np.zeros(2)))
+    with pytest.raises(InputError, match="mimic"):
+        check_mjcf_chain(coupled)
