@@ -7,6 +7,7 @@ MJCF reader gives the YAML's base set back."""
 
 from __future__ import annotations
 
+import json
 from pathlib import Path
 
 import numpy as np
@@ -100,3 +101,47 @@ def test_a_mimic_coupling_is_still_refused():
     coupled = replace(tree, coupling=Coupling((0,), np.array([[1.0], [1.0]]), np.zeros(2)))
     with pytest.raises(InputError, match="mimic"):
         check_mjcf_chain(coupled)
+
+
+def _run(*args):
+    import subprocess
+    import sys
+
+    env = {"PYTHONPATH": str(ROOT / "src"), "PATH": "/usr/bin:/bin"}
+    return subprocess.run([sys.executable, "-m", "minparam_cli", *map(str, args)], capture_output=True, text=True, env=env,
+                          timeout=300)
+
+
+@pytest.fixture(scope="module")
+def arm_run(tmp_path_factory):
+    d = tmp_path_factory.mktemp("arm_export")
+    arm = ROOT / "robots" / "parallelogram_arm.yaml"
+    data = d / "arm.csv"
+    assert _run("simulate", arm, "-o", data, "--seed", 1, "--noise", 0.5, "--duration", 6, "-q").returncode == 0
+    return d, arm, data
+
+
+def test_export_urdf_of_a_closed_chain_is_one_line_exit_2(arm_run):
+    d, arm, data = arm_run
+    r = _run("identify", arm, data, "--physical", "--export-urdf", d / "x.urdf")
+    assert r.returncode == 2 and r.stderr.strip().count("\n") == 0 and "URDF has no loop-closing joints" in r.stderr
+    assert not (d / "x.urdf").exists()
+
+
+def test_export_yaml_and_mjcf_of_a_closed_chain_read_back(arm_run):
+    """--export-yaml keeps the closed_chain document (its 'identified' block read back as a record) and
+    --export-mjcf the loops: both derive to the arm's 18 base parameters."""
+    d, arm, data = arm_run
+    r = _run("identify", arm, data, "--physical", "--export-yaml", d / "a.yaml", "--export-mjcf", d / "a.xml", "-q")
+    assert r.returncode == 0, r.stderr
+    for out in (d / "a.yaml", d / "a.xml"):
+        r = _run("derive", out, "-f", "json")
+        assert r.returncode == 0, r.stderr
+        assert json.loads(r.stdout)["n_base"] == 18
+
+
+def test_export_yaml_of_a_platform_file_is_one_line_exit_2(arm_run, tmp_path):
+    d, _, data = arm_run
+    hexapod = ROOT / "robots" / "platforms" / "hexapod_6_6.yaml"
+    r = _run("identify", hexapod, data, "--physical", "--export-yaml", tmp_path / "h.yaml")
+    assert r.returncode == 2 and r.stderr.strip().count("\n") == 0 and "platform file holds one body" in r.stderr

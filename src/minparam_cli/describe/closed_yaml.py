@@ -36,7 +36,7 @@ from minparam_cli.describe.yaml_dh import (ANGLE_UNITS, JOINT_TYPES, LENGTH_UNIT
 from minparam_cli.errors import DescriptionError
 from minparam_cli.safety import MAX_JOINTS, key_list, mapping_entry, short_repr
 
-TOP_KEYS = {"kind", "name", "description", "units", "gravity", "friction", "rotor_inertia", "joints", "loops"}
+TOP_KEYS = {"kind", "name", "description", "units", "gravity", "friction", "rotor_inertia", "joints", "loops", "identified"}
 JOINT_KEYS = {"name", "parent", "type", "origin", "axis", "actuated", "reference", "limits", "velocity", "acceleration",
               "effort", "inertial", "friction", "rotor_inertia", "massless"}
 CUT_KEYS = {"name", "type", "between", "at"}
@@ -66,6 +66,8 @@ def closed_from_mapping(doc: dict, src: str) -> RobotDescription:
     for key in ("joints", "loops"):
         if key not in doc:
             raise DescriptionError(f"missing required field '{key}'", src)
+    if "identified" in doc and not isinstance(doc["identified"], dict):  # identify --export-yaml's record, not read
+        raise DescriptionError("expected a mapping (the values identify --export-yaml found)", src, "identified")
     units = doc.get("units") or {}
     if not isinstance(units, dict):
         raise DescriptionError("expected a mapping like {length: mm, angle: deg}", src, "units")
