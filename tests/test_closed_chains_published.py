@@ -199,3 +199,18 @@ def test_delta_with_identical_legs_has_one_parameter_fewer_than_the_parroblib_ve
     assert n == 12
     assert 29 not in kept
     assert len([k for k in kept if k < 10]) == 3 and len([k for k in kept if 10 <= k < 20]) == 9
+
+
+def test_delta_with_the_librarys_massive_elbow_cross_is_still_one_below(tmp_path):
+    """The same Delta with a massive elbow cross (the library's own body split, its 14 entries): 13 —
+    the relation at the platform joints does not depend on the crosses."""
+    import re
+
+    text = re.sub(r"(name: e\d[^\n]*)massless: true", r"\1inertial: {mass: 0.05, com: [0.003, 0.002, -0.004], "
+                  r"inertia: [0.00002, 0.000001, 0, 0.00003, 0, 0.00004]}", DELTA.read_text())
+    path = tmp_path / "delta_cross.yaml"
+    path.write_text(text)
+    turns = np.radians([0.0, 120.0, 240.0])
+    n, _, _ = _shared_legs(path, [("a1", "a2", "a3"), ("e1", "e2", "e3"), ("r1", "r2", "r3")], "platform", turns=turns,
+                           samples=250)
+    assert n == 13
