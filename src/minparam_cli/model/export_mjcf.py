@@ -103,8 +103,8 @@ def _loop_sites(model) -> tuple[dict[int, list[str]], list[str]]:
     for i, cut in enumerate(model.cut_of_pair):
         k = seen[cut] = seen.get(cut, 0) + 1
         name = f"cut_{cut}" if count[cut] == 1 else f"cut_{cut}_{k}"
-        for side, body, point in (("a", model.body_a[i], model.point_a[i]), ("b", model.body_b[i], model.point_b[i])):
-            b = int(body)
+        for side, owner, point in (("a", model.body_a[i], model.point_a[i]), ("b", model.body_b[i], model.point_b[i])):
+            b = int(owner)
             pos = point if b < 0 else chain.post[b][:3, :3] @ point + chain.post[b][:3, 3]  # link frame -> body frame
             sites.setdefault(b, []).append(f'<site name={quoteattr(f"{name}_{side}")} pos="{xyz(pos)}"/>')
         connects.append(f'    <connect name={quoteattr(name)} site1={quoteattr(name + "_a")} site2={quoteattr(name + "_b")}/>')
