@@ -145,3 +145,22 @@ def test_export_yaml_of_a_platform_file_is_one_line_exit_2(arm_run, tmp_path):
     hexapod = ROOT / "robots" / "platforms" / "hexapod_6_6.yaml"
     r = _run("identify", hexapod, data, "--physical", "--export-yaml", tmp_path / "h.yaml")
     assert r.returncode == 2 and r.stderr.strip().count("\n") == 0 and "platform file holds one body" in r.stderr
+
+
+def test_massless_links_of_an_mjcf_tree_are_exported(tmp_path):
+    """A tree whose MJCF bodies hold several joints (massless links between them, no columns): the MJCF
+    export writes them as token bodies MuJoCo compiles, the URDF export as links without <inertial>
+    (both used to index the bodies by joint and failed)."""
+    from minparam_cli.model.export_urdf import urdf_from_chain
+
+    _, chain = load_chain(ROOT / "tests" / "data" / "mjcf" / "gymnasium_pusher.xml", DeriveOptions().stage())
+    assert chain.layout.massless
+    phi = np.zeros(chain.layout.size)
+    phi[: len(chain.phi_nominal)] = chain.phi_nominal
+    terms = joint_terms(chain, phi)
+    xml = tmp_path / "pusher.xml"
+    xml.write_text(mjcf_from_chain(chain, phi, terms))
+    m = mujoco.MjModel.from_xml_path(str(xml))
+    assert m.njnt == chain.n
+    urdf = urdf_from_chain(chain, phi, "", terms)
+    assert urdf.count("<inertial>") == len(chain.layout.links_with_columns)
