@@ -112,6 +112,10 @@ def run_identify(opts: IdentifyOptions, data: Any, progress: Any = None, robot: 
         from minparam_cli.model.export_mjcf import check_mjcf_chain
 
         check_mjcf_chain(chain)
+    if opts.export_urdf is not None or opts.export_yaml is not None:
+        from minparam_cli.model.export_robot import check_loop_exports
+
+        check_loop_exports(chain, path, opts.export_urdf is not None, opts.export_yaml is not None)
     motor_side, scale_note = motor_side_spec(chain, opts.side, opts.current, opts.drive_gains)
     payload = opts.payload_spec()
     data_name, validate_name, test_names, records = _sources(data, opts.validate, opts.test)

@@ -16,7 +16,9 @@ Schema (docs/methods/closed_chains.md has the full page)::
 ``origin``: x, y, z (length unit), roll, pitch, yaw (angle unit) of the joint frame in the parent's
 link frame (URDF's order); ``axis``: the joint axis in that frame.  A cut's ``at``: the point (three
 numbers) or the frame (six numbers, as ``origin``) on each of the two links (``base``: the base frame).
-``reference``: the joint's value near which the mechanism is assembled (default 0).
+``reference``: the joint's value near which the mechanism is assembled (default 0).  ``massless: true``:
+the link has no mass and no parameter columns (the cross of a universal joint, the intermediate links
+of a ball joint written as three revolute joints).
 """
 
 from __future__ import annotations
@@ -34,9 +36,9 @@ from minparam_cli.describe.yaml_dh import (ANGLE_UNITS, JOINT_TYPES, LENGTH_UNIT
 from minparam_cli.errors import DescriptionError
 from minparam_cli.safety import MAX_JOINTS, key_list, mapping_entry, short_repr
 
-TOP_KEYS = {"kind", "name", "description", "units", "gravity", "friction", "rotor_inertia", "joints", "loops"}
+TOP_KEYS = {"kind", "name", "description", "units", "gravity", "friction", "rotor_inertia", "joints", "loops", "identified"}
 JOINT_KEYS = {"name", "parent", "type", "origin", "axis", "actuated", "reference", "limits", "velocity", "acceleration",
-              "effort", "inertial", "friction", "rotor_inertia"}
+              "effort", "inertial", "friction", "rotor_inertia", "massless"}
 CUT_KEYS = {"name", "type", "between", "at"}
 BASE = "base"
 
@@ -64,6 +66,8 @@ def closed_from_mapping(doc: dict, src: str) -> RobotDescription:
     for key in ("joints", "loops"):
         if key not in doc:
             raise DescriptionError(f"missing required field '{key}'", src)
+    if "identified" in doc and not isinstance(doc["identified"], dict):  # identify --export-yaml's record, not read
+        raise DescriptionError("expected a mapping (the values identify --export-yaml found)", src, "identified")
     units = doc.get("units") or {}
     if not isinstance(units, dict):
         raise DescriptionError("expected a mapping like {length: mm, angle: deg}", src, "units")
@@ -114,6 +118,9 @@ def closed_from_mapping(doc: dict, src: str) -> RobotDescription:
             extras = set(_friction(jd["friction"], src, f"{where}.friction"))
         if _bool(jd.get("rotor_inertia", robot_rotor and bool(jd.get("actuated"))), src, f"{where}.rotor_inertia"):
             extras.add("rotor_inertia")
+        massless = _bool(jd.get("massless", False), src, f"{where}.massless")
+        if massless and jd.get("inertial") is not None:
+            raise DescriptionError("a massless link has no inertial data (drop 'inertial' or 'massless')", src, where)
         if jd.get("actuated"):
             actuated.append(i)
         reference.append(_number(jd.get("reference", 0.0), src, f"{where}.reference") * unit)
@@ -124,7 +131,7 @@ def closed_from_mapping(doc: dict, src: str) -> RobotDescription:
             axis=axis, extras=tuple(sorted(extras)), inertial=_inertial(jd.get("inertial"), scale, src, f"{where}.inertial"),
             limits=limits, max_velocity=_positive(jd.get("velocity"), unit, src, f"{where}.velocity"),
             max_acceleration=_positive(jd.get("acceleration"), unit, src, f"{where}.acceleration"),
-            max_effort=_positive(jd.get("effort"), 1.0, src, f"{where}.effort")))
+            max_effort=_positive(jd.get("effort"), 1.0, src, f"{where}.effort"), massless=massless))
     if not actuated:
         raise DescriptionError("no joint is actuated (mark the driven joints 'actuated: true')", src, "joints")
     cuts = _cuts(doc["loops"], index, float(scale), angle, src)

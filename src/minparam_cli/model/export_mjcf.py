@@ -10,6 +10,16 @@ as ``<inertial pos mass fullinertia>`` (about the centre of mass, MuJoCo's order
 Joints: ``armature`` = rotor inertia, ``damping`` = viscous friction, ``frictionloss`` = Coulomb
 friction (``export_extra.joint_terms``); ``range`` only where the description gave limits.
 ``<option gravity>`` is the description's gravity; one ``<motor>`` per joint with the drive gear.
+
+A closed chain (``loops/coupling.py``) is written as its spanning tree plus its loops: every point
+pair of a cut (``loops/model.py``: a ball joint one pair, a hinge two, a weld three) becomes a
+``<connect site1 site2>`` equality between two sites placed at the pair's points, so MuJoCo enforces
+the constraints minparam's model uses (the repeated equations of a hinge or weld are redundant rows,
+which MuJoCo's soft constraints accept); only the actuated joints get a ``<motor>``.  The bodies are
+written at the assembled reference configuration with each joint's ``ref`` its reference value, so
+qpos0 is the assembled mechanism and qpos keeps minparam's joint values.  A massless link (a universal joint's cross,
+no parameter columns) is written with a token body of 1e-9 kg (MuJoCo refuses moving bodies without
+mass).
 In MuJoCo, armature and damping are part of the inverse dynamics (``mj_inverse``: M with armature,
 minus the passive damping force); frictionloss is a constraint force, found by MuJoCo's soft
 constraint solver, which equals Fc·sign(q̇) only when it saturates (docs/simulation.md).
@@ -23,6 +33,11 @@ import numpy as np
 
 from minparam_cli.errors import InputError
 from minparam_cli.model.export_robot import body, comment_text, link_phi, num, standard_in_frame, xyz
+
+
+# a massless link (no parameter columns) is written with this token body: MuJoCo refuses a moving body
+# whose mass or inertia is below mjMINVAL (1e-15); its effect on the torques is ~1e-9 of a kilogram's
+TOKEN_MASS, TOKEN_INERTIA = 1e-9, 1e-12
 
 
 def quaternion(R: np.ndarray) -> np.ndarray:
@@ -54,9 +69,51 @@ def _inertial(phi10: np.ndarray) -> str:
     return f'<inertial pos="{xyz(c)}" mass="{num(m)}" fullinertia="{xyz(full)}"/>'
 
 
+def _motion(chain, j: int, value: float) -> np.ndarray:
+    """The 4x4 motion of joint j by ``value`` in its own frame (a turn about, or a slide along, its axis)."""
+    T = np.eye(4)
+    if value == 0.0:
+        return T
+    a = np.asarray(chain.axes[j], dtype=float)
+    a = a / np.linalg.norm(a)
+    if chain.types[j] == "revolute":
+        K = np.array([[0.0, -a[2], a[1]], [a[2], 0.0, -a[0]], [-a[1], a[0], 0.0]])
+        T[:3, :3] = np.eye(3) + math.sin(value) * K + (1.0 - math.cos(value)) * K @ K
+    else:
+        T[:3, 3] = value * a
+    return T
+
+
+def _closed(chain):
+    """The ``ClosedModel`` of a closed chain (its coupling), else None."""
+    from minparam_cli.loops.coupling import ClosedCoupling
+
+    return chain.coupling.model if isinstance(chain.coupling, ClosedCoupling) else None
+
+
+def _loop_sites(model) -> tuple[dict[int, list[str]], list[str]]:
+    """Per body (-1: the world) the ``<site>`` elements of the cuts' points, and the ``<connect>`` lines."""
+    from xml.sax.saxutils import quoteattr
+
+    chain = model.chain
+    sites: dict[int, list[str]] = {}
+    connects = []
+    count = {c: model.cut_of_pair.count(c) for c in model.cut_of_pair}
+    seen: dict[str, int] = {}
+    for i, cut in enumerate(model.cut_of_pair):
+        k = seen[cut] = seen.get(cut, 0) + 1
+        name = f"cut_{cut}" if count[cut] == 1 else f"cut_{cut}_{k}"
+        for side, owner, point in (("a", model.body_a[i], model.point_a[i]), ("b", model.body_b[i], model.point_b[i])):
+            b = int(owner)
+            pos = point if b < 0 else chain.post[b][:3, :3] @ point + chain.post[b][:3, 3]  # link frame -> body frame
+            sites.setdefault(b, []).append(f'<site name={quoteattr(f"{name}_{side}")} pos="{xyz(pos)}"/>')
+        connects.append(f'    <connect name={quoteattr(name)} site1={quoteattr(name + "_a")} site2={quoteattr(name + "_b")}/>')
+    return sites, connects
+
+
 def check_mjcf_chain(chain) -> None:
     """Chains the MJCF writer cannot write, refused in one line."""
-    if chain.coupling is not None:
+    if chain.coupling is not None and _closed(chain) is None:
         raise InputError("--export-mjcf: the robot has coupled mimic joints, which the MJCF export does not write "
                          "(MuJoCo would need equality constraints); use --mimic fixed")
     if chain.floating_base:
@@ -69,28 +126,39 @@ def mjcf_from_chain(chain, phi: np.ndarray, terms, note: str = "") -> str:
     from xml.sax.saxutils import quoteattr
 
     check_mjcf_chain(chain)
+    closed = _closed(chain)
+    loop_sites, connects = _loop_sites(closed) if closed is not None else ({}, [])
+    ref = np.zeros(chain.n) if closed is None else np.asarray(closed.reference, dtype=float)
     phis = link_phi(chain, phi)
+    slot = {j: i for i, j in enumerate(chain.layout.links_with_columns)}
     lines = [f"<mujoco model={quoteattr(chain.name)}>"]
     if note:
         lines.append(f"  <!-- {comment_text(note)} -->")
     lines.append('  <compiler angle="radian" autolimits="true" inertiafromgeom="false" balanceinertia="false"/>')
     lines.append(f'  <option gravity="{xyz(chain.gravity)}"/>')
     lines.append("  <worldbody>")
+    lines.extend(f"    {site}" for site in loop_sites.get(-1, []))
 
     def emit(j: int, depth: int) -> None:
         pad = "  " * depth
         p = chain.parents[j]
-        T = (np.eye(4) if p < 0 else chain.post[p]) @ chain.pre[j]
+        T = (np.eye(4) if p < 0 else chain.post[p]) @ chain.pre[j] @ _motion(chain, j, ref[j])
         lines.append(f"{pad}<body name={quoteattr(chain.link_names[j])} {_pose(T)}>")
         kind = "hinge" if chain.types[j] == "revolute" else "slide"
         attrs = [f"name={quoteattr(chain.joint_names[j])}", f'type="{kind}"', 'pos="0 0 0"', f'axis="{xyz(chain.axes[j])}"',
                  f'armature="{num(terms.armature[j])}"', f'damping="{num(terms.damping[j])}"',
                  f'frictionloss="{num(terms.friction[j])}"']
+        if ref[j] != 0.0:
+            attrs.append(f'ref="{num(ref[j])}"')
         limits = chain.limits[j] if j < len(chain.limits) else None
         if limits is not None:
             attrs.append(f'range="{num(limits[0])} {num(limits[1])}"')
         lines.append(f"{pad}  <joint {' '.join(attrs)}/>")
-        lines.append(f"{pad}  {_inertial(standard_in_frame(phis[j], chain.post[j]))}")
+        lines.extend(f"{pad}  {site}" for site in loop_sites.get(j, []))
+        if j in slot:
+            lines.append(f"{pad}  {_inertial(standard_in_frame(phis[slot[j]], chain.post[j]))}")
+        else:  # a massless link (a universal joint's cross): MuJoCo refuses moving bodies without mass
+            lines.append(f'{pad}  <inertial pos="0 0 0" mass="{num(TOKEN_MASS)}" diaginertia="{xyz([TOKEN_INERTIA] * 3)}"/>')
         if not np.allclose(chain.post[j], np.eye(4), rtol=0, atol=0):
             lines.append(f"{pad}  <site name={quoteattr(chain.link_names[j] + '_dh')} {_pose(chain.post[j])}/>")
         for child in chain.children(j):
@@ -101,8 +169,12 @@ def mjcf_from_chain(chain, phi: np.ndarray, terms, note: str = "") -> str:
         if chain.parents[j] < 0:
             emit(j, 2)
     lines.append("  </worldbody>")
+    if closed is not None:
+        lines.append("  <equality>")
+        lines.extend(connects)
+        lines.append("  </equality>")
     lines.append("  <actuator>")
-    for j in range(chain.n):
+    for j in (range(chain.n) if closed is None else closed.actuated):
         effort = chain.effort_limits[j] if j < len(chain.effort_limits) else None
         bound = None if effort is None else effort / abs(float(terms.gear[j]))  # actuator force: torque / gear
         limit = "" if bound is None else f' forcerange="{num(-bound)} {num(bound)}"'

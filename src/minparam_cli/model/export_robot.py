@@ -102,9 +102,28 @@ def inertial_xml(phi10: np.ndarray, indent: str) -> str:
 # --- YAML table: the document, inertials replaced ----------------------------------------------------
 
 
+def check_loop_exports(chain, robot, urdf: bool, yaml_table: bool) -> None:
+    """A closed chain's exports that would lose its loops or its bodies, refused in one line before the fit:
+    URDF has no loop-closing joint, and a platform file keeps one body per kind of leg part."""
+    from minparam_cli.errors import InputError
+    from minparam_cli.loops.coupling import ClosedCoupling
+
+    if not isinstance(chain.coupling, ClosedCoupling):
+        return
+    if urdf:
+        raise InputError("--export-urdf: URDF has no loop-closing joints, so the closed chain's loops would be lost; "
+                         "use --export-mjcf (the loops as connect equalities) or --export-yaml")
+    if yaml_table and str(robot).lower().endswith((".yaml", ".yml")):
+        from minparam_cli.safety import read_yaml
+
+        if (read_yaml(robot) or {}).get("kind") == "platform":
+            raise InputError("--export-yaml: a platform file holds one body per kind of leg part (cylinder, piston), "
+                             "not each leg's identified body; use --export-mjcf")
+
+
 def yaml_with_inertials(doc: dict, chain, phi: np.ndarray, note: str = "", terms=None) -> str:
-    """The YAML document of a DH/MDH robot with every joint's ``inertial`` the identified body, and
-    the ``identified`` block of ``terms`` (``export_extra.JointTerms``) when given."""
+    """The YAML document of a DH/MDH robot (or a closed chain's ``joints``) with every joint's ``inertial``
+    the identified body, and the ``identified`` block of ``terms`` (``export_extra.JointTerms``) when given."""
     import copy
 
     import yaml
@@ -113,8 +132,11 @@ def yaml_with_inertials(doc: dict, chain, phi: np.ndarray, note: str = "", terms
 
     out = copy.deepcopy(doc)
     unit = float(LENGTH_UNITS[(out.get("units") or {}).get("length", "m")])
-    for jd, phi10 in zip(out["joints"], link_phi(chain, phi), strict=True):
-        m, c, Ic = body(phi10)
+    bodies = iter(link_phi(chain, phi))
+    for jd in out["joints"]:
+        if jd.get("massless"):  # a closed chain's massless link (no columns, no inertial)
+            continue
+        m, c, Ic = body(next(bodies))
         jd["inertial"] = {"mass": float(m), "com": [float(x) / unit for x in c],
                           "inertia": [float(Ic[0, 0]), float(Ic[0, 1]), float(Ic[0, 2]), float(Ic[1, 1]), float(Ic[1, 2]), float(Ic[2, 2])]}
     if terms is not None:

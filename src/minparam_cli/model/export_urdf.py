@@ -138,6 +138,7 @@ def urdf_from_chain(chain, phi: np.ndarray, note: str = "", terms=None) -> str:
         base += "_"
     lines.append(f"  <link name={quoteattr(base)}/>")
     phis = link_phi(chain, phi)
+    slot = {j: i for i, j in enumerate(chain.layout.links_with_columns)}  # massless links have no parameters
     for j in range(chain.n):
         p = chain.parents[j]
         parent = base if p < 0 else chain.link_names[p]
@@ -153,9 +154,12 @@ def urdf_from_chain(chain, phi: np.ndarray, note: str = "", terms=None) -> str:
         if attrs is not None:
             lines.append(f"    <dynamics {attrs}/>")
         lines.append("  </joint>")
-        lines.append(f"  <link name={quoteattr(chain.link_names[j])}>")
-        lines.append("    " + inertial_xml(standard_in_frame(phis[j], chain.post[j]), "    "))
-        lines.append("  </link>")
+        if j in slot:
+            lines.append(f"  <link name={quoteattr(chain.link_names[j])}>")
+            lines.append("    " + inertial_xml(standard_in_frame(phis[slot[j]], chain.post[j]), "    "))
+            lines.append("  </link>")
+        else:  # a massless link (an MJCF body's joints but the last): no <inertial>, as URDF allows
+            lines.append(f"  <link name={quoteattr(chain.link_names[j])}/>")
         if not np.allclose(chain.post[j], np.eye(4), rtol=0, atol=0):
             frame = f"{chain.link_names[j]}_dh"
             P = chain.post[j]
