@@ -97,6 +97,8 @@ def json_record(result, robot: str, robot_name: str, seed: int, effects: dict) -
     if lim.floor is not None and result.lowest is not None:
         record["limits"]["floor"] = lim.floor
         record["limits"]["lowest_heights"] = [float(h) for h in result.lowest]  # link origins 1..n, then the tool point
+    if result.collisions is not None:
+        record["limits"]["collisions"] = dict(result.collisions, checked=True)
     return record
 
 
@@ -130,5 +132,11 @@ def summary_text(result, robot_name: str, seed: int) -> str:
         k = int(result.lowest.argmin())
         what = "the tool point" if k == result.lowest.size - 1 else f"link {k + 1}'s origin"
         lines.append(f"floor      lowest point {result.lowest[k]:.3f} m ({what}), floor {result.limits.floor:g} m")
+    c = result.collisions
+    if c is not None:
+        low = "beyond reach" if c["smallest_distance"] is None else f"{1000 * c['smallest_distance']:.1f} mm"
+        lines.append(f"collisions smallest distance {low} ({c['closest_pair']}, t = {c['at_t']:.3f} s) over {c['checked_times']} "
+                     f"times x {c['pairs']} pairs; clearance {1000 * c['clearance']:g} mm on {c['grid_points_per_period']} "
+                     f"grid points; {c['check_s']:.1f} s in distances")
     lines.append(f"time       {result.elapsed_s:.1f} s ({result.cpu_s:.1f} s CPU)")
     return "\n".join(lines) + "\n"
