@@ -155,3 +155,20 @@ def test_a_clearance_that_is_not_a_small_distance(tmp_path, app, folding, value)
 def test_a_clearance_without_the_flag(tmp_path, app, folding):
     out = one_line_exit_2(runner.invoke(app, ["excite", str(folding), "-o", str(tmp_path / "a.csv"), "--clearance", "0.02", *FAST]))
     assert "--clearance needs --collisions" in out
+
+
+def test_a_design_that_still_collides_is_refused_naming_the_pair(tmp_path, app, folding, monkeypatch):
+    """With the optimiser's collision constraint switched off (the starts and the dense check still on)
+    and no repair or step bound, the motion folds through the pillar: the dense check refuses it in one line (exit 2)
+    that names the two bodies, the time and the depth, and writes nothing."""
+    from minparam_cli.experiment.excite import collisions, constraints, rounds
+
+    monkeypatch.setattr(constraints, "REPAIR_STEPS", 1)
+    monkeypatch.setattr(rounds, "STEP_FRACTION", 1e3)  # steps as large as plain SLSQP's
+
+    monkeypatch.setattr(collisions.Collisions, "constraint",
+                        lambda self, chain, Bq, n, m: {"type": "ineq", "fun": lambda x: np.ones(1), "jac": lambda x: np.zeros((1, x.size))})
+    out = one_line_exit_2(runner.invoke(app, ["excite", str(folding), "-o", str(tmp_path / "a.csv"), "--collisions", *FAST]))
+    assert "collision: " in out and " deep at t = " in out
+    assert any(f"{a} and {b}" in out for a, b in (("world", "l2"), ("world", "l3"), ("l1", "l3")))
+    assert not (tmp_path / "a.csv").exists()

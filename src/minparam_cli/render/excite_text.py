@@ -134,8 +134,7 @@ def summary_text(result, robot_name: str, seed: int) -> str:
         lines.append(f"floor      lowest point {result.lowest[k]:.3f} m ({what}), floor {result.limits.floor:g} m")
     c = result.collisions
     if c is not None:
-        low = "beyond reach" if c["smallest_distance"] is None else f"{1000 * c['smallest_distance']:.1f} mm"
-        lines.append(f"collisions smallest distance {low} ({c['closest_pair']}, t = {c['at_t']:.3f} s) over {c['checked_times']} "
+        lines.append(f"collisions smallest distance {1000 * c['smallest_distance']:.1f} mm ({c['closest_pair']}, t = {c['at_t']:.3f} s) over {c['checked_times']} "
                      f"times x {c['pairs']} pairs; clearance {1000 * c['clearance']:g} mm on {c['grid_points_per_period']} "
                      f"grid points; {c['check_s']:.1f} s in distances")
     lines.append(f"time       {result.elapsed_s:.1f} s ({result.cpu_s:.1f} s CPU)")

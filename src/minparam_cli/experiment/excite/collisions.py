@@ -41,6 +41,7 @@ from minparam_cli.experiment.excite import constraints as cons
 GRID_POINTS_PER_HARMONIC = 32
 SOFTMIN_LOG_PAIRS = 2.0  # β = this · ln P / c: the soft minimum is at most c/2 below the least distance
 REACH = 0.1  # m beyond the clearance: a pair farther apart is clear (its value capped there, zero gradient)
+REPORT_REACH = 100.0  # m: the report's smallest distance is exact
 PROBE_POSITIONS = 64
 MESH_FORMATS = (".stl", ".obj", ".msh")
 FLOOR_NAME = "minparam_floor"
@@ -63,12 +64,12 @@ class Collisions:
     left_out: tuple[str, ...] = ()
     seconds: float = 0.0  # time spent in the distance computations
 
-    def distances(self, qj: np.ndarray, gradients: bool = False) -> tuple[np.ndarray, np.ndarray | None]:
-        """Signed distances (N, P), capped at clearance + REACH, at joint states qj (N, chain joints);
+    def distances(self, qj: np.ndarray, gradients: bool = False, reach: float = REACH) -> tuple[np.ndarray, np.ndarray | None]:
+        """Signed distances (N, P), capped at clearance + reach, at joint states qj (N, chain joints);
         with ``gradients`` also ∂d/∂(joint state) (N, P, chain joints)."""
         mj, m, d = self.mj, self.model, self.data
         start = time.perf_counter()
-        cap = self.clearance + REACH
+        cap = self.clearance + reach
         N, P = qj.shape[0], len(self.pairs)
         out = np.full((N, P), cap)
         grad = np.zeros((N, P, qj.shape[1])) if gradients else None
@@ -127,9 +128,10 @@ class Collisions:
 
         return {"type": "ineq", "fun": lambda x: values(x)[0], "jac": lambda x: values(x)[1]}
 
-    def closest(self, chain, q: np.ndarray, t: np.ndarray) -> tuple[float, int, float]:
-        """The smallest distance over the times t (positions q (N, n)), its pair and its time."""
-        dist, _ = self.distances(cons.joint_states(chain, q))
+    def closest(self, chain, q: np.ndarray, t: np.ndarray, reach: float = REACH) -> tuple[float, int, float]:
+        """The smallest distance over the times t (positions q (N, n)), its pair and its time (distances
+        beyond clearance + reach count as that)."""
+        dist, _ = self.distances(cons.joint_states(chain, q), reach=reach)
         s, k = np.unravel_index(int(np.argmin(dist)), dist.shape)
         return float(dist[s, k]), int(k), float(t[s])
 
@@ -146,10 +148,10 @@ class Collisions:
 
     def report(self, chain, q: np.ndarray, t: np.ndarray, grid_points: int) -> dict:
         """The JSON record of the check on the dense grid (q at the times t)."""
-        low, k, when = self.closest(chain, q, t)
+        low, k, when = self.closest(chain, q, t, REPORT_REACH)
         return {"geometry": self.source, "clearance": self.clearance, "pairs": len(self.pairs),
                 "floor_pairs": self.floor_pairs, "left_out": list(self.left_out), "grid_points_per_period": grid_points,
-                "checked_times": int(t.size), "smallest_distance": low if low < self.clearance + REACH else None,
+                "checked_times": int(t.size), "smallest_distance": low,
                 "closest_pair": self.labels[k], "at_t": when, "check_s": round(self.seconds, 3)}
 
 
