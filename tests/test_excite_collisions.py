@@ -172,3 +172,34 @@ def test_a_design_that_still_collides_is_refused_naming_the_pair(tmp_path, app, 
     assert "collision: " in out and " deep at t = " in out
     assert any(f"{a} and {b}" in out for a, b in (("world", "l2"), ("world", "l3"), ("l1", "l3")))
     assert not (tmp_path / "a.csv").exists()
+
+
+def arm_mjcf() -> str:
+    """The folding arm as MJCF: the same collision shapes (contype 1), and a large visual sphere per link
+    (contype = conaffinity = 0) that --collisions must ignore."""
+    inertial = '<inertial pos="0 0 0.15" mass="1" diaginertia="0.01 0.01 0.002"/>'
+    visual = '<geom type="sphere" size="0.2" contype="0" conaffinity="0" group="1"/>'
+    body = ""
+    for k in (3, 2, 1):
+        z = 0.45 if k == 1 else 0.3
+        body = (f'<body name="l{k}" pos="0 0 {z}">{inertial}<joint name="j{k}" type="hinge" axis="0 1 0" range="-3 3" limited="true"/>'
+                f'<geom type="cylinder" size="0.03 0.12" pos="0 0 0.15"/>{visual}{body}</body>')
+    return (f'<mujoco model="folding"><worldbody><geom type="box" size="0.05 0.05 0.2" pos="0 0 0.2"/>{body}'
+            '</worldbody></mujoco>')
+
+
+def test_an_mjcf_gives_the_same_distances_as_the_urdf(tmp_path, folding):
+    """The same arm read from MJCF (visual spheres ignored) and from URDF: the same pairs, the same distances."""
+    from minparam_cli.experiment.excite.collision_model import load_collisions
+    from minparam_cli.experiment.excite.design import chain_limits
+    from minparam_cli.robot import DeriveOptions, load_chain
+
+    xml = tmp_path / "folding.xml"
+    xml.write_text(arm_mjcf())
+    out = []
+    for path in (folding, xml):
+        _, chain = load_chain(path, DeriveOptions())
+        shapes, notes = load_collisions(path, chain, chain_limits(chain, 0.1), CLEARANCE, None, np.random.default_rng(0))
+        assert notes == [] and len(shapes.pairs) == 3
+        out.append(shapes.distances(np.random.default_rng(2).uniform(-2.5, 2.5, (50, 3)), reach=10.0)[0])
+    assert np.allclose(out[0], out[1], atol=1e-9)

@@ -137,6 +137,6 @@ def summary_text(result, robot_name: str, seed: int) -> str:
         lines.append(f"collisions smallest distance {1000 * c['smallest_distance']:.1f} mm ({c['closest_pair']}, t = {c['at_t']:.3f} s) "
                      f"over {c['checked_times']} times x {c['pairs']} pairs; clearance {1000 * c['clearance']:g} mm on "
                      f"{c['grid_points_per_period']} grid points")
-    spent = "" if c is None else f", {c['check_s']:.1f} s in collision distances"
+    spent = "" if c is None else f"; {c['check_s']:.1f} s of the wall time in collision distances"
     lines.append(f"time       {result.elapsed_s:.1f} s ({result.cpu_s:.1f} s CPU{spent})")
     return "\n".join(lines) + "\n"

@@ -7,7 +7,7 @@ per period of the highest harmonic, and (``rest``) the two linear rest
 conditions of ``trajectory``.  The optimiser is scipy.optimize's SLSQP (Kraft
 1988): it takes the many linear limit constraints with their exact
 Jacobians, the gradient of the criterion is semi-analytic (``criterion``),
-and it needs no further dependency.
+and it needs no further dependency (with collision shapes it runs in step-bounded rounds, ``rounds``).
 
 Starts: ``starts`` random series drawn exactly as ``simulate`` draws its
 excitation (``experiment.trajectory.fourier_excitation``: standard normal
