@@ -203,3 +203,11 @@ def test_an_mjcf_gives_the_same_distances_as_the_urdf(tmp_path, folding):
         assert notes == [] and len(shapes.pairs) == 3
         out.append(shapes.distances(np.random.default_rng(2).uniform(-2.5, 2.5, (50, 3)), reach=10.0)[0])
     assert np.allclose(out[0], out[1], atol=1e-9)
+
+
+def test_the_library_call_takes_the_same_flag(folding):
+    import minparam
+
+    result = minparam.excite(folding, collisions=True, clearance=0.02, harmonics=3, rate=20, starts=1, max_iterations=20)
+    check = result.to_dict()["limits"]["collisions"]
+    assert check["checked"] and check["clearance"] == 0.02 and check["smallest_distance"] >= 0.01
