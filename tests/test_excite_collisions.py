@@ -211,3 +211,19 @@ def test_the_library_call_takes_the_same_flag(folding):
     result = minparam.excite(folding, collisions=True, clearance=0.02, harmonics=3, rate=20, starts=1, max_iterations=20)
     check = result.to_dict()["limits"]["collisions"]
     assert check["checked"] and check["clearance"] == 0.02 and check["smallest_distance"] >= 0.01
+
+
+def test_a_pair_that_never_separates_is_left_out_and_named(tmp_path, app):
+    """A sphere on l1 around joint 2 (radius 0.35 m) always holds l3's start (0.3 m from joint 2): that pair
+    cannot be kept apart anywhere; it is left out, with a note, and the others are still checked."""
+    robot = tmp_path / "fat.urdf"
+    robot.write_text(arm_urdf().replace(
+        '<link name="l1">' + INERTIAL,
+        '<link name="l1">' + INERTIAL + '<collision><origin xyz="0 0 0.3"/><geometry><sphere radius="0.35"/></geometry></collision>'))
+    r = runner.invoke(app, ["excite", str(robot), "-o", str(tmp_path / "a.csv"), "--json", str(tmp_path / "a.json"), "--collisions",
+                            *FAST[:-1]])
+    assert r.exit_code == 0, r.output
+    note = [line for line in r.output.splitlines() if "left out" in line]
+    assert len(note) == 1 and "l1 (shape 1 of 2) and l3" in note[0]
+    check = json.loads((tmp_path / "a.json").read_text())["limits"]["collisions"]
+    assert check["left_out"] == ["l1 (shape 1 of 2) and l3"] and check["pairs"] >= 3

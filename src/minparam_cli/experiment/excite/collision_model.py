@@ -65,9 +65,9 @@ def load_collisions(robot: Path, chain, limits: cons.Limits, clearance: float, f
         left = tuple(labels[k] for k in np.flatnonzero(stuck))
         notes.append(f"--collisions: left out {len(left)} pair(s) closer than the clearance ({c.clearance:g} m) in all "
                      f"{PROBE_POSITIONS} random positions within the joint limits: " + "; ".join(left))
-        c = Collisions(mj, model, c.data, qpos, dof, pairs[~stuck], tuple(lab for lab, s in zip(labels, stuck, strict=True) if not s),
-                       c.clearance, source, int(sum(1 for lab, s in zip(labels, stuck, strict=True) if not s and lab.startswith("the floor"))),
-                       left)
+        kept = tuple(label for label, s in zip(labels, stuck, strict=True) if not s)
+        c = Collisions(mj, model, c.data, qpos, dof, pairs[~stuck], kept, c.clearance, source,
+                       sum(label.startswith("the floor") for label in kept), left)
     if not len(c.pairs):
         raise InputError(f"{src}: --collisions: no pair of collision shapes to check (shapes on bodies that move against "
                          "each other, not parent and child)")
@@ -120,6 +120,14 @@ def _pairs(mj, model, src: str):
     excluded = {int(s) for s in model.exclude_signature}
     if not any(weld[body[g]] for g in geoms):
         raise InputError(f"{src}: --collisions: the file has no collision shapes on the moving links")
+    per_body: dict[int, list[int]] = {}
+    for g in geoms:
+        per_body.setdefault(int(body[g]), []).append(g)
+
+    def shape(g):  # the body's name, and which of its shapes when it has several (in file order)
+        mine = per_body[int(body[g])]
+        return name(body[g]) + (f" (shape {mine.index(g) + 1} of {len(mine)})" if len(mine) > 1 else "")
+
     pairs, labels = [], []
     for i, a in enumerate(geoms):
         for b in geoms[i + 1:]:
@@ -132,12 +140,12 @@ def _pairs(mj, model, src: str):
             if (min(ba, bb) << 16) + max(ba, bb) in excluded or (max(ba, bb) << 16) + min(ba, bb) in excluded:
                 continue
             pairs.append((a, b))
-            labels.append(f"{name(ba)} and {name(bb)}")
+            labels.append(f"{shape(a)} and {shape(b)}")
     floor_pairs = 0
     if floor >= 0:
         for g in geoms:
             if weld[body[g]]:
                 pairs.append((floor, g))
-                labels.append(f"the floor and {name(body[g])}")
+                labels.append(f"the floor and {shape(g)}")
                 floor_pairs += 1
     return np.array(pairs, dtype=int).reshape(-1, 2), tuple(labels), floor_pairs, all_geoms
