@@ -7,7 +7,8 @@ SLSQP iterations with the coefficients bounded to x_r ± ρ (x_r: where the roun
 the joint's margin-shrunk range over 1 + 2H for q0_j, the same amplitude for a_jl and b_jl, i.e. times
 ω·l: no joint moves by more than STEP_FRACTION of its range in a round).  A round
 whose end meets every constraint on the grid (``feasible``) and lowers the criterion is kept and the next
-starts there; otherwise ρ is halved and the round repeated from x_r.  The rounds share the iteration budget.
+starts there (with ρ doubled, up to MAX_SCALE·ρ, when the round ended on the bound); otherwise ρ is halved
+and the round repeated from x_r.  The rounds share the iteration budget.
 """
 
 from __future__ import annotations
@@ -19,6 +20,7 @@ import numpy as np
 ROUND_ITERATIONS = 15
 STEP_FRACTION = 0.05
 MIN_STEP_FRACTION = 0.002  # below this the rounds stop
+MAX_SCALE = 4.0  # the bound grows (doubles) after a kept round that reached it, up to this times ρ
 
 
 @dataclass(frozen=True)
@@ -51,8 +53,11 @@ def minimize_in_rounds(fun, x0: np.ndarray, constraints, feasible, radius: np.nd
         end = np.asarray(res.x)
         if feasible(end) and fun(end)[0] < value:
             start, x, value, message = x, end, fun(end)[0], str(res.message)
-            if res.status == 0 and not np.any(np.abs(end - start) >= rho * (1 - 1e-6)):
+            at_bound = bool(np.any(np.abs(end - start) >= rho * (1 - 1e-6)))
+            if res.status == 0 and not at_bound:
                 break  # converged away from the step bound: a local optimum
+            if at_bound:
+                scale = min(2.0 * scale, MAX_SCALE)
         else:
             scale /= 2.0
             message = f"{res.message} (round refused: step bound halved)"
