@@ -8,7 +8,11 @@ pair, the condition number of the base regressor (SI, output samples), wall and 
 spent in MuJoCo's distances.  The distances of the plain design are measured with the same pairs as the
 flag's check.  The load average is printed beside the times.
 
-Run: python benchmarks/bench_excite_collisions.py [--seeds 3] [--harmonics 5] [--starts 4] [--max-iterations 150]
+`--rounds-only` adds a third design per seed: the optimiser's step-bounded rounds (``experiment.excite.rounds``)
+with the collision rows and the dense collision check switched off, to tell what the rounds cost from
+what the distances cost.
+
+Run: python benchmarks/bench_excite_collisions.py [--seeds 3] [--harmonics 5] [--starts 4] [--max-iterations 150] [--rounds-only]
 """
 
 from __future__ import annotations
@@ -22,6 +26,7 @@ import sys
 import time
 from pathlib import Path
 
+import numpy as np
 from common import ROOT, load_average, peak_rss_mb
 from tabulate import tabulate
 
@@ -41,10 +46,11 @@ def main() -> None:
     ap.add_argument("--harmonics", type=int, default=5)
     ap.add_argument("--starts", type=int, default=4)
     ap.add_argument("--max-iterations", type=int, default=150)
+    ap.add_argument("--rounds-only", action="store_true")
     args = ap.parse_args()
     rows = []
     for seed in range(args.seeds):
-        for flag in (False, True):
+        for flag in (False, True, "rounds only") if args.rounds_only else (False, True):
             opts = ExciteOptions(harmonics=args.harmonics, starts=args.starts, max_iterations=args.max_iterations, seed=seed,
                                  floor=0.0, collisions=True)
             prep = prepare_excite(Path(ROBOT), opts)
@@ -55,14 +61,25 @@ def main() -> None:
                 prep = replace(prep, limits=replace(prep.limits, collisions=None))
             w0, c0 = time.perf_counter(), time.process_time()
             spent = shapes.seconds
-            result = run_excite(prep)
+            if flag == "rounds only":
+                from unittest import mock
+
+                from minparam_cli.experiment.excite.collisions import Collisions
+
+                off = {"type": "ineq", "fun": lambda x: np.ones(1), "jac": lambda x: np.zeros((1, x.size))}
+                with mock.patch.object(Collisions, "constraint", lambda *a, _off=off: _off), \
+                        mock.patch.object(Collisions, "violations", lambda *a, **k: []):
+                    result = run_excite(prep)
+            else:
+                result = run_excite(prep)
             wall, cpu, used = time.perf_counter() - w0, time.process_time() - c0, shapes.seconds - spent
             traj = result.design.trajectory
             dense = cons.dense_times(traj, result.t)
             low, k, when = shapes.closest(prep.chain, traj.evaluate(dense)[0], dense, REPORT_REACH)
-            rows.append([seed, "--collisions" if flag else "plain", f"{1000 * low:.1f}", shapes.labels[k], f"{when:.2f}",
+            label = flag if isinstance(flag, str) else "--collisions" if flag else "plain"
+            rows.append([seed, label, f"{1000 * low:.1f}", shapes.labels[k], f"{when:.2f}",
                          f"{result.condition_number_si:.3g}", f"{wall:.1f}", f"{cpu:.1f}",
-                         f"{used:.1f}" if flag else "-"])
+                         f"{used:.1f}" if flag is True else "-"])
     print(f"{ROBOT.relative_to(ROOT)}: {args.harmonics} harmonics, {args.starts} starts x {args.max_iterations} iterations, "
           f"--floor 0, clearance {1000 * shapes.clearance:g} mm; {load_average()}")
     print(tabulate(rows, headers=["seed", "design", "smallest distance mm", "pair", "at t s", "cond (SI)", "wall s", "CPU s",
