@@ -78,6 +78,16 @@ def prepare_excite(robot: Path, opts: ExciteOptions) -> Prepared:
             raise InputError(f"infeasible limits: --floor {opts.floor:g} m: {what} is at most {top[low]:.4g} m high "
                              "in 256 positions within the joint limits")
     notes = []
+    if opts.collisions:
+        from dataclasses import replace
+
+        from minparam_cli.api.options.excite import DEFAULT_CLEARANCE
+        from minparam_cli.experiment.excite.collision_model import load_collisions
+
+        clearance = DEFAULT_CLEARANCE if opts.clearance is None else opts.clearance
+        shapes, said = load_collisions(robot, chain, limits, clearance, opts.floor, np.random.default_rng(opts.seed))
+        limits = replace(limits, collisions=shapes)
+        notes += said
     if limits.defaulted:
         js = ", ".join(str(j + 1) for j in limits.defaulted)
         notes.append(f"{robot} gives no position limits for joint(s) {js}; using ±90° (revolute) or ±0.1 m "
@@ -122,7 +132,7 @@ def after_notes(prep: Prepared) -> list[str]:
 def excite(robot: Robot | str | Path, *, harmonics: int = 5, base_frequency: float = 0.1, rate: float = 200.0,
            periods: int = 1, criterion: str = "cond", scaling: str = "si", rest: bool = False, margin: float = 0.1,
            friction: str | Iterable[str] | None = None, rotor_inertia: bool | None = None, box: Any = None,
-           point: Any = None, floor: float | None = None, starts: int = 4, max_iterations: int = 150, seed: int = 0, mimic: str | None = None,
+           point: Any = None, floor: float | None = None, collisions: bool = False, clearance: float | None = None, starts: int = 4, max_iterations: int = 150, seed: int = 0, mimic: str | None = None,
            progress: ProgressArg = False) -> Excitation:
     """Design an excitation trajectory (``minparam excite``): a finite Fourier series (Swevers et al.
     1997) that minimises the condition number (``criterion="cond"``) or −log det (``"logdet"``) of the
@@ -130,7 +140,9 @@ def excite(robot: Robot | str | Path, *, harmonics: int = 5, base_frequency: flo
     acceleration and effort limits (``margin`` kept free) and, with ``box`` ([[XMIN, XMAX], [YMIN,
     YMAX], [ZMIN, ZMAX]] in m, None for a free side, or the CLI's "XMIN:XMAX,..." text), keeping
     ``point`` (the tool point by default) inside a Cartesian box; with ``floor`` (m) every link frame's
-    origin and the tool point at least that high against gravity.  ``starts`` random starts from one
+    origin and the tool point at least that high against gravity; with ``collisions`` the file's collision
+    shapes (URDF ``<collision>``, MJCF geoms; the ``[mujoco]`` extra) ``clearance`` m apart (default 0.01),
+    and off that floor.  ``starts`` random starts from one
     generator seeded with ``seed``.  A Robot's own friction, rotor inertia and mimic mode apply unless
     given here.  ``to_dict()`` is the ``--json`` record, ``to_csv()`` the CSV of ``-o``.
     """
@@ -140,7 +152,7 @@ def excite(robot: Robot | str | Path, *, harmonics: int = 5, base_frequency: flo
                          scaling=scaling, rest=rest, margin=margin,
                          friction=cast(Any, friction if friction is not None else (own.friction if own else ())),
                          rotor_inertia=bool(rotor_inertia) if rotor_inertia is not None else (own.rotor_inertia if own else False),
-                         box=box, point=point, floor=floor, starts=starts, max_iterations=max_iterations, seed=seed,
+                         box=box, point=point, floor=floor, collisions=collisions, clearance=clearance, starts=starts, max_iterations=max_iterations, seed=seed,
                          mimic=mimic if mimic is not None else (own.mimic if own else "coupled"))
     prep = prepare_excite(robot_path(robot), opts)
     warn(prep.notes)

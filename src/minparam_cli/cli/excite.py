@@ -32,6 +32,7 @@ Examples:
   minparam excite robots/tx40.yaml --criterion logdet --seed 3 -o tx40.csv
   minparam excite arm.urdf --box ":,:,0.10:" -o traj.csv     # keep the tool 10 cm above the table (z >= 0.10 m)
   minparam excite robots/ur5.urdf --floor 0.05 -o traj.csv   # every link origin 5 cm above the mounting plane
+  minparam excite examples/urdf/ur5_cylinders.urdf --collisions --floor 0 -o traj.csv   # links' shapes apart and above z = 0
 
 \b
 Columns: t, q1..qn, dq1..dqn, ddq1..ddqn in s, rad or m, rad/s or m/s,
@@ -71,6 +72,8 @@ def excite(
     box: Optional[str] = typer.Option(None, "--box", help="Cartesian box for the tool point, base frame, m: XMIN:XMAX,YMIN:YMAX,ZMIN:ZMAX (a side may be empty)."),
     point: Optional[str] = typer.Option(None, "--point", help="The point kept in --box, X,Y,Z in the last link's frame, m (default: the file's tool point, else the link origin)."),
     floor: Optional[float] = typer.Option(None, "--floor", help="Keep every link frame's origin and the tool point at least this high, m, against gravity in the base frame (a table or floor; points, not the links' volumes)."),
+    collisions: bool = typer.Option(False, "--collisions", help="Keep the robot file's collision shapes (URDF <collision>, MJCF geoms; needs the [mujoco] extra) apart: non-adjacent links, and the floor with --floor."),
+    clearance: Optional[float] = typer.Option(None, "--clearance", help="With --collisions: the distance kept between shapes on the optimiser's grid, m (default 0.01; the dense check after the fit asks half of it)."),
     starts: int = typer.Option(4, "--starts", help="Random starts of the optimiser (seeded)."),
     max_iterations: int = typer.Option(150, "--max-iterations", help="Iterations of SLSQP per start."),
     seed: int = typer.Option(0, "--seed", help="Seed of the random starts (written to the JSON)."),
@@ -78,19 +81,20 @@ def excite(
     mimic: MimicMode = mimic_option(),
 ):
     _excite(robot, output, json_path, plot, harmonics, base_frequency, rate, periods, criterion, scaling, rest, margin,
-            friction, rotor_inertia, box, point, starts, max_iterations, seed, quiet, mimic, floor)
+            friction, rotor_inertia, box, point, starts, max_iterations, seed, quiet, mimic, floor, collisions, clearance)
 
 
 @guarded
 def _excite(robot, output, json_path, plot, harmonics, base_frequency, rate, periods, criterion, scaling, rest, margin,
-            friction, rotor_inertia, box, point, starts, max_iterations, seed, quiet, mimic=MimicMode.coupled, floor=None):
+            friction, rotor_inertia, box, point, starts, max_iterations, seed, quiet, mimic=MimicMode.coupled, floor=None,
+            collisions=False, clearance=None):
     from minparam_cli.api.excitation import after_notes, prepare_excite, run_excite
     from minparam_cli.api.options.excite import ExciteOptions
 
     with option_errors():
         opts = ExciteOptions(harmonics=harmonics, base_frequency=base_frequency, rate=rate, periods=periods,
                              criterion=criterion, scaling=scaling, rest=rest, margin=margin, friction=friction,
-                             rotor_inertia=rotor_inertia, box=box, point=point, floor=floor, starts=starts,
+                             rotor_inertia=rotor_inertia, box=box, point=point, floor=floor, collisions=collisions, clearance=clearance, starts=starts,
                              max_iterations=max_iterations, seed=seed, mimic=mimic)
     if plot is not None and Path(plot).suffix.lower() != ".png":
         raise InputError(f"--plot {plot}: expected a .png file name")

@@ -97,6 +97,8 @@ def json_record(result, robot: str, robot_name: str, seed: int, effects: dict) -
     if lim.floor is not None and result.lowest is not None:
         record["limits"]["floor"] = lim.floor
         record["limits"]["lowest_heights"] = [float(h) for h in result.lowest]  # link origins 1..n, then the tool point
+    if result.collisions is not None:
+        record["limits"]["collisions"] = dict(result.collisions, checked=True)
     return record
 
 
@@ -130,5 +132,11 @@ def summary_text(result, robot_name: str, seed: int) -> str:
         k = int(result.lowest.argmin())
         what = "the tool point" if k == result.lowest.size - 1 else f"link {k + 1}'s origin"
         lines.append(f"floor      lowest point {result.lowest[k]:.3f} m ({what}), floor {result.limits.floor:g} m")
-    lines.append(f"time       {result.elapsed_s:.1f} s ({result.cpu_s:.1f} s CPU)")
+    c = result.collisions
+    if c is not None:
+        lines.append(f"collisions smallest distance {1000 * c['smallest_distance']:.1f} mm ({c['closest_pair']}, t = {c['at_t']:.3f} s) "
+                     f"over {c['checked_times']} times x {c['pairs']} pairs; clearance {1000 * c['clearance']:g} mm on "
+                     f"{c['grid_points_per_period']} grid points")
+    spent = "" if c is None else f"; {c['check_s']:.1f} s of the wall time in collision distances"
+    lines.append(f"time       {result.elapsed_s:.1f} s ({result.cpu_s:.1f} s CPU{spent})")
     return "\n".join(lines) + "\n"

@@ -10,6 +10,7 @@ from minparam_cli.errors import InputError
 from minparam_cli.describe.records import MIMIC_MODES
 
 CRITERIA = ("cond", "logdet")
+DEFAULT_CLEARANCE = 0.01  # m, --clearance
 SCALINGS = ("si", "columns")
 
 
@@ -20,7 +21,9 @@ class ExciteOptions:
     ``box``: the Cartesian box of the tool point, base frame, m: the command line's
     "XMIN:XMAX,YMIN:YMAX,ZMIN:ZMAX" (a side may be empty) or [[XMIN, XMAX], ...] with None for a free
     side; held as ((min, max),) * 3 with NaN for free sides.  ``point``: X,Y,Z in the last link's frame.
-    ``floor``: m; every link frame's origin and the tool point stay at least this high against gravity."""
+    ``floor``: m; every link frame's origin and the tool point stay at least this high against gravity.
+    ``collisions``: keep the robot file's collision shapes (URDF/MJCF, through MuJoCo) ``clearance`` m apart
+    (default DEFAULT_CLEARANCE), and off the floor when ``floor`` is given."""
 
     harmonics: int = 5
     base_frequency: float = 0.1
@@ -35,6 +38,8 @@ class ExciteOptions:
     box: Any = None
     point: tuple[float, float, float] | None = None
     floor: float | None = None
+    collisions: bool = False
+    clearance: float | None = None
     starts: int = 4
     max_iterations: int = 150
     seed: int = 0
@@ -65,6 +70,9 @@ class ExciteOptions:
             if not math.isfinite(f):
                 raise InputError(f"--floor: expected a finite height in m, got {self.floor!r}")
             put(self, "floor", f)
+        put(self, "collisions", bool(self.collisions))
+        if self.clearance is not None:
+            put(self, "clearance", _clearance(self.clearance, self.collisions))
         put(self, "criterion", choice_option(self.criterion, CRITERIA, "--criterion"))
         put(self, "scaling", choice_option(self.scaling, SCALINGS, "--scaling"))
         put(self, "mimic", choice_option(self.mimic, MIMIC_MODES, "--mimic"))
@@ -82,3 +90,18 @@ class ExciteOptions:
                              rest=bool(self.rest))
         validate(opts)
         return opts
+
+
+def _clearance(value, collisions: bool) -> float:
+    """--clearance: a distance in m, in (0, 0.5], only with --collisions."""
+    import math
+
+    if not collisions:
+        raise InputError("--clearance needs --collisions (it is the distance kept between collision shapes)")
+    try:
+        c = float(value)
+    except (TypeError, ValueError):
+        raise InputError(f"--clearance: expected a distance in m, got {value!r}") from None
+    if not (math.isfinite(c) and 0 < c <= 0.5):
+        raise InputError(f"--clearance: expected a distance in (0, 0.5] m, got {value!r}")
+    return c

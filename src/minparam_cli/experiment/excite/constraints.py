@@ -11,7 +11,8 @@ Every limit is a set of inequalities at the samples of one period (the
   description gives every link's inertial values and an effort limit);
 * a Cartesian box for a point on the last link: lo_c ≤ p_c(q) ≤ hi_c;
 * a floor (``--floor``): every link frame's origin and the tool point at least that high against
-  gravity, h_p(q) ≥ floor (points, not the links' volumes: no collision geometry is used).
+  gravity, h_p(q) ≥ floor (points, not the links' volumes);
+* the collision shapes (``--collisions``): signed distances d_k(q) ≥ clearance (``collisions``).
 
 m is the margin (a fraction).  Between grid points a motion can exceed what
 the grid saw, so the result is checked again afterwards:
@@ -24,7 +25,7 @@ the grid saw, so the result is checked again afterwards:
   that fails is scaled about its mean, x_j(t) → q0_j + s_j·(x_j(t) − q0_j),
   s_j < 1 computed in closed form (all three bounds are proportional to s_j,
   and the shrunk range is convex and contains q0_j, the mean of q_j);
-* torques and the box on a dense grid (the output samples and
+* torques, the box, the floor and the collision shapes on a dense grid (the output samples and
   DENSE_POINTS_PER_HARMONIC points per period of the highest harmonic),
   against the limits themselves; a failure shrinks every joint's series by
   REPAIR_FACTOR, up to REPAIR_STEPS times, and then gives up.
@@ -33,6 +34,7 @@ the grid saw, so the result is checked again afterwards:
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -61,6 +63,7 @@ class Limits:
     box: np.ndarray | None = None  # (3, 2) lower, upper per axis (NaN: free), base frame, m
     point: np.ndarray | None = None  # (3,) on the last link, in its frame, m
     floor: float | None = None  # --floor: every link origin and the tool point at least this high (m, against gravity)
+    collisions: Any = None  # --collisions: a collisions.Collisions (distances between the file's collision shapes)
 
     @property
     def n(self) -> int:
@@ -163,6 +166,20 @@ def box_point_jacobian(chain: Chain, q: np.ndarray, point: np.ndarray) -> np.nda
     return _central_differences(lambda x: box_point(chain, x, point), q)
 
 
+def floor_constraint(chain: Chain, floor: float, Bq: np.ndarray, n: int, m: int, margin: float) -> dict:
+    """--floor as an SLSQP inequality: every link origin and the tool point ``margin`` (m) above the floor."""
+
+    def fun(x):
+        return (heights(chain, Bq @ x.reshape(n, m).T) - floor - margin).ravel(order="F")
+
+    def jac(x):
+        dh = heights_jacobian(chain, Bq @ x.reshape(n, m).T)  # (N, points, n)
+        zero = np.zeros((dh.shape[0], 1, n))
+        return np.vstack([state_jacobian(dh[:, p:p + 1], zero, zero, Bq, Bq, Bq) for p in range(dh.shape[1])])
+
+    return {"type": "ineq", "fun": fun, "jac": jac}
+
+
 def all_time_bounds(traj: FourierTrajectory) -> tuple[np.ndarray, ...]:
     """Per joint, bounds that hold at every instant: q_j − q0_j ∈ [x_lo, x_hi], |q̇_j| ≤ v, |q̈_j| ≤ a."""
     points = BOUND_POINTS_PER_HARMONIC * max(traj.harmonics, 4)
@@ -240,4 +257,6 @@ def nonlinear_violations(chain: Chain, traj: FourierTrajectory, limits: Limits, 
         for k in np.flatnonzero(h < limits.floor):
             what = "the tool point" if k == chain.n else f"link {k + 1}'s origin"
             out.append(f"{what} {h[k]:.4g} m < floor {limits.floor:.4g} m")
+    if limits.collisions is not None:
+        out += limits.collisions.violations(chain, q, t, strict=shrunk)
     return out

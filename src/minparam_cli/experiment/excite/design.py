@@ -7,7 +7,7 @@ per period of the highest harmonic, and (``rest``) the two linear rest
 conditions of ``trajectory``.  The optimiser is scipy.optimize's SLSQP (Kraft
 1988): it takes the many linear limit constraints with their exact
 Jacobians, the gradient of the criterion is semi-analytic (``criterion``),
-and it needs no further dependency.
+and it needs no further dependency (with collision shapes it runs in step-bounded rounds, ``rounds``).
 
 Starts: ``starts`` random series drawn exactly as ``simulate`` draws its
 excitation (``experiment.trajectory.fourier_excitation``: standard normal
@@ -30,7 +30,7 @@ from minparam_cli.base.result import BaseSet
 from minparam_cli.chain import Chain
 from minparam_cli.errors import ComputationError, InputError
 from minparam_cli.experiment.excite import constraints as cons
-from minparam_cli.experiment.excite import starts
+from minparam_cli.experiment.excite import rounds, starts
 from minparam_cli.experiment.excite.criterion import CRITERIA, condition_number, criterion_value, sensitivities
 from minparam_cli.experiment.trajectory import FourierTrajectory, basis, rest_rows
 
@@ -88,6 +88,7 @@ class ExciteResult:
     cpu_s: float = 0.0  # CPU time of this process (the one-core figure on a busy machine)
     extra: dict = field(default_factory=dict)
     lowest: np.ndarray | None = None  # --floor: per link origin (then the tool point), its lowest height, m
+    collisions: dict | None = None  # --collisions: the dense check's record (collisions.Collisions.report)
 
 
 def validate(options: ExciteOptions) -> None:
@@ -175,7 +176,8 @@ def design(chain: Chain, base: BaseSet, options: ExciteOptions, limits: cons.Lim
     use_tau = phi is not None and bool(np.isfinite(limits.effort).any())
     tau_joints = np.flatnonzero(np.isfinite(limits.effort)) if use_tau else np.zeros(0, int)
     kept = list(base.kept)
-    centre = starts.feasible_centre(chain, limits, phi if use_tau else None) if (use_tau or limits.box is not None) else None
+    centre = starts.feasible_centre(chain, limits, phi if use_tau else None) if (use_tau or limits.box is not None
+                                                                                  or limits.collisions is not None) else None
 
     cache: dict = {}
 
@@ -237,8 +239,13 @@ def design(chain: Chain, base: BaseSet, options: ExciteOptions, limits: cons.Lim
         constraints.append({"type": "ineq", "fun": box_fun, "jac": box_jac})
         slack.append(BOX_MARGIN / 2)
     if limits.floor is not None:
-        constraints.append(_floor_constraint(chain, limits.floor, Bq_grid(options, H, period), n, m))
+        constraints.append(cons.floor_constraint(chain, limits.floor, Bq_grid(options, H, period), n, m, BOX_MARGIN))
         slack.append(BOX_MARGIN / 2)
+    if limits.collisions is not None:
+        from minparam_cli.experiment.excite.collisions import collision_grid
+
+        constraints.append(limits.collisions.constraint(chain, collision_grid(H, period, options.base_frequency), n, m))
+        slack.append(0.5)  # (in units of the clearance) half of it
 
     margins = getattr(chain.coupling, "limit_margins", None)
     if margins is not None and getattr(chain.coupling, "limited_passive", None):  # a closed chain's passive joints
@@ -267,8 +274,13 @@ def design(chain: Chain, base: BaseSet, options: ExciteOptions, limits: cons.Lim
             if progress:
                 progress(i * options.max_iterations + count[0], total)
 
-        res = minimize(fun, x0, jac=True, method="SLSQP", constraints=constraints, callback=step,
-                       options={"maxiter": options.max_iterations, "ftol": 1e-7})
+        if limits.collisions is None:
+            res = minimize(fun, x0, jac=True, method="SLSQP", constraints=constraints, callback=step,
+                           options={"maxiter": options.max_iterations, "ftol": 1e-7})
+        else:  # SLSQP with a step bound (``rounds``): the distances are far from linear
+            lo, hi = limits.shrunk_range()
+            res = rounds.minimize_in_rounds(fun, x0, constraints, lambda x: _grid_feasible(x, A, b, constraints, slack),
+                                            rounds.step_bound(hi - lo, H, options.base_frequency), options.max_iterations, step)
         x = np.asarray(res.x)
         feasible = _grid_feasible(x, A, b, constraints, slack)
         f = fun(x)[0] if feasible else np.inf
@@ -297,8 +309,11 @@ def design(chain: Chain, base: BaseSet, options: ExciteOptions, limits: cons.Lim
             break
         failures.append(broken)
     else:
-        raise ComputationError("the designed motion breaks a limit between grid points (" + "; ".join(failures[0])
-                               + "); try a wider --box, a larger --margin or another --seed")
+        collided = any(f.startswith("collision:") for f in failures[0])  # an exit-2 refusal: the shapes leave no room
+        raise (InputError if collided else ComputationError)(
+            "the designed motion breaks a limit between grid points (" + "; ".join(failures[0])
+            + ("); try a smaller --clearance, a larger --margin or another --seed" if collided else
+               "); try a wider --box, a larger --margin or another --seed"))
     q, dq, ddq = traj.evaluate(t)
     W = base_regressor(chain, kept, q, dq, ddq)
     tau = None
@@ -311,6 +326,12 @@ def design(chain: Chain, base: BaseSet, options: ExciteOptions, limits: cons.Lim
         assert limits.point is not None  # the box comes with its point (api.excitation.prepare_excite)
         box_path = cons.box_point(chain, q, limits.point)
     lowest = None if limits.floor is None else cons.heights(chain, q).min(axis=0)
+    collisions = None
+    if limits.collisions is not None:
+        from minparam_cli.experiment.excite.collisions import GRID_POINTS_PER_HARMONIC as PER_HARMONIC
+
+        dense = cons.dense_times(traj, t)
+        collisions = limits.collisions.report(chain, traj.evaluate(dense)[0], dense, PER_HARMONIC * max(H, 4))
     qg, dqg, ddqg = traj.evaluate(tg)
     final = criterion_value(base_regressor(chain, kept, qg, dqg, ddqg), kind, options.scaled)
     return ExciteResult(
@@ -318,7 +339,7 @@ def design(chain: Chain, base: BaseSet, options: ExciteOptions, limits: cons.Lim
         cond_output=condition_number(W), cond_output_si=condition_number(W, scaled=False), t=t, q=q, dq=dq, ddq=ddq, tau=tau, box_path=box_path,
         starts=tuple(records), best_start=best, repair_scale=tuple(float(s) for s in scale),
         base_names=base.base_names, elapsed_s=time.perf_counter() - t0, grid_points=N,
-        cpu_s=time.process_time() - c0, lowest=lowest,
+        cpu_s=time.process_time() - c0, lowest=lowest, collisions=collisions,
     )
 
 
@@ -328,20 +349,6 @@ def Bq_grid(options: ExciteOptions, H: int, period: float) -> np.ndarray:
     return basis(np.arange(points) * (period / points), options.base_frequency, H)[0]
 
 
-def _floor_constraint(chain: Chain, floor: float, Bq: np.ndarray, n: int, m: int) -> dict:
-    """--floor as an SLSQP inequality: every link origin and the tool point BOX_MARGIN above the floor."""
-
-    def fun(x):
-        return (cons.heights(chain, Bq @ x.reshape(n, m).T) - floor - BOX_MARGIN).ravel(order="F")
-
-    def jac(x):
-        dh = cons.heights_jacobian(chain, Bq @ x.reshape(n, m).T)  # (N, points, n)
-        zero = np.zeros((dh.shape[0], 1, n))
-        return np.vstack([cons.state_jacobian(dh[:, p:p + 1], zero, zero, Bq, Bq, Bq) for p in range(dh.shape[1])])
-
-    return {"type": "ineq", "fun": fun, "jac": jac}
-
-
 def _checked(chain, traj: FourierTrajectory, limits: cons.Limits, phi, t):
     """``traj`` repaired and checked densely (``constraints``): the all-instant repair of positions and
     rates, then torques and the box, shrinking the motion about its mean while they fail (which lowers
@@ -349,7 +356,7 @@ def _checked(chain, traj: FourierTrajectory, limits: cons.Limits, phi, t):
     the limits still broken (empty: none)."""
     scale = cons.rigorous_scale(traj, limits)
     traj = cons.scaled(traj, scale)
-    if phi is None and limits.box is None and limits.floor is None:
+    if phi is None and limits.box is None and limits.floor is None and limits.collisions is None:
         return traj, scale, []
     check_t = cons.dense_times(traj, t)
     broken: list[str] = []
