@@ -30,6 +30,7 @@ from minparam_cli.base.result import BaseSet
 from minparam_cli.chain import Chain
 from minparam_cli.errors import ComputationError, InputError
 from minparam_cli.experiment.excite import constraints as cons
+from minparam_cli.experiment.excite import race
 from minparam_cli.experiment.excite import starts
 from minparam_cli.experiment.excite.criterion import CRITERIA, condition_number, criterion_value, sensitivities
 from minparam_cli.experiment.trajectory import FourierTrajectory, basis, rest_rows
@@ -252,32 +253,39 @@ def design(chain: Chain, base: BaseSet, options: ExciteOptions, limits: cons.Lim
         constraints.append({"type": "ineq", "fun": passive_fun, "jac": passive_jac})
         slack.append(0.0)
 
-    records, ends = [], []
-    total = options.starts * options.max_iterations
-    for i, child in enumerate(_children(rng, options.starts)):
+    runs, firsts = [], []
+    total = race.planned_iterations(options.starts, options.max_iterations)
+    done = [0]
+
+    def step():
+        done[0] += 1
+        if progress:
+            progress(done[0], total)
+
+    for child in _children(rng, options.starts):
         start = starts.random_start(limits, options, child)
         if centre is not None:
             start = starts.feasible_start(chain, start, limits, phi if use_tau else None, centre, tg)
         x0 = start.matrix().ravel()
-        f0 = fun(x0)[0]
-        count = [0]
-
-        def step(_xk, i=i, count=count):
-            count[0] += 1
-            if progress:
-                progress(i * options.max_iterations + count[0], total)
-
-        res = minimize(fun, x0, jac=True, method="SLSQP", constraints=constraints, callback=step,
-                       options={"maxiter": options.max_iterations, "ftol": 1e-7})
+        firsts.append((x0, fun(x0)[0]))
+        runs.append(race.Start(lambda callback, x0=x0: minimize(fun, x0, jac=True, method="SLSQP", constraints=constraints,
+                                                                 callback=callback,
+                                                                 options={"maxiter": options.max_iterations, "ftol": 1e-7}),
+                               step))
+    finalists = race.race(runs, options.max_iterations)  # the starts' SLSQP runs (race module)
+    if progress:
+        progress(total, total)
+    records, ends = [], []
+    for i, ((x0, f0), run, final) in enumerate(zip(firsts, runs, finalists, strict=True)):
+        res = run.result
         x = np.asarray(res.x)
         feasible = _grid_feasible(x, A, b, constraints, slack)
         f = fun(x)[0] if feasible else np.inf
         if not feasible:  # SLSQP stopped outside the limits: keep the start's (feasible) value
             x = x0
             f = f0 if _grid_feasible(x0, A, b, constraints, slack) else np.inf
-        records.append(StartRecord(_report_value(f0, kind), _report_value(f, kind), int(res.nit), str(res.message)))
-        if progress:
-            progress((i + 1) * options.max_iterations, total)
+        message = str(res.message) if final else f"stopped after {res.nit} iterations (not among the best half)"
+        records.append(StartRecord(_report_value(f0, kind), _report_value(f, kind), int(res.nit), message))
         if np.isfinite(f):
             ends.append((f, i, x))
     if not ends:
