@@ -195,7 +195,8 @@ def design(chain: Chain, base: BaseSet, options: ExciteOptions, limits: cons.Lim
         sens, grad, _ = evaluate(x)
         return sens.value, grad
 
-    constraints = [{"type": "ineq", "fun": lambda x: b - A @ x, "jac": lambda x: -A}]
+    minus_A = -A  # the linear limits' Jacobian: constant, built once
+    constraints = [{"type": "ineq", "fun": lambda x: b - A @ x, "jac": lambda x: minus_A}]
     slack: list[float | np.ndarray] = [0.0]  # per constraint: how far below 0 its value may go with the limits themselves still met
     if options.rest:
         R = np.kron(np.eye(n), rest_rows(H))
