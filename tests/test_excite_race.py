@@ -92,3 +92,25 @@ def test_error_inside_a_run_reaches_the_caller():
     run = race.Start(failing)
     with pytest.raises(ComputationError, match="regressor failed"):
         run.advance(race.RACE_ITERATIONS)
+
+
+def test_design_finalists_end_where_unraced_starts_end(monkeypatch):
+    """In excite's design (PUMA 560, 3 starts): the two starts that go on end exactly where the same
+    starts end without the race, the third stops after the race's stage, and the record says so."""
+    from minparam_cli.base.qr import derive_qr
+    from minparam_cli.experiment.excite.design import ExciteOptions, chain_limits, design
+    from minparam_cli.robot import DeriveOptions, load_chain
+
+    _, chain = load_chain("robots/puma560.yaml", DeriveOptions())
+    base, limits, opts = derive_qr(chain), chain_limits(chain, 0.1), ExciteOptions(starts=3, max_iterations=30, harmonics=3, rate=20)
+    raced = design(chain, base, opts, limits, np.random.default_rng(0))
+    monkeypatch.setattr(race, "RACE_ITERATIONS", 10**6)  # no race
+    plain = design(chain, base, opts, limits, np.random.default_rng(0))
+    stopped = [i for i, s in enumerate(raced.starts) if s.message.startswith("stopped")]
+    assert len(stopped) == 1 and raced.starts[stopped[0]].iterations == 8
+    for i, (a, b) in enumerate(zip(raced.starts, plain.starts, strict=True)):
+        assert a.start_criterion == b.start_criterion
+        if i not in stopped:
+            assert a.end_criterion == b.end_criterion and a.iterations == b.iterations == 30
+    assert raced.best_start == plain.best_start and raced.best_start not in stopped  # 0-based, as the records
+    assert raced.criterion == plain.criterion

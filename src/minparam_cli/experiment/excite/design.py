@@ -14,6 +14,7 @@ excitation (``experiment.trajectory.fourier_excitation``: standard normal
 coefficients scaled into the margin-shrunk range and rate limits), one child
 generator per start from the one seeded generator; with ``rest`` each start
 is projected onto the rest conditions and scaled back into the limits.  The
+starts race (``race``: after RACE_ITERATIONS iterations only the better half goes on).  The
 best end point that passes the dense check wins, after its repair
 (``constraints``), and the reported figures are computed on the output samples.
 """
@@ -254,14 +255,14 @@ def design(chain: Chain, base: BaseSet, options: ExciteOptions, limits: cons.Lim
         constraints.append({"type": "ineq", "fun": passive_fun, "jac": passive_jac})
         slack.append(0.0)
 
-    runs, firsts = [], []
-    total = race.planned_iterations(options.starts, options.max_iterations)
-    done = [0]
+    solvers, firsts = [], []
 
-    def step():
-        done[0] += 1
-        if progress:
-            progress(done[0], total)
+    def solver(x0: np.ndarray):
+        def solve(callback):
+            return minimize(fun, x0, jac=True, method="SLSQP", constraints=constraints, callback=callback,
+                            options={"maxiter": options.max_iterations, "ftol": 1e-7})
+
+        return solve
 
     for child in _children(rng, options.starts):
         start = starts.random_start(limits, options, child)
@@ -269,15 +270,10 @@ def design(chain: Chain, base: BaseSet, options: ExciteOptions, limits: cons.Lim
             start = starts.feasible_start(chain, start, limits, phi if use_tau else None, centre, tg)
         x0 = start.matrix().ravel()
         firsts.append((x0, fun(x0)[0]))
-        runs.append(race.Start(lambda callback, x0=x0: minimize(fun, x0, jac=True, method="SLSQP", constraints=constraints,
-                                                                 callback=callback,
-                                                                 options={"maxiter": options.max_iterations, "ftol": 1e-7}),
-                               step))
-    finalists = race.race(runs, options.max_iterations)  # the starts' SLSQP runs (race module)
-    if progress:
-        progress(total, total)
+        solvers.append(solver(x0))
+    runs, went_on = race.run_starts(solvers, options.max_iterations, progress)  # the starts' SLSQP runs, raced
     records, ends = [], []
-    for i, ((x0, f0), run, final) in enumerate(zip(firsts, runs, finalists, strict=True)):
+    for i, ((x0, f0), run, finalist) in enumerate(zip(firsts, runs, went_on, strict=True)):
         res = run.result
         x = np.asarray(res.x)
         feasible = _grid_feasible(x, A, b, constraints, slack)
@@ -285,7 +281,7 @@ def design(chain: Chain, base: BaseSet, options: ExciteOptions, limits: cons.Lim
         if not feasible:  # SLSQP stopped outside the limits: keep the start's (feasible) value
             x = x0
             f = f0 if _grid_feasible(x0, A, b, constraints, slack) else np.inf
-        message = str(res.message) if final else f"stopped after {res.nit} iterations (not among the best half)"
+        message = str(res.message) if finalist else f"stopped after {res.nit} iterations (not among the best half)"
         records.append(StartRecord(_report_value(f0, kind), _report_value(f, kind), int(res.nit), message))
         if np.isfinite(f):
             ends.append((f, i, x))

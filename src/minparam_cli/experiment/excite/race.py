@@ -100,6 +100,23 @@ def race(runs: list[Start], max_iterations: int) -> list[bool]:
     return [i in finalists for i in range(len(runs))]
 
 
+def run_starts(solvers: list[Callable[[Callable], Any]], max_iterations: int, progress=None) -> tuple[list[Start], list[bool]]:
+    """One ``Start`` per solver, raced (``race``); ``progress(done, total)`` after every iteration."""
+    total = planned_iterations(len(solvers), max_iterations)
+    done = [0]
+
+    def step() -> None:
+        done[0] += 1
+        if progress:
+            progress(done[0], total)
+
+    runs = [Start(solve, step) for solve in solvers]
+    went_on = race(runs, max_iterations)
+    if progress:
+        progress(total, total)
+    return runs, went_on
+
+
 def planned_iterations(starts: int, max_iterations: int) -> int:
     """The iterations ``race`` runs at most (the progress bar's total)."""
     keep = (starts + 1) // 2
