@@ -114,3 +114,21 @@ def test_design_finalists_end_where_unraced_starts_end(monkeypatch):
             assert a.end_criterion == b.end_criterion and a.iterations == b.iterations == 30
     assert raced.best_start == plain.best_start and raced.best_start not in stopped  # 0-based, as the records
     assert raced.criterion == plain.criterion
+
+
+def test_an_error_ends_every_other_run():
+    """A start whose run fails ends the race; the starts paused behind it end too (no thread left blocked)."""
+    _, runs = starts(2, 60)
+
+    def failing(callback):
+        def fun(x):
+            raise ComputationError("regressor failed")
+
+        return minimize(fun, np.zeros(4), method="SLSQP", callback=callback)
+
+    runs.append(race.Start(failing))
+    with pytest.raises(ComputationError, match="regressor failed"):
+        race.race(runs, 60)
+    for r in runs[:2]:
+        r._thread.join(timeout=10)
+        assert not r._thread.is_alive() and r.iterations == race.RACE_ITERATIONS

@@ -69,6 +69,12 @@ class Start:
         """End the run at its current iterate (the optimiser returns it as its result)."""
         self._go(0, stop=True)
 
+    def abandon(self) -> None:
+        """Let the run end at its next iteration without waiting for it (the caller is leaving: an
+        error or an interrupt), so that no thread stays blocked."""
+        self._target, self._stop = 0, True
+        self._resume.set()
+
     def _go(self, target: float, stop: bool) -> None:
         if self._done:
             return
@@ -86,17 +92,22 @@ class Start:
 def race(runs: list[Start], max_iterations: int) -> list[bool]:
     """Run ``runs`` as the module docstring says; per start, whether it went on to the end."""
     keep = (len(runs) + 1) // 2
-    if keep == len(runs) or max_iterations <= RACE_ITERATIONS:
-        finalists = set(range(len(runs)))
-    else:
-        for r in runs:
-            r.advance(RACE_ITERATIONS)
-        finalists = set(sorted(range(len(runs)), key=lambda i: (runs[i].value, i))[:keep])
-    for i, r in enumerate(runs):
-        if i in finalists:
-            r.advance(float("inf"))  # SLSQP's own iteration limit ends it
+    try:
+        if keep == len(runs) or max_iterations <= RACE_ITERATIONS:
+            finalists = set(range(len(runs)))
         else:
-            r.stop()
+            for r in runs:
+                r.advance(RACE_ITERATIONS)
+            finalists = set(sorted(range(len(runs)), key=lambda i: (runs[i].value, i))[:keep])
+        for i, r in enumerate(runs):
+            if i in finalists:
+                r.advance(float("inf"))  # SLSQP's own iteration limit ends it
+            else:
+                r.stop()
+    except BaseException:
+        for r in runs:
+            r.abandon()
+        raise
     return [i in finalists for i in range(len(runs))]
 
 
