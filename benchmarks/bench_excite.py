@@ -15,7 +15,7 @@
   the Panda <= 15 s, and the wall time within 1.3x of the CPU time once the wait for the core held
   by other jobs (the run-queue time, from /proc) is taken out: no idle waiting of its own].
 
-Run: python benchmarks/bench_excite.py [--random 10] [--quick] [--one-core]
+Run: python benchmarks/bench_excite.py [--random 10] [--quick] [--one-core] [--repeats 3]
 """
 
 from __future__ import annotations
@@ -86,10 +86,11 @@ def main() -> None:
     ap = argparse.ArgumentParser()
     ap.add_argument("--random", type=int, default=10, help="random series per robot (seeds 0..R-1)")
     ap.add_argument("--quick", action="store_true", help="one start of 40 iterations (a smoke run, not the figures)")
-    ap.add_argument("--one-core", action="store_true", help="only the one-core timing of the Panda's design")
+    ap.add_argument("--one-core", action="store_true", help="only the one-core timings (Panda, PUMA 560, UR5)")
+    ap.add_argument("--repeats", type=int, default=3, help="runs per robot in the one-core table (median)")
     args = ap.parse_args()
     if args.one_core:
-        one_core_table()
+        one_core_table(args.repeats)
         return
     rows = []
     cases = [(r, ()) for r in ROBOTS] + list(WITH_FRICTION)
@@ -124,7 +125,7 @@ def main() -> None:
                                   f"load before ({os.cpu_count()} cores)"], tablefmt="github"))
     print(f"peak RSS of this process: {peak_rss_mb():.0f} MB")
     if not args.quick:
-        one_core_table()
+        one_core_table(args.repeats)
 
 
 def one_core_table(repeats: int = 3) -> None:
