@@ -9,12 +9,13 @@
   both the SI (raw) condition number and the column-scaled one, each design
   optimising the one it is compared on;
 * the same with Coulomb and viscous friction columns declared (Panda, TX40);
-* time to design a Panda trajectory on one core: the whole `minparam excite`
-  process pinned to one CPU (taskset), wall and CPU time, peak RSS [<= 60 s; issue 34: <= 15 s, and
-  the wall time within 1.3x of the CPU time once the wait for the core held by other jobs (the
-  run-queue time, from /proc) is taken out: no idle waiting of its own], the load average beside it.
+* time to design a trajectory on one core, for the Panda, the PUMA 560 and the UR5 (defaults, seed 0):
+  the whole `minparam excite` process of this checkout pinned to one CPU (taskset), wall and CPU
+  time, their ratio, peak RSS, the criterion it reached and the load average beside it [issue 34:
+  the Panda <= 15 s, and the wall time within 1.3x of the CPU time once the wait for the core held
+  by other jobs (the run-queue time, from /proc) is taken out: no idle waiting of its own].
 
-Run: python benchmarks/bench_excite.py [--random 10] [--quick] [--one-core]
+Run: python benchmarks/bench_excite.py [--random 10] [--quick] [--one-core] [--repeats 3]
 """
 
 from __future__ import annotations
@@ -24,16 +25,20 @@ import os
 for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
     os.environ.setdefault(_var, "1")  # before numpy: as the CLI does (common.py sets it too, but after numpy here)
 import argparse
+import json
 import shutil
 import statistics
 import sys
+import tempfile
 import time
+from pathlib import Path
 
 import numpy as np
-from common import ROOT, load_average, minparam_cmd, peak_rss_mb, run_scheduled
+from common import ROOT, peak_rss_mb, run_scheduled
 from tabulate import tabulate
 
 sys.path.insert(0, str(ROOT / "src"))
+os.environ["PYTHONPATH"] = os.pathsep.join(filter(None, [str(ROOT / "src"), os.environ.get("PYTHONPATH")]))  # the runs: this checkout
 
 from minparam_cli.base.qr import derive_qr  # noqa: E402
 from minparam_cli.experiment.excite.criterion import condition_number  # noqa: E402
@@ -43,6 +48,7 @@ from minparam_cli.experiment.trajectory import fourier_excitation  # noqa: E402
 from minparam_cli.robot import DeriveOptions, load_chain  # noqa: E402
 
 ROBOTS = ("robots/puma560.yaml", "robots/panda.yaml", "robots/tx40.yaml")
+ONE_CORE_ROBOTS = ("robots/panda.yaml", "robots/puma560.yaml", "robots/ur5.yaml")
 # (robot, friction) rows: the declared effects' columns in the regressor (SI criterion only)
 WITH_FRICTION = (("robots/panda.yaml", ("coulomb", "viscous")), ("robots/tx40.yaml", ("coulomb", "viscous")))
 
@@ -61,22 +67,30 @@ def random_conds(chain, kept, limits, options, seeds):
 
 
 def one_core_run(robot: str) -> dict[str, float]:
-    """`minparam excite ROBOT` pinned to one core: wall, CPU and run-queue time, context switches,
-    peak RSS (common.run_scheduled)."""
-    cmd = [*minparam_cmd(), "excite", robot, "-o", os.devnull, "-q"]
-    if shutil.which("taskset"):
-        cmd = ["taskset", "-c", "0", *cmd]  # taskset execs the command: the same process
-    return run_scheduled(cmd)
+    """`minparam excite ROBOT` of this checkout pinned to one core: wall, CPU and run-queue time,
+    context switches, peak RSS (common.run_scheduled), the load average just before it and the
+    criterion it reached (κ on the grid, from its --json)."""
+    with tempfile.TemporaryDirectory() as tmp:
+        js = Path(tmp) / "excite.json"
+        cmd = [sys.executable, "-m", "minparam_cli", "excite", robot, "-o", os.devnull, "--json", str(js), "-q"]
+        if shutil.which("taskset"):
+            cmd = ["taskset", "-c", "0", *cmd]  # taskset execs the command: the same process
+        load = os.getloadavg()[0]
+        out = run_scheduled(cmd)
+        out["criterion"] = json.loads(js.read_text())["criterion"]["value"]
+    out["load"] = load
+    return out
 
 
 def main() -> None:
     ap = argparse.ArgumentParser()
     ap.add_argument("--random", type=int, default=10, help="random series per robot (seeds 0..R-1)")
     ap.add_argument("--quick", action="store_true", help="one start of 40 iterations (a smoke run, not the figures)")
-    ap.add_argument("--one-core", action="store_true", help="only the one-core timing of the Panda's design")
+    ap.add_argument("--one-core", action="store_true", help="only the one-core timings (Panda, PUMA 560, UR5)")
+    ap.add_argument("--repeats", type=int, default=3, help="runs per robot in the one-core table (median)")
     args = ap.parse_args()
     if args.one_core:
-        one_core_table()
+        one_core_table(args.repeats)
         return
     rows = []
     cases = [(r, ()) for r in ROBOTS] + list(WITH_FRICTION)
@@ -89,6 +103,7 @@ def main() -> None:
             opts = ExciteOptions(scaled=scaled, **({"starts": 1, "max_iterations": 40} if args.quick else {}))
             if rnd is None:
                 rnd = random_conds(chain, base.kept, limits, opts, range(args.random))
+            load = os.getloadavg()[0]
             t0, c0 = time.perf_counter(), time.process_time()
             res = design(chain, base, opts, limits, np.random.default_rng(0))
             wall, cpu = time.perf_counter() - t0, time.process_time() - c0
@@ -100,38 +115,44 @@ def main() -> None:
             name = chain.name + (f" + {','.join(friction)}" if friction else "")
             rows.append([name, "column-scaled" if scaled else "SI", base.n_base,
                          f"{med:.3g} ({rnd[:, k].min():.3g}-{rnd[:, k].max():.3g})", f"{mine:.3g}", f"{med / mine:.2f}x",
-                         f"{(res.cond_output_si if scaled else res.cond_output):.3g}", f"{wall:.1f}", f"{cpu:.1f}"])
+                         f"{(res.cond_output_si if scaled else res.cond_output):.3g}", f"{wall:.1f}", f"{cpu:.1f}",
+                         f"{wall / cpu:.2f}", f"{load:.1f}"])
     print(f"condition number of the base regressor on 2000 output samples (5 harmonics, 0.1 Hz, margin 0.1); "
           f"random: simulate's series, seeds 0..{args.random - 1}: median (range); design: seed 0, "
           f"{'1 start x 40 iterations' if args.quick else 'default starts and iterations'}")
     print(tabulate(rows, headers=["robot", "criterion", "base params", "random", "excite", "random/excite",
-                                  "other cond of the design", "wall s", "CPU s"], tablefmt="github"))
+                                  "other cond of the design", "wall s", "CPU s", "wall / CPU",
+                                  f"load before ({os.cpu_count()} cores)"], tablefmt="github"))
     print(f"peak RSS of this process: {peak_rss_mb():.0f} MB")
     if not args.quick:
-        one_core_table()
+        one_core_table(args.repeats)
 
 
 def one_core_table(repeats: int = 3) -> None:
-    """The Panda's design on one core [issue 34 targets: <= 15 s; wall within 1.3x of the CPU time,
-    no idle waiting]: on a shared machine the pinned core is shared with the other jobs, so the
-    wall time is split into the CPU time, the run-queue wait (the other jobs) and the rest (the
-    program's own waiting: sleep, I/O, locks), with the load average beside it."""
-    load_before = load_average()
-    runs = [one_core_run("robots/panda.yaml") for _ in range(repeats)]
-    load_after = load_average()
+    """The designs on one core [issue 34 targets: the Panda <= 15 s; wall within 1.3x of the CPU
+    time, no idle waiting]: on a shared machine the pinned core is shared with the other jobs, so
+    the wall time is also split into the CPU time, the run-queue wait (the other jobs) and the rest
+    (the program's own waiting: sleep, I/O, locks); the 1-minute load average before each run."""
+    rows = []
+    for robot in ONE_CORE_ROBOTS:
+        runs = [one_core_run(robot) for _ in range(repeats)]
 
-    def med(key: str) -> float:
-        return statistics.median(r[key] for r in runs)
+        def med(key: str, runs=runs) -> float:
+            return statistics.median(r[key] for r in runs)
 
+        criteria = {f"{r['criterion']:.6g}" for r in runs}
+        rows.append([f"minparam excite {robot}", f"{med('wall'):.1f}", f"{med('cpu'):.1f}", f"{med('wall') / med('cpu'):.2f}",
+                     f"{med('runqueue'):.1f}", f"{(med('wall') - med('runqueue')) / med('cpu'):.2f}", f"{med('own_wait'):.2f}",
+                     f"{med('voluntary'):.0f} / {med('involuntary'):.0f}", f"{max(r['peak'] for r in runs):.0f}",
+                     " ".join(f"{r['load']:.1f}" for r in runs), " / ".join(sorted(criteria)),
+                     "15" if "panda" in robot else ""])
+        print(f"  {robot}: {rows[-1][1]} s wall, {rows[-1][2]} s CPU", file=sys.stderr, flush=True)
     print()
-    print(tabulate([["minparam excite robots/panda.yaml (defaults)", f"{med('wall'):.1f}", f"{med('cpu'):.1f}",
-                     f"{med('runqueue'):.1f}", f"{med('wall') - med('runqueue'):.1f}", f"{med('own_wait'):.2f}",
-                     f"{(med('wall') - med('runqueue')) / med('cpu'):.2f}", f"{med('voluntary'):.0f} / {med('involuntary'):.0f}",
-                     f"{max(r['peak'] for r in runs):.0f}", "15"]],
-                   headers=[f"one core (taskset -c 0), median of {repeats}", "wall s", "CPU s", "run-queue wait s",
-                            "wall - wait s", "own wait s", "(wall - wait) / CPU", "ctx switches vol / invol",
-                            "peak RSS MB", "goal s"], tablefmt="github"))
-    print(f"{load_before} before, {load_after.split(' on ')[0].removeprefix('load ')} after")
+    print(tabulate(rows, headers=[f"one core (taskset -c 0), defaults, median of {repeats}", "wall s", "CPU s", "wall / CPU",
+                                  "run-queue wait s", "(wall - wait) / CPU", "own wait s", "ctx switches vol / invol",
+                                  "peak RSS MB", f"load before each run ({os.cpu_count()} cores)", "criterion (κ, grid)",
+                                  "goal s"], tablefmt="github"))
+
 
 if __name__ == "__main__":
     main()

@@ -76,19 +76,27 @@ def run_scheduled(cmd: list[str], poll_s: float = 0.05) -> dict[str, float]:
     held by another process: /proc/PID/task/*/schedstat, read every ``poll_s`` while it runs, so
     the last ``poll_s`` are missed), ``own_wait`` (wall - cpu - runqueue for one thread: sleeping,
     I/O, locks; a negative value is the CPU of threads that ran side by side), ``voluntary`` and
-    ``involuntary`` context switches, and ``peak`` RSS (MB).  On a shared machine the run-queue
+    ``involuntary`` context switches, and ``peak`` RSS (MB: the largest VmHWM read from
+    /proc/PID/status, which counts the program alone; os.wait4's ru_maxrss, used where /proc is
+    missing, also counts this benchmark's memory at the fork).  On a shared machine the run-queue
     wait is the load of the other jobs, not the program's."""
     import glob
 
     t0 = time.perf_counter()
     p = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, cwd=ROOT)
     waits: dict[str, float] = {}
+    hwm = 0.0
     while True:
         for f in glob.glob(f"/proc/{p.pid}/task/*/schedstat"):
             try:
                 waits[f] = int(open(f).read().split()[1]) / 1e9
             except (OSError, IndexError, ValueError):
                 pass  # the thread ended between the listing and the read
+        try:
+            with open(f"/proc/{p.pid}/status") as st:
+                hwm = max([hwm] + [int(line.split()[1]) / 1024 for line in st if line.startswith("VmHWM:")])
+        except (OSError, IndexError, ValueError):
+            pass  # the process ended
         pid, status, usage = os.wait4(p.pid, os.WNOHANG)
         if pid:
             break
@@ -99,7 +107,7 @@ def run_scheduled(cmd: list[str], poll_s: float = 0.05) -> dict[str, float]:
     cpu = usage.ru_utime + usage.ru_stime
     runqueue = sum(waits.values())
     return {"wall": wall, "cpu": cpu, "runqueue": runqueue, "own_wait": wall - cpu - runqueue,
-            "voluntary": usage.ru_nvcsw, "involuntary": usage.ru_nivcsw, "peak": usage.ru_maxrss / 1024}
+            "voluntary": usage.ru_nvcsw, "involuntary": usage.ru_nivcsw, "peak": hwm or usage.ru_maxrss / 1024}
 
 
 def load_average() -> str:

@@ -14,6 +14,7 @@ excitation (``experiment.trajectory.fourier_excitation``: standard normal
 coefficients scaled into the margin-shrunk range and rate limits), one child
 generator per start from the one seeded generator; with ``rest`` each start
 is projected onto the rest conditions and scaled back into the limits.  The
+starts race (``race``: after RACE_ITERATIONS iterations only the better half goes on).  The
 best end point that passes the dense check wins, after its repair
 (``constraints``), and the reported figures are computed on the output samples.
 """
@@ -30,7 +31,7 @@ from minparam_cli.base.result import BaseSet
 from minparam_cli.chain import Chain
 from minparam_cli.errors import ComputationError, InputError
 from minparam_cli.experiment.excite import constraints as cons
-from minparam_cli.experiment.excite import rounds, starts
+from minparam_cli.experiment.excite import race, rounds, starts
 from minparam_cli.experiment.excite.criterion import CRITERIA, condition_number, criterion_value, sensitivities
 from minparam_cli.experiment.trajectory import FourierTrajectory, basis, rest_rows
 
@@ -196,7 +197,8 @@ def design(chain: Chain, base: BaseSet, options: ExciteOptions, limits: cons.Lim
         sens, grad, _ = evaluate(x)
         return sens.value, grad
 
-    constraints = [{"type": "ineq", "fun": lambda x: b - A @ x, "jac": lambda x: -A}]
+    minus_A = -A  # the linear limits' Jacobian: constant, built once
+    constraints = [{"type": "ineq", "fun": lambda x: b - A @ x, "jac": lambda x: minus_A}]
     slack: list[float | np.ndarray] = [0.0]  # per constraint: how far below 0 its value may go with the limits themselves still met
     if options.rest:
         R = np.kron(np.eye(n), rest_rows(H))
@@ -259,37 +261,41 @@ def design(chain: Chain, base: BaseSet, options: ExciteOptions, limits: cons.Lim
         constraints.append({"type": "ineq", "fun": passive_fun, "jac": passive_jac})
         slack.append(0.0)
 
-    records, ends = [], []
-    total = options.starts * options.max_iterations
-    for i, child in enumerate(_children(rng, options.starts)):
+    solvers, firsts = [], []
+
+    def solver(x0: np.ndarray):
+        def solve(callback):
+            if limits.collisions is None:
+                return minimize(fun, x0, jac=True, method="SLSQP", constraints=constraints, callback=callback,
+                                options={"maxiter": options.max_iterations, "ftol": 1e-7})
+            lo, hi = limits.shrunk_range()  # SLSQP with a step bound (rounds.py): the distances are far from linear
+            return rounds.minimize_in_rounds(fun, x0, constraints, lambda x: _grid_feasible(x, A, b, constraints, slack),
+                                             rounds.step_bound(hi - lo, H, options.base_frequency), options.max_iterations,
+                                             callback)
+
+        return solve
+
+    for child in _children(rng, options.starts):
         start = starts.random_start(limits, options, child)
         if centre is not None:
             start = starts.feasible_start(chain, start, limits, phi if use_tau else None, centre, tg)
         x0 = start.matrix().ravel()
-        f0 = fun(x0)[0]
-        count = [0]
-
-        def step(_xk, i=i, count=count):
-            count[0] += 1
-            if progress:
-                progress(i * options.max_iterations + count[0], total)
-
-        if limits.collisions is None:
-            res = minimize(fun, x0, jac=True, method="SLSQP", constraints=constraints, callback=step,
-                           options={"maxiter": options.max_iterations, "ftol": 1e-7})
-        else:  # SLSQP with a step bound (``rounds``): the distances are far from linear
-            lo, hi = limits.shrunk_range()
-            res = rounds.minimize_in_rounds(fun, x0, constraints, lambda x: _grid_feasible(x, A, b, constraints, slack),
-                                            rounds.step_bound(hi - lo, H, options.base_frequency), options.max_iterations, step)
+        firsts.append((x0, fun(x0)[0]))
+        solvers.append(solver(x0))
+    # the starts race (race.py), except with --collisions: the rounds (rounds.py) run several SLSQP calls,
+    # which the race cannot pause and stop as one run
+    runs, went_on = race.run_starts(solvers, options.max_iterations, progress, raced=limits.collisions is None)
+    records, ends = [], []
+    for i, ((x0, f0), run, finalist) in enumerate(zip(firsts, runs, went_on, strict=True)):
+        res = run.result
         x = np.asarray(res.x)
         feasible = _grid_feasible(x, A, b, constraints, slack)
         f = fun(x)[0] if feasible else np.inf
         if not feasible:  # SLSQP stopped outside the limits: keep the start's (feasible) value
             x = x0
             f = f0 if _grid_feasible(x0, A, b, constraints, slack) else np.inf
-        records.append(StartRecord(_report_value(f0, kind), _report_value(f, kind), int(res.nit), str(res.message)))
-        if progress:
-            progress((i + 1) * options.max_iterations, total)
+        message = str(res.message) if finalist else f"stopped after {res.nit} iterations (not among the best half)"
+        records.append(StartRecord(_report_value(f0, kind), _report_value(f, kind), int(res.nit), message))
         if np.isfinite(f):
             ends.append((f, i, x))
     if not ends:

@@ -1,0 +1,134 @@
+"""excite's race of the starts (experiment/excite/race.py): a start paused between stages takes the
+same iterates as an uninterrupted SLSQP run, a stopped one returns the iterate it stopped at, the
+best half goes on, and an error inside a start's run reaches the caller."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from scipy.optimize import minimize, rosen, rosen_der
+
+from minparam_cli.errors import ComputationError
+from minparam_cli.experiment.excite import race
+
+# a constrained Rosenbrock problem in 6 variables: SLSQP needs 24-27 iterations from these starts, so the race's
+# stage is shortened to 8 iterations here
+CONS = [{"type": "ineq", "fun": lambda x: 1.5 - np.sum(x**2), "jac": lambda x: -2 * x}]
+
+
+@pytest.fixture(autouse=True)
+def short_stage(monkeypatch):
+    monkeypatch.setattr(race, "RACE_ITERATIONS", 8)
+
+
+def solve(x0, maxiter, callback=None):
+    return minimize(lambda x: (rosen(x), rosen_der(x)), x0, jac=True, method="SLSQP", constraints=CONS,
+                    callback=callback, options={"maxiter": maxiter, "ftol": 1e-12})
+
+
+def starts(count, maxiter):
+    rng = np.random.default_rng(3)
+    x0s = [rng.uniform(-0.5, 0.5, 6) for _ in range(count)]
+    return x0s, [race.Start(lambda cb, x0=x0: solve(x0, maxiter, cb)) for x0 in x0s]
+
+
+def test_paused_run_takes_the_uninterrupted_iterates():
+    (x0,), (run,) = starts(1, 60)
+    for target in (3, 5, 11):
+        run.advance(target)
+        assert run.iterations == target and run.result is None
+    run.advance(float("inf"))
+    plain = solve(x0, 60)
+    assert run.result.nit == plain.nit
+    assert np.array_equal(run.result.x, plain.x)  # bit for bit: the quasi-Newton state survived the pauses
+
+
+def test_stopped_run_returns_the_iterate_it_stopped_at():
+    (x0,), (run,) = starts(1, 60)
+    run.advance(12)
+    run.stop()
+    assert np.array_equal(run.result.x, solve(x0, 12).x)  # SLSQP's first 12 iterates do not depend on maxiter
+
+
+def test_race_keeps_the_best_half_at_the_race_iteration():
+    x0s, runs = starts(4, 70)
+    finalists = race.race(runs, 70)
+    values = []
+    for x0 in x0s:  # the criterion of each start after RACE_ITERATIONS iterations, uninterrupted
+        seen = []
+
+        def record(intermediate_result):
+            seen.append(intermediate_result.fun)  # noqa: B023  # called within this loop pass
+
+        solve(x0, race.RACE_ITERATIONS, record)
+        values.append(seen[-1])
+    best = set(np.argsort(values)[:2])
+    assert finalists == [i in best for i in range(4)]
+    for x0, run, final in zip(x0s, runs, finalists, strict=True):
+        expected = solve(x0, 70 if final else race.RACE_ITERATIONS)
+        assert np.array_equal(run.result.x, expected.x)
+    assert sum(r.iterations for r in runs) <= race.planned_iterations(4, 70)
+
+
+def test_no_race_with_one_start_or_few_iterations():
+    (x0,), runs = starts(1, 60)
+    assert race.race(runs, 60) == [True] and np.array_equal(runs[0].result.x, solve(x0, 60).x)
+    _, runs = starts(3, race.RACE_ITERATIONS)
+    assert race.race(runs, race.RACE_ITERATIONS) == [True] * 3
+    assert race.planned_iterations(3, race.RACE_ITERATIONS) == 3 * race.RACE_ITERATIONS
+
+
+def test_error_inside_a_run_reaches_the_caller():
+    def failing(callback):
+        def fun(x):
+            if fun.calls > 3:
+                raise ComputationError("regressor failed")
+            fun.calls += 1
+            return rosen(x), rosen_der(x)
+
+        fun.calls = 0
+        return minimize(fun, np.zeros(4), jac=True, method="SLSQP", callback=callback)
+
+    run = race.Start(failing)
+    with pytest.raises(ComputationError, match="regressor failed"):
+        run.advance(race.RACE_ITERATIONS)
+
+
+def test_design_finalists_end_where_unraced_starts_end(monkeypatch):
+    """In excite's design (PUMA 560, 3 starts): the two starts that go on end exactly where the same
+    starts end without the race, the third stops after the race's stage, and the record says so."""
+    from minparam_cli.base.qr import derive_qr
+    from minparam_cli.experiment.excite.design import ExciteOptions, chain_limits, design
+    from minparam_cli.robot import DeriveOptions, load_chain
+
+    _, chain = load_chain("robots/puma560.yaml", DeriveOptions())
+    base, limits, opts = derive_qr(chain), chain_limits(chain, 0.1), ExciteOptions(starts=3, max_iterations=30, harmonics=3, rate=20)
+    raced = design(chain, base, opts, limits, np.random.default_rng(0))
+    monkeypatch.setattr(race, "RACE_ITERATIONS", 10**6)  # no race
+    plain = design(chain, base, opts, limits, np.random.default_rng(0))
+    stopped = [i for i, s in enumerate(raced.starts) if s.message.startswith("stopped")]
+    assert len(stopped) == 1 and raced.starts[stopped[0]].iterations == 8
+    for i, (a, b) in enumerate(zip(raced.starts, plain.starts, strict=True)):
+        assert a.start_criterion == b.start_criterion
+        if i not in stopped:
+            assert a.end_criterion == b.end_criterion and a.iterations == b.iterations == 30
+    assert raced.best_start == plain.best_start and raced.best_start not in stopped  # 0-based, as the records
+    assert raced.criterion == plain.criterion
+
+
+def test_an_error_ends_every_other_run():
+    """A start whose run fails ends the race; the starts paused behind it end too (no thread left blocked)."""
+    _, runs = starts(2, 60)
+
+    def failing(callback):
+        def fun(x):
+            raise ComputationError("regressor failed")
+
+        return minimize(fun, np.zeros(4), method="SLSQP", callback=callback)
+
+    runs.append(race.Start(failing))
+    with pytest.raises(ComputationError, match="regressor failed"):
+        race.race(runs, 60)
+    for r in runs[:2]:
+        r._thread.join(timeout=10)
+        assert not r._thread.is_alive() and r.iterations == race.RACE_ITERATIONS
