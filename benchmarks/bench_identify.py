@@ -29,7 +29,7 @@ that a change in the load of the shared machine hits both alike.  The load avera
 is printed beside the figures.
 
 Run: python benchmarks/bench_identify.py [--sizes 100000,300000,1000000] [--physical] [--readers pyarrow,numpy] [--repeats 3]
-     [--cpus 0,1]
+     [--cpus 0,1] [--data-dir /tmp]   (--data-dir: keep the generated CSV files there and reuse them)
 """
 
 from __future__ import annotations
@@ -110,6 +110,7 @@ def main() -> None:
     ap.add_argument("--readers", default="pyarrow,numpy", help="CSV readers to compare (pyarrow needs the [arrow] extra)")
     ap.add_argument("--repeats", type=int, default=3, help="rounds of the commands, run in turn (median wall time)")
     ap.add_argument("--cpus", default="", help="run every command on these CPUs (taskset -c, e.g. 0,1: a 2-core machine)")
+    ap.add_argument("--data-dir", default="", help="keep the data files in this folder and reuse them (same seed: same file)")
     args = ap.parse_args()
     pin = ["taskset", "-c", args.cpus] if args.cpus else []
     readers = [r.strip() for r in args.readers.split(",") if r.strip()]
@@ -118,8 +119,9 @@ def main() -> None:
     before = calibration()
     with tempfile.TemporaryDirectory() as tmp:
         for n in (int(x) for x in args.sizes.split(",")):
-            data = Path(tmp) / f"panda_{n}.csv"
-            write_data(data, n)
+            data = Path(args.data_dir or tmp) / f"minparam_bench_panda_{n}.csv"
+            if not (args.data_dir and data.exists()):
+                write_data(data, n)
             size_mb = os.path.getsize(data) / 1e6
             rates.append([f"{n:,}", f"{size_mb:.0f} MB"] + [f"{parse_rate(data, r):.0f} MB/s" for r in readers])
             report = Path(tmp) / "report.json"
@@ -150,7 +152,8 @@ def main() -> None:
                              f"{statistics.median(m[1] for m in measured[i]):.1f} s", "-" if i == 0 else f"{ratio:.2f}",
                              f"{solve[i]:.2f} s" if i in solve else "-", f"{max(m[2] for m in measured[i]):.0f} MB",
                              f"{load_before} / {load_after.split(' on ')[0].removeprefix('load ')}"])
-            data.unlink()
+            if not args.data_dir:
+                data.unlink()
     os.environ.pop("MINPARAM_CSV_READER", None)
     after = calibration()
     print("minparam identify, Panda (7 joints), CSV with q, dq, ddq, tau; Coulomb + viscous hidden; diagnosis on;"

@@ -1,5 +1,6 @@
-"""Process-wide settings for minparam's own processes (the CLI and the benchmarks), and the
-number of worker threads a pool may use (``workers``, the one place that asks the machine).
+"""Process-wide settings for minparam's own processes (the CLI and the benchmarks), the
+number of worker threads a pool may use (``workers``, the one place that asks the machine), and
+the chunk and block sizes of identify's streaming pass (constants only: the one place to tune them).
 
 ``single_thread_blas``, ``tune_allocator`` and ``freeze_before_exit`` change the
 whole process: only the CLI's entry point (``cli/app.py``: ``main`` and
@@ -37,6 +38,15 @@ only by reference cycles at that point are not collected, so their
 ``__del__`` does not run (Python does not promise it at exit either).  The
 console script calls it right before the process exits, never ``main()``
 itself: a long-lived caller would keep those cycles for good.
+
+The streaming pass's sizes (chunk rows, pyarrow's block, regressor blocks, queue depths) are here
+too, each with the measurement that chose it (1 M-sample Panda CSV, 351 MB,
+``benchmarks/bench_identify.py``, the 2-core development machine; docs/methods/streaming.md).  None
+of them changes what is computed, only how it is cut up: other chunk and block edges sum the same
+rows in another order, so results agree to rounding (``tests/test_identify_tuning.py`` holds
+identify's report equal to 1e-10 relative with every one of them changed).  The numerical
+thresholds that decide a result (the fast factor update's FLOOR and LIMIT, the diagnosis's sample
+cap) stay with their methods.
 """
 
 from __future__ import annotations
@@ -52,6 +62,35 @@ MMAP_THRESHOLD_BYTES = 32 * 1024 * 1024  # glibc's ceiling for this setting on 6
 TRIM_THRESHOLD_BYTES = 256 * 1024 * 1024
 
 BLAS_THREAD_VARS = ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS")
+
+# rows read at a time: 5.8 MB for 29 columns; with identify's reading thread a chunk ahead, 1 M-sample
+# Panda runs peaked at 260-272 MB (290-295 MB with 50,000, same speed)
+CHUNK_ROWS = 25_000
+
+# pyarrow's streaming block, parsed on the reading thread (with use_threads its read-ahead held 40
+# blocks: 40 MB at 1 MB, 160 MB at 4 MB, and on the 2-core machine one thread parsed no slower while
+# identify's other threads need the cores). 512 KB: half the Python calls per MB of the 256 KB used
+# before (29 column copies a block); the 1 M-sample run 0.2 s faster, peak 271-281 MB; 1 MB was
+# faster still but peaked at 291-301 MB
+CSV_BLOCK_BYTES = 2**19
+
+# numpy's reader (no pyarrow): a CSV file larger than this is parsed by a second process one chunk
+# ahead (measured.tables), the parse then overlaps with the rest of the pass
+BACKGROUND_BYTES = 64 * 2**20
+
+# samples a block of regressor rows: n x (p + slots + 1) x 4096 numbers, 14 MB for the Panda. 8192
+# peaked 20-30 MB higher and was no faster; 2048 was no faster either (300 k-sample runs, load 7-10)
+REGRESSOR_ROWS = 4096
+
+# items queued between identify's threads (identify.passes.ahead): filtered chunks between the
+# reading thread and the rows thread, row blocks between the rows thread and the factor updates. A
+# deeper queue was slower on two cores and holds one more chunk or block of memory per step
+READ_AHEAD = 1
+ROWS_AHEAD = 2
+
+# samples of the thinned diagnosis sample factored at a time (its catalogue is ~180 columns a joint:
+# 2048 x 180 x 7 joints is 20 MB of rows)
+DIAGNOSIS_QR_ROWS = 2048
 
 
 def single_thread_blas() -> None:

@@ -16,13 +16,9 @@ from collections.abc import Iterator
 
 import numpy as np
 
+from minparam_cli.runtime import CSV_BLOCK_BYTES as BLOCK_BYTES  # pyarrow's streaming block
+
 READ_BYTES = 2**20
-# pyarrow's streaming block, parsed on the calling thread (with use_threads its read-ahead held 40
-# blocks: 40 MB at 1 MB, 160 MB at 4 MB, and on the 2-core benchmark machine one thread parsed no
-# slower while identify's other threads need the cores). 512 KB: half the Python calls per MB of
-# the 256 KB used before (29 column copies a block); the 1 M-sample Panda run 0.2 s faster, peak
-# 271-281 MB; 1 MB was faster still but peaked at 291-301 MB
-BLOCK_BYTES = 2**19
 ENV = "MINPARAM_CSV_READER"  # "numpy" forces the numpy reader (benchmarks, tests, a suspected difference)
 
 

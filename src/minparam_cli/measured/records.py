@@ -10,10 +10,10 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from minparam_cli.runtime import CHUNK_ROWS  # rows read at a time (re-exported: DataOptions' default)
+
 DEFAULT_CUTOFF_HZ = 5.0
 FILTER_ORDER = 4
-CHUNK_ROWS = 25_000  # rows read at a time: 5.8 MB for 29 columns; with identify's reading thread a chunk
-# ahead, 1 M-sample Panda runs peaked at 260-272 MB (290-295 MB with 50,000, same speed)
 KEYS = ("t", "q", "dq", "ddq", "tau")
 # a time step that differs from the sampling step by more than this share (longer or shorter) is irregular
 IRREGULAR_TOL = 0.1

@@ -20,8 +20,7 @@ import numpy as np
 
 from minparam_cli.errors import ComputationError, DataError
 from minparam_cli.measured.records import KEYS, DataOptions
-
-BACKGROUND_BYTES = 64 * 2**20
+from minparam_cli.runtime import BACKGROUND_BYTES  # numpy's reader: a CSV above it is parsed by a second process
 
 
 

@@ -23,6 +23,7 @@ from minparam_cli.measured.records import Block
 from minparam_cli.identify.passes.design import Design, Term
 from minparam_cli.dynamics.effects import EFFECTS, source_columns
 from minparam_cli.identify.estimate.errors import Errors
+from minparam_cli.runtime import DIAGNOSIS_QR_ROWS
 
 ZERO = -1  # selection index of a zero column (the factors carry a zero column last)
 
@@ -57,9 +58,9 @@ class Catalogue:
 ALIAS = {"position_error": "cogging"}
 
 
-def _factor(design: Design, b: Block, cat: Catalogue, rows: int = 2048) -> list[np.ndarray]:
+def _factor(design: Design, b: Block, cat: Catalogue) -> list[np.ndarray]:
     """Per joint, T_j (with a zero column appended) of [X_j | catalogue columns of joint j | τ_j],
-    accumulated ``rows`` samples at a time (the catalogue is ~180 columns a joint).  The joints'
+    accumulated DIAGNOSIS_QR_ROWS samples at a time (the catalogue is ~180 columns a joint).  The joints'
     QR factorisations run on threads, one a joint up to the CPUs (LAPACK releases the GIL); each
     joint's sequence of factorisations is the same as on one, so the factors are too."""
     from concurrent.futures import ThreadPoolExecutor
@@ -70,8 +71,8 @@ def _factor(design: Design, b: Block, cat: Catalogue, rows: int = 2048) -> list[
     n = design.chain.dof
     T = [np.zeros((0, cat.y + 1))] * n
     with ThreadPoolExecutor(max_workers=workers(n), thread_name_prefix="minparam-qr") as pool:
-        for s0 in range(0, len(b), rows):
-            sub = b.take(slice(s0, s0 + rows))
+        for s0 in range(0, len(b), DIAGNOSIS_QR_ROWS):
+            sub = b.take(slice(s0, s0 + DIAGNOSIS_QR_ROWS))
             X = design.base_columns(sub)
             sig = design.signals(sub, X)
             A = np.concatenate([X] + [all_joints(e, sig, n, h) for e, h in cat.sources] + [sub.tau[:, :, None]], axis=2)

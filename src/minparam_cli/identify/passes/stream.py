@@ -20,8 +20,7 @@ from minparam_cli.identify.passes.kept import Motion, _Thinned
 from minparam_cli.identify.passes.roles import FIT, SELECTION, Source, parts
 from minparam_cli.identify.passes.slots import block_rows
 from minparam_cli.measured.records import Block, DataOptions, DataReport
-
-REGRESSOR_ROWS = 4096  # samples a block of rows: n x (p + slots + 1) x 4096 numbers, 14 MB for the Panda
+from minparam_cli.runtime import READ_AHEAD, REGRESSOR_ROWS, ROWS_AHEAD
 
 
 def stream(design: Design, sources: list[Source], n: int, data: DataOptions, diagnosis_cap: int, keep: bool, slots=(),
@@ -46,7 +45,7 @@ def stream(design: Design, sources: list[Source], n: int, data: DataOptions, dia
     # the factor update's first call imports scipy.linalg (about 0.2 s), the diagnosis scipy.special:
     # done beside the readers' start, while this thread would only wait for the first rows
     threading.Thread(target=_import_blas, name="minparam-import", daemon=True).start()
-    for piece, sub, rows in ahead(_rows(state, sources, n, data, slots, reports, spare)):
+    for piece, sub, rows in ahead(_rows(state, sources, n, data, slots, reports, spare), depth=ROWS_AHEAD):
         if rows is not None:  # sub: (the samples of the rows, their design, the file)
             sub, _, path = sub
             try:
@@ -113,7 +112,7 @@ def _rows(state: dict, sources: list[Source], n: int, data: DataOptions, slots, 
     for src in sources:
         rep = DataReport(str(src.path))
         cuts = src.cuts()
-        for b in ahead(iter_blocks(src.path, n, data, rep), depth=1):
+        for b in ahead(iter_blocks(src.path, n, data, rep), depth=READ_AHEAD):
             if not len(b):
                 continue
             if state["design"].t0 is None:  # drift is measured from the first sample, in every block and every part
