@@ -218,7 +218,7 @@ class Frac:
 
     def size(self, values: dict) -> float:
         """Σ|terms of N| / |D| at {generator name: float}: the scale rounding is measured against."""
-        x = [values[str(g)] for g in self.ctx.R.gens]
+        x = [values[s.name] for s in self.ctx.R.symbols]  # str() of a generator goes through sympy's printer
         den = 1.0
         for k, e in self.d.items():
             den *= abs(_float_eval(self.ctx.factors[k], x, False)) ** e

@@ -37,6 +37,11 @@ def symbol_latex(name: str) -> str:
     return r"\mathrm{" + name.replace("_", r"\_") + "}"
 
 
+def _names(R) -> list[str]:
+    """The generators' names of a sympy ring (``str`` of a generator goes through the printer)."""
+    return [s.name for s in R.symbols]
+
+
 def _swapped(ctx):
     """The context's ring with each cos before its sin (normal form: cos of degree <= 1)."""
     from sympy.polys.rings import ring
@@ -44,8 +49,7 @@ def _swapped(ctx):
     R2 = getattr(ctx, "_swapped", None)
     if R2 is None:
         names: list[str] = []
-        for g in ctx.R.gens:
-            nm = str(g)
+        for nm in _names(ctx.R):
             if nm.startswith("cos_"):
                 names.insert(len(names) - 1, nm)  # before its sin
             else:
@@ -82,8 +86,7 @@ def field_to_sympy(value, fs):
 
     def target(R):
         out = []
-        for g in R.gens:
-            nm = str(g)
+        for nm in _names(R):
             if nm.startswith(("sin_", "cos_")) and nm[4:] in fs.angles:
                 out.append((sp.sin if nm[:3] == "sin" else sp.cos)(sp.Symbol(nm[4:])))
             else:
@@ -125,7 +128,7 @@ def field_to_sympy(value, fs):
     circles = [ctx.circle]
     if fs.angles:
         R2 = _swapped(ctx)
-        g2 = {str(g): g for g in R2.gens}
+        g2 = dict(zip(_names(R2), R2.gens, strict=True))
         circle = [g2[f"sin_{a}"] ** 2 + g2[f"cos_{a}"] ** 2 - 1 for a in fs.angles]
         n2 = value.n.set_ring(R2).rem(circle)
         f2 = [(f.set_ring(R2).rem(circle), e) for f, e in facs]
@@ -162,7 +165,7 @@ def _collected(n, fl, R, circle, syms, lengths):
     or n has a single length monomial (nothing to collect)."""
     import sympy as sp
 
-    idx = [i for i, g in enumerate(R.gens) if str(g) in lengths]
+    idx = [i for i, nm in enumerate(_names(R)) if nm in lengths]
     if not idx or any(f.degrees()[i] for f, _ in fl for i in idx):
         return None
     groups: dict = {}
