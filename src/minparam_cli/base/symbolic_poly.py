@@ -216,6 +216,16 @@ class Frac:
         out = Frac(ctx, n, {})
         return out / Frac(ctx, den, {})
 
+    def length(self) -> int:
+        """Terms of the numerator and of the denominator's factors (with multiplicity)."""
+        return len(self.n.terms()) + sum(len(self.ctx.factors[k].terms()) * e for k, e in self.d.items())
+
+    def shorter_canonical(self) -> Frac:
+        """``canonical`` where it is shorter, else the value as it is: a sine-free denominator can
+        also be longer (1/(a + s) is (a − s)/(a² − 1 + c²))."""
+        c = self.canonical()
+        return c if c.length() < self.length() else self
+
     def size(self, values: dict) -> float:
         """Σ|terms of N| / |D| at {generator name: float}: the scale rounding is measured against."""
         x = [values[s.name] for s in self.ctx.R.symbols]  # str() of a generator goes through sympy's printer
