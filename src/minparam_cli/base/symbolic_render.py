@@ -109,7 +109,7 @@ def field_to_sympy(value, fs):
         out = [e0]
         if len(n.terms()) > 1:
             if len(n.terms()) <= FACTOR_TERMS:  # in the symbols present only (sympy's ring has all)
-                num = sp.factor(out[0] * den)
+                num = _factored(n, syms)
             else:
                 coeff, prim = n.primitive()
                 mon = [min(m[i] for m, _ in prim.terms()) for i in range(R.ngens)]
@@ -153,6 +153,29 @@ def field_to_sympy(value, fs):
     out = min(cands, key=lambda x: (len(text(x)), text(x)))
     cache[key] = out
     return out
+
+
+def _factored(n, syms):
+    """``sympy.factor`` of the polynomial n (a ring element whose generators print as syms), the same
+    expression, factored in a sparse ring instead of through sympy's expressions (the part of
+    ``field_to_sympy`` that took longest on the skewed 6- and 7-joint arms).
+
+    ``factor`` builds a Poly in the generators present, in the order of ``_sort_gens``, factors it
+    over Z (each factor primitive with a positive leading coefficient in that lex order) and
+    multiplies coefficient and factors with ``_keep_coeff``; the same ring order gives the same
+    factors, hence the same expression."""
+    import sympy as sp
+    from sympy.core.mul import _keep_coeff
+    from sympy.polys.polyutils import _sort_gens
+    from sympy.polys.rings import ring
+
+    present = [i for i, d in enumerate(n.degrees()) if d > 0]
+    where = {syms[i]: i for i in present}
+    order = [where[g] for g in _sort_gens([syms[i] for i in present])]
+    Rs = ring(",".join(f"_g{k}" for k in range(len(order))), n.ring.domain)[0]
+    coeff, facs = Rs.from_dict({tuple(m[i] for i in order): c for m, c in n.items()}).factor_list()
+    gens = [syms[i] for i in order]
+    return _keep_coeff(sp.Rational(coeff.numerator, coeff.denominator), sp.Mul(*[f.as_expr(*gens) ** k for f, k in facs]))
 
 
 _FACTORS: dict = {}  # denominator factor -> factor_list (few, recurring)
