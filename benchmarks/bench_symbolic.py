@@ -6,7 +6,8 @@ route cannot handle fails (prints the numeric set and the reason) in <= 2 s of s
 For each robot: whole-process wall time of ``derive`` with and without ``--symbolic`` (run in
 turn, median of --repeats), the child's CPU time (user + sys: on a shared, loaded machine the
 wall time includes waiting for a core), peak RSS, and the symbolic stage's own time from the
-report (exact part / with the verification at fresh geometries).  Robots from robots/ and
+report (exact part / with the verification at fresh geometries), and the machine's load average
+(1 min) when the row's runs started and ended.  Robots from robots/ and
 benchmarks/data/symbolic/ (skewed twists, prismatic joints, offsets, oblique URDF axes, joints
 after fixed joints, mimic joints, a floating-base biped, CAD-exported numbers; issue 34: skewed
 DH/MDH arms of 4 to 7 joints with prismatic joints and offsets); rows marked --symbolic-numbers run
@@ -20,9 +21,9 @@ from __future__ import annotations
 import argparse
 import json
 import os
-import resource
 import subprocess
 import sys
+import tempfile
 import time
 
 from common import ROOT
@@ -58,22 +59,28 @@ CASES = [  # (file, extra CLI args, dof class for the target)
     (f"{DATA}/skew_rrprr_dh.yaml", [], 5),
     (f"{DATA}/skew_rprrrr_mdh.yaml", [], 6),
     (f"{DATA}/skew_rrprrrp_dh.yaml", [], 7),
+    (f"{DATA}/skew_rprrpr_dh.yaml", [], 6),
+    (f"{DATA}/skew_prrrprr_mdh.yaml", [], 7),
 ]
 SYMBOLIC_ONLY = ("--symbolic-numbers",)  # options of the symbolic run only
 TARGETS = {"panda": 5.0, 4: 10.0, 5: 10.0, 6: 10.0, 7: 10.0}  # issue 34: any arm of <= 7 joints in <= 10 s
 
 
 def timed(cmd: list[str]) -> tuple[float, float, float, str]:
-    """Wall time, child CPU time, peak RSS (MB, from ru_maxrss of the children) and stdout."""
-    before = resource.getrusage(resource.RUSAGE_CHILDREN)
+    """Wall time, CPU time (user + sys) and peak RSS (MB) of this one child (os.wait4: the rusage of
+    RUSAGE_CHILDREN is the largest RSS of all children so far, not this run's), and its stdout."""
     t0 = time.perf_counter()
-    p = subprocess.run(cmd, cwd=ROOT, capture_output=True, text=True, check=False, env={**os.environ, "PYTHONPATH": str(ROOT / "src")})
-    wall = time.perf_counter() - t0
-    after = resource.getrusage(resource.RUSAGE_CHILDREN)
+    with tempfile.TemporaryFile() as out, tempfile.TemporaryFile() as err:
+        p = subprocess.Popen(cmd, cwd=ROOT, stdout=out, stderr=err, env={**os.environ, "PYTHONPATH": str(ROOT / "src")})
+        _, status, ru = os.wait4(p.pid, 0)
+        p.returncode = os.waitstatus_to_exitcode(status)
+        wall = time.perf_counter() - t0
+        out.seek(0)
+        err.seek(0)
+        stdout, stderr = out.read().decode(), err.read().decode()
     if p.returncode != 0:
-        raise SystemExit(f"command failed ({p.returncode}): {' '.join(cmd)}\n{p.stderr}")
-    cpu = (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
-    return wall, cpu, after.ru_maxrss / 1024, p.stdout
+        raise SystemExit(f"command failed ({p.returncode}): {' '.join(cmd)}\n{stderr}")
+    return wall, ru.ru_utime + ru.ru_stime, ru.ru_maxrss / 1024, stdout
 
 
 def main() -> None:
@@ -89,6 +96,7 @@ def main() -> None:
         sym_extra = [a for a in extra if a in SYMBOLIC_ONLY] or ["--symbolic"]
         base_cmd = [sys.executable, "-m", "minparam_cli", "derive", path, *(a for a in extra if a not in SYMBOLIC_ONLY), "--format", "json"]
         sym, num = [], []
+        load_row = os.getloadavg()[0]
         for _ in range(args.repeats):
             sym.append(timed(base_cmd + sym_extra))
             num.append(timed(base_cmd))
@@ -113,13 +121,13 @@ def main() -> None:
         rows.append((path.split("/")[-1] + "".join(f" {a}" for a in extra if a in SYMBOLIC_ONLY), klass if klass != "panda" else 7, f"{med(sym, 0):.2f}", f"{med(sym, 1):.2f}",
                      f"{med(num, 0):.2f}", f"{med(num, 1):.2f}", f"{med(sym, 0) / med(num, 0):.1f}",
                      f"{v.get('exact_s', float('nan')):.2f}" if "exact_s" in v else "-", f"{stage:.2f}",
-                     f"{max(x[2] for x in sym):.0f}", status,
+                     f"{max(x[2] for x in sym):.0f}", f"{load_row:.1f}-{os.getloadavg()[0]:.1f}", status,
                      "" if target is None else ("ok" if ok else "FAIL") + f" (<= {target:g} s{' stage' if klass == 'refused' else ''})"))
     load = os.getloadavg()[0]
     print(f"median of {args.repeats} whole-process runs, symbolic and numeric in turn; load average {load0:.1f} before, "
           f"{load:.1f} after, on {os.cpu_count()} cores")
     print(tabulate(rows, headers=["robot", "dof", "symbolic wall s", "symbolic cpu s", "numeric wall s", "numeric cpu s",
-                                  "wall ratio", "exact s", "stage s", "peak MB", "result", "target"]))
+                                  "wall ratio", "exact s", "stage s", "peak MB", "load", "result", "target"]))
 
 
 if __name__ == "__main__":

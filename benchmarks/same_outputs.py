@@ -1,6 +1,6 @@
 """Golden outputs of the documented commands, to prove that a refactor changes none of them.
 
-    python benchmarks/same_outputs.py capture OUTDIR [--python PY] [--src SRCDIR] [--root ROOT]
+    python benchmarks/same_outputs.py capture OUTDIR [--python PY] [--src SRCDIR] [--root ROOT] [--only TEXT]
     python benchmarks/same_outputs.py compare DIR_A DIR_B
 
 capture runs each case of CASES as `PY -m minparam_cli ...` (PY: this interpreter; PYTHONPATH=SRCDIR
@@ -86,6 +86,10 @@ CASES = {  # case name (stable: the folder name) -> c(command, setup...)
     "derive_universal15_offset_rotor_symbolic": c("derive robots/universal15_glazunov.yaml --friction offset --rotor-inertia --symbolic"),
     "derive_mimic_gripper_symbolic": c(f"derive {SYM}mimic_gripper.urdf --symbolic"),
     "derive_oblique_symbolic_numbers": c(f"derive {SYM}oblique_axis.urdf --symbolic-numbers"),
+    # issue 34: the skewed arms of bench_symbolic.py (DH/MDH, prismatic joints, offsets, 4 to 7 joints)
+    **{f"derive_{Path(f).stem}_symbolic_json": c(f"derive {SYM}{f} --symbolic --format json") for f in (
+       "skew4r_dh.yaml", "skew6r_dh.yaml", "skew_rrpr_mdh.yaml", "skew_rprr_dh.yaml", "skew_rprr_mdh.yaml", "skew_rrprr_dh.yaml",
+       "skew_rprrrr_mdh.yaml", "skew_rprrpr_dh.yaml", "skew_rrprrrp_dh.yaml", "skew_prrrprr_mdh.yaml")},
     **{f"derive_{k}": c(f"derive {SYM}{a}") for k, a in (("mimic_gripper", "mimic_gripper.urdf"), ("biped_floating_root",
        "biped_floating.urdf"), ("mimic_gripper_fixed", "mimic_gripper.urdf --mimic fixed"))},
     "derive_ur5_floating_base_json": c(f"derive {UR5U} --floating-base --format json"),
@@ -165,12 +169,14 @@ def run(py, args, scratch, root, env):
         return 124, e.stdout or b"", (e.stderr or b"") + b"\nsame_outputs: timed out after 600 s\n"
 
 
-def capture(outdir: Path, py: str, src, root: Path) -> int:
+def capture(outdir: Path, py: str, src, root: Path, only: str = "") -> int:
     outdir.mkdir(parents=True, exist_ok=True)
     env = {k: v for k, v in os.environ.items() if k != "PYTHONPATH"} | {"COLUMNS": "200", "MPLBACKEND": "Agg"}
     env |= {"PYTHONPATH": str(Path(src).resolve())} if src else {}
     meta, t_all, bad = {"python": py, "src": src, "root": str(root), "cases": {}}, time.perf_counter(), 0
     for name, (cmd, setup) in CASES.items():
+        if only not in name:
+            continue
         if name in NEEDS_SHARED and not (root / ".." / "shared" / "data" / "staubli-tx40").is_dir():
             print(f"skipped {name}: no {root.parent / 'shared' / 'data' / 'staubli-tx40'}")
             continue
@@ -241,7 +247,7 @@ def json_diffs(a, b, path="$", out=None):
     elif isinstance(a, list) and isinstance(b, list):
         if len(a) != len(b):
             out.append(f"{path}: length {len(a)} != {len(b)}")
-        for i, (x, y) in enumerate(zip(a, b)):
+        for i, (x, y) in enumerate(zip(a, b, strict=False)):
             json_diffs(x, y, f"{path}[{i}]", out)
     elif type(a) is not type(b) or a != b:
         out.append(f"{path}: {a!r} != {b!r}")
@@ -291,11 +297,12 @@ def main(argv=None) -> int:
     cp.add_argument("--python", default=sys.executable, help="interpreter that runs minparam_cli")
     cp.add_argument("--src", help="PYTHONPATH of the runs (the src/ folder of the code under test)")
     cp.add_argument("--root", type=Path, default=ROOT, help="cwd of the runs: the folder holding robots/")
+    cp.add_argument("--only", default="", help="run only the cases whose name contains this (e.g. symbolic)")
     cm = sub.add_parser("compare", help="compare two captures")
     cm.add_argument("a", type=Path)
     cm.add_argument("b", type=Path)
     args = ap.parse_args(argv)
-    return capture(args.outdir, args.python, args.src, args.root) if args.cmd == "capture" else compare(args.a, args.b)
+    return capture(args.outdir, args.python, args.src, args.root, args.only) if args.cmd == "capture" else compare(args.a, args.b)
 
 
 if __name__ == "__main__":

@@ -371,6 +371,46 @@ def test_exact_quotient_agrees_with_sympys_division():
     assert exact > 50 and inexact > 50
 
 
+def test_canonical_form_removes_factors_shared_on_the_circles():
+    # H = k·a·s + m·(c² − 1) is an irreducible polynomial but s·(k·a − m·s) on the circle: a value
+    # multiplied above and below by H (as the exact solve at rational states multiplied stage 2's
+    # coefficients by factors carrying the states' numbers: k, m = 87309, 89559 on the DH RPRR) keeps
+    # it after cancelling polynomial factors, and loses it in the canonical form, which depends on
+    # the value only
+    from minparam_cli.base.symbolic_poly import ExactContext
+
+    ctx = ExactContext(["a", "sin_x", "cos_x", "sin_y", "cos_y"], [("sin_x", "cos_x"), ("sin_y", "cos_y")])
+    A, S, C, T, D = (ctx.var(n) for n in ("a", "sin_x", "cos_x", "sin_y", "cos_y"))
+    for p, q, h in ((A * C + S, C * T + D, 7 * A * S + 5 * (C * C - 1)),
+                    (C * D - S * T, A * A + C, 87309 * A * S - 89559 * (C * C - 1)),
+                    (A + T, C * D + A, 13 * A * T + 11 * (D * D - 1))):
+        v = (p / q).canonical()
+        for w in ((p * h) / (q * h), (p * h * h) / (q * h * h)):
+            assert not (w - v)  # the same value, exactly
+            assert w.cancelled().length() > v.length()  # cancelling polynomial factors leaves H
+            c = w.canonical()
+            assert c.n == v.n and ctx.power(c.d) == ctx.power(v.d)  # one representation per value
+            assert w.shorter_canonical().length() == v.length()
+    # a sine-free denominator can be longer: (a + s·d)/(s·c) = (a + s·d)·s/(c·(1 − c²)); kept as it is
+    w = (A + S * D) / (S * C)
+    assert w.canonical().length() > w.length() and w.shorter_canonical() is w
+    assert not (w.canonical() - w)
+
+
+@pytest.mark.parametrize("name", ["skew_rprr_dh", "skew_rprr_mdh"])
+def test_skewed_rprr_with_prismatic_joint_passes_the_exact_check(name):
+    # issue 34: the DH RPRR's stage-2 coefficients carried factors with the rational states' numbers
+    # (16-digit integers, 4340-term numerators): its identity check failed (1.4e-9, float cancellation)
+    # and nothing was printed; the MDH RPRR printed integers of 10 digits.  Every integer of the
+    # printed set is now small, and the set regroups the numeric regressor at random geometries
+    path = f"benchmarks/data/symbolic/{name}.yaml"
+    report, _coef, worst, worst_beta = compare_with_numeric(path, DeriveOptions(symbolic=True))
+    assert worst <= RTOL and worst_beta <= BETA_RTOL, (worst, worst_beta)
+    assert report["symbolic_verification"]["max_identity_error_fresh"] <= 1e-12
+    numbers = [int(m) for b in report["base_parameters"] for m in re.findall(r"(?<![\w.])\d+(?![\w.])", b["symbolic"])]
+    assert numbers and max(numbers) < 100, max(numbers)
+
+
 def test_rpy_of_inverts_the_urdf_rotation_including_gimbal_lock():
     # the composed fixed transform is written back as roll, pitch, yaw: R = Rz(yaw)·Ry(pitch)·Rx(roll)
     from minparam_cli.base.symbolic_urdf import _rot, rpy_of

@@ -256,6 +256,8 @@ def exact_relations(desc, chain, cols, ar: Arith, transforms, relations, rng, ra
                 rows.append([v[k] - v0[k] for k in support])
                 rhs.append(v[d] - v0[d])
             coef = solve_dense(rows, rhs, ar.zero)
+            if coef is not None:  # without the common factors that carry the states' numbers (Frac.canonical)
+                coef = [c.shorter_canonical() if c else c for c in coef]
             if coef is None:
                 raise ComputationError(
                     f"{desc.source}: column {cols[d].label} is dependent at a random geometry but no exact relation "

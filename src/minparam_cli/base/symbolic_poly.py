@@ -181,9 +181,54 @@ class Frac:
                 del d[k]
         return Frac(self.ctx, n, d)
 
+    def canonical(self) -> Frac:
+        """The same value with a denominator free of sines and reduced: Σ_e (P_e / Q) s^e.
+
+        The ring of the circles A = Q[c, s]/(s² + c² − 1) is not a unique factorisation domain
+        (s·s = (1 − c)(1 + c)), so cancelling the irreducible polynomial factors of N and D, as
+        ``cancelled`` does, can leave a common factor of N and D in A: a factor a·s + b·(c² − 1)
+        is irreducible as a polynomial but is s·(a − b·s) in A.  A is, however, a free module over
+        the polynomial ring B = Q[cosines, lengths, g] with basis the products s^e of distinct
+        sines (e ∈ {0, 1}^n), so every element of Frac(A) is uniquely Σ_e r_e s^e with r_e in
+        Frac(B), a field of fractions of a UFD.  Multiplying N and D by the conjugates of D
+        (each sine's sign flipped) makes D a norm in B; dividing by the gcd of D and the
+        coefficients P_e of N gives that unique form, so its denominator is determined by the
+        value alone (up to a constant), not by how the value was computed."""
+        ctx = self.ctx
+        if not self.d:
+            return self
+        n, den = self.n, ctx.power(self.d)
+        for si in ctx.sin_index:
+            if not den.degrees()[si]:
+                continue
+            conj = den.ring.from_dict({m: (-c if m[si] % 2 else c) for m, c in den.items()})
+            n, den = ctx.reduce(n * conj), ctx.reduce(den * conj)
+        parts: dict = {}
+        for m, c in n.items():
+            parts.setdefault(tuple(m[i] for i in ctx.sin_index), {})[m] = c
+        g = den
+        for p in parts.values():
+            g = g.gcd(ctx.R.from_dict(p))
+            if g.is_ground:
+                break
+        if not g.is_ground:
+            n, den = exact_quotient(n, g), exact_quotient(den, g)
+        out = Frac(ctx, n, {})
+        return out / Frac(ctx, den, {})
+
+    def length(self) -> int:
+        """Terms of the numerator and of the denominator's factors (with multiplicity)."""
+        return len(self.n.terms()) + sum(len(self.ctx.factors[k].terms()) * e for k, e in self.d.items())
+
+    def shorter_canonical(self) -> Frac:
+        """``canonical`` where it is shorter, else the value as it is: a sine-free denominator can
+        also be longer (1/(a + s) is (a − s)/(a² − 1 + c²))."""
+        c = self.canonical()
+        return c if c.length() < self.length() else self
+
     def size(self, values: dict) -> float:
         """Σ|terms of N| / |D| at {generator name: float}: the scale rounding is measured against."""
-        x = [values[str(g)] for g in self.ctx.R.gens]
+        x = [values[s.name] for s in self.ctx.R.symbols]  # str() of a generator goes through sympy's printer
         den = 1.0
         for k, e in self.d.items():
             den *= abs(_float_eval(self.ctx.factors[k], x, False)) ** e

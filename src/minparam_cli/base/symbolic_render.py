@@ -37,6 +37,11 @@ def symbol_latex(name: str) -> str:
     return r"\mathrm{" + name.replace("_", r"\_") + "}"
 
 
+def _names(R) -> list[str]:
+    """The generators' names of a sympy ring (``str`` of a generator goes through the printer)."""
+    return [s.name for s in R.symbols]
+
+
 def _swapped(ctx):
     """The context's ring with each cos before its sin (normal form: cos of degree <= 1)."""
     from sympy.polys.rings import ring
@@ -44,8 +49,7 @@ def _swapped(ctx):
     R2 = getattr(ctx, "_swapped", None)
     if R2 is None:
         names: list[str] = []
-        for g in ctx.R.gens:
-            nm = str(g)
+        for nm in _names(ctx.R):
             if nm.startswith("cos_"):
                 names.insert(len(names) - 1, nm)  # before its sin
             else:
@@ -82,8 +86,7 @@ def field_to_sympy(value, fs):
 
     def target(R):
         out = []
-        for g in R.gens:
-            nm = str(g)
+        for nm in _names(R):
             if nm.startswith(("sin_", "cos_")) and nm[4:] in fs.angles:
                 out.append((sp.sin if nm[:3] == "sin" else sp.cos)(sp.Symbol(nm[4:])))
             else:
@@ -106,7 +109,7 @@ def field_to_sympy(value, fs):
         out = [e0]
         if len(n.terms()) > 1:
             if len(n.terms()) <= FACTOR_TERMS:  # in the symbols present only (sympy's ring has all)
-                num = sp.factor(out[0] * den)
+                num = _factored(n, syms)
             else:
                 coeff, prim = n.primitive()
                 mon = [min(m[i] for m, _ in prim.terms()) for i in range(R.ngens)]
@@ -125,7 +128,7 @@ def field_to_sympy(value, fs):
     circles = [ctx.circle]
     if fs.angles:
         R2 = _swapped(ctx)
-        g2 = {str(g): g for g in R2.gens}
+        g2 = dict(zip(_names(R2), R2.gens, strict=True))
         circle = [g2[f"sin_{a}"] ** 2 + g2[f"cos_{a}"] ** 2 - 1 for a in fs.angles]
         n2 = value.n.set_ring(R2).rem(circle)
         f2 = [(f.set_ring(R2).rem(circle), e) for f, e in facs]
@@ -152,6 +155,29 @@ def field_to_sympy(value, fs):
     return out
 
 
+def _factored(n, syms):
+    """``sympy.factor`` of the polynomial n (a ring element whose generators print as syms), the same
+    expression, factored in a sparse ring instead of through sympy's expressions (the part of
+    ``field_to_sympy`` that took longest on the skewed 6- and 7-joint arms).
+
+    ``factor`` builds a Poly in the generators present, in the order of ``_sort_gens``, factors it
+    over Z (each factor primitive with a positive leading coefficient in that lex order) and
+    multiplies coefficient and factors with ``_keep_coeff``; the same ring order gives the same
+    factors, hence the same expression."""
+    import sympy as sp
+    from sympy.core.mul import _keep_coeff
+    from sympy.polys.polyutils import _sort_gens
+    from sympy.polys.rings import ring
+
+    present = [i for i, d in enumerate(n.degrees()) if d > 0]
+    where = {syms[i]: i for i in present}
+    order = [where[g] for g in _sort_gens([syms[i] for i in present])]
+    Rs = ring(",".join(f"_g{k}" for k in range(len(order))), n.ring.domain)[0]
+    coeff, facs = Rs.from_dict({tuple(m[i] for i in order): c for m, c in n.items()}).factor_list()
+    gens = [syms[i] for i in order]
+    return _keep_coeff(sp.Rational(coeff.numerator, coeff.denominator), sp.Mul(*[f.as_expr(*gens) ** k for f, k in facs]))
+
+
 _FACTORS: dict = {}  # denominator factor -> factor_list (few, recurring)
 
 
@@ -162,7 +188,7 @@ def _collected(n, fl, R, circle, syms, lengths):
     or n has a single length monomial (nothing to collect)."""
     import sympy as sp
 
-    idx = [i for i, g in enumerate(R.gens) if str(g) in lengths]
+    idx = [i for i, nm in enumerate(_names(R)) if nm in lengths]
     if not idx or any(f.degrees()[i] for f, _ in fl for i in idx):
         return None
     groups: dict = {}
