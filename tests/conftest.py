@@ -85,3 +85,31 @@ def cli_ok(*args):
     assert r.exit_code == 0, r.output
     return r
 
+
+@pytest.hookimpl(tryfirst=True)  # before pytest's own hook deselects by `-m`
+def pytest_collection_modifyitems(config, items):
+    """Mark `slow` the tests tests/slow_tests.txt names (why a list file: tests/slow_list.py)."""
+    import slow_list
+
+    is_slow = slow_list.matcher(slow_list.read())
+    seen = []
+    for item in items:
+        slow = is_slow(node_id(item))
+        if slow:
+            item.add_marker(pytest.mark.slow)
+        seen.append((node_id(item), slow))
+    if _whole_suite(config):  # tests/test_fast_tier.py checks the list against it
+        config.stash[slow_list.COLLECTED] = seen
+
+
+def _whole_suite(config) -> bool:
+    """This session collects every test file: started on tests/ or the repository (or on testpaths), nothing ignored."""
+    here = config.invocation_params.dir
+    named = {(here / arg.partition("::")[0]).resolve() for arg in config.args}
+    ignored = config.getoption("ignore", None) or config.getoption("ignore_glob", None)
+    return bool(named & {ROOT, ROOT / "tests"}) and not ignored
+
+
+def node_id(item) -> str:
+    """The test's node id relative to the repository root, whichever folder pytest was started from."""
+    return item.path.relative_to(ROOT).as_posix() + item.nodeid[item.nodeid.index("::"):]
