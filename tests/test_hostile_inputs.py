@@ -8,7 +8,8 @@ line on stderr, no traceback, no file left behind, in under 10 s of CPU time and
 Most cases run in this process through typer's CliRunner (fast); the cases that would hang
 or eat memory if a guard were missing (alias bombs, FIFOs, devices, huge numbers, deep
 nesting, binary data) run as subprocesses under an address-space limit and a timeout, two
-at a time, with their CPU time and peak resident memory measured by wait4().
+at a time, with their CPU time measured by wait4() and their peak resident memory read by the
+child itself at exit (/proc/self/status).
 """
 
 from __future__ import annotations
@@ -413,12 +414,28 @@ def _limits():  # the child of a heavy case: bounded address space, no core file
     resource.setrlimit(resource.RLIMIT_CORE, (0, 0))
 
 
+# The child reports its own peak resident memory: VmHWM of /proc/self/status, read at exit. wait4()'s ru_maxrss
+# cannot be used: Linux carries the forking process's high-water mark into the child's across fork and exec,
+# so every child would report at least this test process's size (553 MB late in a whole-suite run).
+_CHILD = """import atexit, os, runpy, sys
+def _peak():
+    with open("/proc/self/status") as f:
+        kb = next((line.split()[1] for line in f if line.startswith("VmHWM:")), "")
+    with open(os.environ["HOSTILE_PEAK_FILE"], "w") as f:
+        f.write(kb)
+atexit.register(_peak)
+sys.argv = ["minparam_cli", *sys.argv[1:]]
+runpy.run_module("minparam_cli", run_name="__main__", alter_sys=True)
+"""
+
+
 def _run_heavy(case: Case, out: Path) -> tuple[int, str, float, float]:
     """(exit code, stderr, CPU seconds, peak RSS MB) of one case as ``python -m minparam_cli``."""
-    env = {**os.environ, "OPENBLAS_NUM_THREADS": "1", "OMP_NUM_THREADS": "1"}
+    peak_file = out.parent / f"{out.name}.peak"
+    env = {**os.environ, "OPENBLAS_NUM_THREADS": "1", "OMP_NUM_THREADS": "1", "HOSTILE_PEAK_FILE": str(peak_file)}
     env.pop("MINPARAM_DEBUG", None)
     t0 = time.perf_counter()
-    proc = subprocess.Popen([sys.executable, "-m", "minparam_cli", *_fill(case.args, out)], stdin=subprocess.DEVNULL,
+    proc = subprocess.Popen([sys.executable, "-c", _CHILD, *_fill(case.args, out)], stdin=subprocess.DEVNULL,
                             stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, preexec_fn=_limits, env=env, cwd=out)
     # stderr is one short line when all goes well: read it after the exit (a pipe holds 64 kB)
     deadline = t0 + HANG_LIMIT_S
@@ -435,7 +452,9 @@ def _run_heavy(case: Case, out: Path) -> tuple[int, str, float, float]:
     proc.returncode = os.waitstatus_to_exitcode(status)
     stderr = proc.stderr.read().decode("utf-8", "replace")
     proc.stderr.close()
-    return proc.returncode, stderr, elapsed, usage.ru_maxrss / 1024
+    kb = peak_file.read_text().strip() if peak_file.exists() else ""
+    rss = int(kb) / 1024 if kb.isdigit() else usage.ru_maxrss / 1024  # killed before its atexit: wait4's figure
+    return proc.returncode, stderr, elapsed, rss
 
 
 def test_the_corpus_is_large_and_covers_every_class(corpus):
