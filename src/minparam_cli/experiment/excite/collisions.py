@@ -162,14 +162,6 @@ def _joint_jacobian(chain, q: np.ndarray) -> np.ndarray:
     return cons._central_differences(lambda x: cons.joint_states(chain, x), q)
 
 
-def collision_grid(H: int, period: float, base_frequency: float) -> np.ndarray:
-    """The position basis at the collision constraint's GRID_POINTS_PER_HARMONIC · max(H, 4) times."""
-    from minparam_cli.experiment.trajectory import basis
-
-    points = GRID_POINTS_PER_HARMONIC * max(H, 4)
-    return basis(np.arange(points) * (period / points), base_frequency, H)[0]
-
-
 def _mesh_file(name: str, folder: Path) -> Path | None:
     """A URDF mesh's file: package://PKG/REST under the URDF's folder or a folder above it (as PKG/REST or
     REST) or a ROS_PACKAGE_PATH entry; file://PATH; else relative to the URDF's folder."""

@@ -244,9 +244,9 @@ def design(chain: Chain, base: BaseSet, options: ExciteOptions, limits: cons.Lim
         constraints.append(cons.floor_constraint(chain, limits.floor, Bq_grid(options, H, period), n, m, BOX_MARGIN))
         slack.append(BOX_MARGIN / 2)
     if limits.collisions is not None:
-        from minparam_cli.experiment.excite.collisions import collision_grid
+        from minparam_cli.experiment.excite.collisions import GRID_POINTS_PER_HARMONIC as COLLISION_PER_HARMONIC
 
-        constraints.append(limits.collisions.constraint(chain, collision_grid(H, period, options.base_frequency), n, m))
+        constraints.append(limits.collisions.constraint(chain, Bq_grid(options, H, period, COLLISION_PER_HARMONIC), n, m))
         slack.append(0.5)  # (in units of the clearance) half of it
 
     margins = getattr(chain.coupling, "limit_margins", None)
@@ -349,9 +349,10 @@ def design(chain: Chain, base: BaseSet, options: ExciteOptions, limits: cons.Lim
     )
 
 
-def Bq_grid(options: ExciteOptions, H: int, period: float) -> np.ndarray:
-    """The position basis on the fine grid of the Cartesian constraints (box, floor)."""
-    points = BOX_GRID_POINTS_PER_HARMONIC * max(H, 4)
+def Bq_grid(options: ExciteOptions, H: int, period: float, per_harmonic: int = BOX_GRID_POINTS_PER_HARMONIC) -> np.ndarray:
+    """The position basis on the fine grid of the Cartesian constraints (box, floor; the collision shapes
+    with their own ``per_harmonic``): per_harmonic · max(H, 4) points per period."""
+    points = per_harmonic * max(H, 4)
     return basis(np.arange(points) * (period / points), options.base_frequency, H)[0]
 
 
