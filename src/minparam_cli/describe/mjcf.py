@@ -83,24 +83,35 @@ def check_mjcf_text(data: bytes, src: str) -> None:
         raise NotARobotError(f"root element is <{tag}>, expected <mujoco> (an MJCF file)" if tag else "no XML element: not an MJCF file", src)
 
 
-def compile_model(path: Path, src: str):
-    """The compiled ``mujoco.MjModel`` of the file, or MuJoCo's message in one line."""
-    from minparam_cli.optional import import_optional
-
-    mujoco = import_optional("mujoco", "mujoco", "reading MJCF (.xml) robot files")
+def captured_warnings(mujoco, build):
+    """``build()`` (a MuJoCo compile) with MuJoCo's global warning handler replaced, under the one lock that
+    guards it: (its result, the warnings it raised).  MuJoCo's own handler would write MUJOCO_LOG.TXT into
+    the working folder and print to stderr; the handler before is put back.  Exceptions pass through."""
     notes: list[str] = []
-    # MuJoCo's own warning handler would write MUJOCO_LOG.TXT into the working folder and print to
-    # stderr: the compiler's warnings become MinparamWarning notes, the handler before is put back
     with _WARNING_LOCK:
         before = mujoco.get_mju_user_warning()
         mujoco.set_mju_user_warning(notes.append)
         try:
-            model = mujoco.MjModel.from_xml_path(str(path))
-        except ValueError as e:
-            text = "; ".join(part.strip() for part in str(e).splitlines() if part.strip())
-            raise DescriptionError(f"MuJoCo cannot compile the file: {text}", src) from None
+            return build(), notes
         finally:
             mujoco.set_mju_user_warning(before)
+
+
+def one_line(error: Exception) -> str:
+    """A MuJoCo compiler message (several lines) as one line."""
+    return "; ".join(part.strip() for part in str(error).splitlines() if part.strip())
+
+
+def compile_model(path: Path, src: str):
+    """The compiled ``mujoco.MjModel`` of the file, or MuJoCo's message in one line; the compiler's
+    warnings become MinparamWarning notes."""
+    from minparam_cli.optional import import_optional
+
+    mujoco = import_optional("mujoco", "mujoco", "reading MJCF (.xml) robot files")
+    try:
+        model, notes = captured_warnings(mujoco, lambda: mujoco.MjModel.from_xml_path(str(path)))
+    except ValueError as e:
+        raise DescriptionError(f"MuJoCo cannot compile the file: {one_line(e)}", src) from None
     for note in notes:
         warnings.warn(f"{src}: MuJoCo: {note}", MinparamWarning, stacklevel=4)
     return model

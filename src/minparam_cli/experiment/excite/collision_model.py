@@ -3,7 +3,6 @@
 
 from __future__ import annotations
 
-import threading
 from pathlib import Path
 
 import numpy as np
@@ -11,8 +10,6 @@ import numpy as np
 from minparam_cli.errors import InputError
 from minparam_cli.experiment.excite import constraints as cons
 from minparam_cli.experiment.excite.collisions import FLOOR_NAME, PROBE_POSITIONS, Collisions, urdf_for_mujoco
-
-_LOCK = threading.Lock()
 
 
 def load_collisions(robot: Path, chain, limits: cons.Limits, clearance: float, floor: float | None,
@@ -37,20 +34,18 @@ def load_collisions(robot: Path, chain, limits: cons.Limits, clearance: float, f
     else:
         raise InputError(f"{src}: --collisions needs collision shapes, and a DH/MDH YAML description has none; give the robot "
                          "as a URDF with <collision> elements or as an MJCF file (or use --box / --floor, which need no shapes)")
-    with _LOCK:  # MuJoCo's warning handler is global
-        before = mj.get_mju_user_warning()
-        warned: list[str] = []
-        mj.set_mju_user_warning(warned.append)
-        try:
-            spec = mj.MjSpec.from_string(text) if text is not None else mj.MjSpec.from_file(str(robot))
-            if floor is not None:
-                _add_floor(mj, spec, cons.up_direction(chain), floor)
-            model = spec.compile()
-        except ValueError as e:
-            message = "; ".join(part.strip() for part in str(e).splitlines() if part.strip())
-            raise InputError(f"{src}: --collisions: MuJoCo cannot compile the file's shapes: {message}") from None
-        finally:
-            mj.set_mju_user_warning(before)
+    from minparam_cli.describe.mjcf import captured_warnings, one_line
+
+    def build():
+        spec = mj.MjSpec.from_string(text) if text is not None else mj.MjSpec.from_file(str(robot))
+        if floor is not None:
+            _add_floor(mj, spec, cons.up_direction(chain), floor)
+        return spec.compile()
+
+    try:
+        model, warned = captured_warnings(mj, build)
+    except ValueError as e:
+        raise InputError(f"{src}: --collisions: MuJoCo cannot compile the file's shapes: {one_line(e)}") from None
     notes += [f"{src}: MuJoCo: {w}" for w in warned]
     qpos, dof = _joint_addresses(mj, model, chain, src)
     pairs, labels, floor_pairs, all_geoms = _pairs(mj, model, src)
