@@ -31,6 +31,7 @@ import math
 
 import numpy as np
 
+from minparam_cli.chain import motion
 from minparam_cli.errors import InputError
 from minparam_cli.model.export_robot import body, comment_text, link_phi, num, standard_in_frame, xyz
 
@@ -67,21 +68,6 @@ def _inertial(phi10: np.ndarray) -> str:
     m, c, Ic = body(phi10)
     full = (Ic[0, 0], Ic[1, 1], Ic[2, 2], Ic[0, 1], Ic[0, 2], Ic[1, 2])
     return f'<inertial pos="{xyz(c)}" mass="{num(m)}" fullinertia="{xyz(full)}"/>'
-
-
-def _motion(chain, j: int, value: float) -> np.ndarray:
-    """The 4x4 motion of joint j by ``value`` in its own frame (a turn about, or a slide along, its axis)."""
-    T = np.eye(4)
-    if value == 0.0:
-        return T
-    a = np.asarray(chain.axes[j], dtype=float)
-    a = a / np.linalg.norm(a)
-    if chain.types[j] == "revolute":
-        K = np.array([[0.0, -a[2], a[1]], [a[2], 0.0, -a[0]], [-a[1], a[0], 0.0]])
-        T[:3, :3] = np.eye(3) + math.sin(value) * K + (1.0 - math.cos(value)) * K @ K
-    else:
-        T[:3, 3] = value * a
-    return T
 
 
 def _closed(chain):
@@ -142,7 +128,7 @@ def mjcf_from_chain(chain, phi: np.ndarray, terms, note: str = "") -> str:
     def emit(j: int, depth: int) -> None:
         pad = "  " * depth
         p = chain.parents[j]
-        T = (np.eye(4) if p < 0 else chain.post[p]) @ chain.pre[j] @ _motion(chain, j, ref[j])
+        T = (np.eye(4) if p < 0 else chain.post[p]) @ chain.pre[j] @ motion(chain.types[j], np.asarray(chain.axes[j], dtype=float), ref[j:j + 1])[0]
         lines.append(f"{pad}<body name={quoteattr(chain.link_names[j])} {_pose(T)}>")
         kind = "hinge" if chain.types[j] == "revolute" else "slide"
         attrs = [f"name={quoteattr(chain.joint_names[j])}", f'type="{kind}"', 'pos="0 0 0"', f'axis="{xyz(chain.axes[j])}"',
