@@ -144,6 +144,8 @@ def mjcf_from_chain(chain, phi: np.ndarray, terms, note: str = "") -> str:
         if j in slot:
             lines.append(f"{pad}  {_inertial(standard_in_frame(phis[slot[j]], chain.post[j]))}")
         else:  # a massless link (a universal joint's cross): MuJoCo refuses moving bodies without mass
+            lines.append(f"{pad}  <!-- massless link (no parameters identified): a token body, not data; MuJoCo refuses "
+                         "moving bodies without mass -->")
             lines.append(f'{pad}  <inertial pos="0 0 0" mass="{num(TOKEN_MASS)}" diaginertia="{xyz([TOKEN_INERTIA] * 3)}"/>')
         if not np.allclose(chain.post[j], np.eye(4), rtol=0, atol=0):
             lines.append(f"{pad}  <site name={quoteattr(chain.link_names[j] + '_dh')} {_pose(chain.post[j])}/>")
