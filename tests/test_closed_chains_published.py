@@ -116,6 +116,14 @@ def test_a_massless_link_with_inertial_data_is_refused(tmp_path):
         derive_file(bad, DeriveOptions())
 
 
+def test_an_identified_block_that_is_not_a_mapping_is_refused(tmp_path):
+    """identify --export-yaml writes an 'identified' mapping, which a closed_chain file may carry; anything else is an error."""
+    bad = tmp_path / "bad.yaml"
+    bad.write_text(DELTA.read_text() + "identified: [1, 2]\n")
+    with pytest.raises(DescriptionError, match="identify --export-yaml found"):
+        derive_file(bad, DeriveOptions())
+
+
 # Schappler's parallel-robot library (github.com/SchapplM/robsynth-parroblib, snapshot 01c8d77) gives each
 # robot's minimal parameter vector under its own assumption: all legs identical (one parameter set per leg
 # link, in the leg's own frames) and the platform's own ten parameters

@@ -139,6 +139,23 @@ def test_a_missing_collision_mesh_is_named(tmp_path, app):
     assert "package://nowhere/meshes/link.stl" in out and "link 'l1'" in out
 
 
+def test_a_collision_mesh_mujoco_cannot_read_is_named(tmp_path, app):
+    (tmp_path / "link.dae").write_text("<COLLADA/>")
+    robot = tmp_path / "dae.urdf"
+    robot.write_text(arm_urdf('<mesh filename="link.dae"/>'))
+    out = one_line_exit_2(runner.invoke(app, ["excite", str(robot), "-o", str(tmp_path / "a.csv"), "--collisions", *FAST]))
+    assert "link.dae" in out and "not .dae" in out
+    assert not (tmp_path / "a.csv").exists()
+
+
+def test_shapes_that_never_separate_leave_no_pair_to_check(tmp_path, app):
+    """Spheres of 2 m on 0.3 m links overlap in every position: every pair is left out, and nothing is left to check."""
+    robot = tmp_path / "huge.urdf"
+    robot.write_text(arm_urdf('<sphere radius="2"/>'))
+    out = one_line_exit_2(runner.invoke(app, ["excite", str(robot), "-o", str(tmp_path / "a.csv"), "--collisions", *FAST]))
+    assert "no pair of collision shapes to check" in out
+
+
 def test_without_the_mujoco_extra(tmp_path, app, folding, monkeypatch):
     monkeypatch.setitem(sys.modules, "mujoco", None)  # import mujoco now raises ImportError
     out = one_line_exit_2(runner.invoke(app, ["excite", str(folding), "-o", str(tmp_path / "a.csv"), "--collisions", *FAST]))
