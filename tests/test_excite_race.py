@@ -11,14 +11,15 @@ from scipy.optimize import minimize, rosen, rosen_der
 from minparam_cli.errors import ComputationError
 from minparam_cli.experiment.excite import race
 
-# a constrained Rosenbrock problem in 6 variables: SLSQP needs 24-27 iterations from these starts, so the race's
-# stage is shortened to 8 iterations here
+# a constrained Rosenbrock problem in 6 variables: SLSQP needs 24-27 iterations from these starts, so the race
+# has one stage of 8 iterations here (two stages, 8 and 16, in the test that says so)
+STAGE = 8
 CONS = [{"type": "ineq", "fun": lambda x: 1.5 - np.sum(x**2), "jac": lambda x: -2 * x}]
 
 
 @pytest.fixture(autouse=True)
 def short_stage(monkeypatch):
-    monkeypatch.setattr(race, "RACE_ITERATIONS", 8)
+    monkeypatch.setattr(race, "RACE_STAGES", (STAGE,))
 
 
 def solve(x0, maxiter, callback=None):
@@ -60,22 +61,55 @@ def test_race_keeps_the_best_half_at_the_race_iteration():
         def record(intermediate_result):
             seen.append(intermediate_result.fun)  # noqa: B023  # called within this loop pass
 
-        solve(x0, race.RACE_ITERATIONS, record)
+        solve(x0, STAGE, record)
         values.append(seen[-1])
     best = set(np.argsort(values)[:2])
     assert finalists == [i in best for i in range(4)]
     for x0, run, final in zip(x0s, runs, finalists, strict=True):
-        expected = solve(x0, 70 if final else race.RACE_ITERATIONS)
+        expected = solve(x0, 70 if final else STAGE)
         assert np.array_equal(run.result.x, expected.x)
     assert sum(r.iterations for r in runs) <= race.planned_iterations(4, 70)
+
+
+def uninterrupted_values(x0, iterations):
+    """The criterion after every iteration of an uninterrupted run."""
+    seen = []
+    solve(x0, iterations, lambda intermediate_result: seen.append(intermediate_result.fun))
+    return seen
+
+
+def test_two_stages_halve_twice(monkeypatch):
+    """Stages 8 and 16 with 4 starts: the best two after 8 iterations go on, the better of those two after
+    16 goes to the end; each run ends exactly where an uninterrupted run of its length ends."""
+    monkeypatch.setattr(race, "RACE_STAGES", (8, 16))
+    x0s, runs = starts(4, 70)
+    finalists = race.race(runs, 70)
+    at8 = [uninterrupted_values(x0, 8)[-1] for x0 in x0s]
+    two = sorted(np.argsort(at8)[:2])
+    at16 = {i: uninterrupted_values(x0s[i], 16)[-1] for i in two}
+    winner = min(two, key=lambda i: (at16[i], i))
+    assert finalists == [i == winner for i in range(4)]
+    for i, (x0, run) in enumerate(zip(x0s, runs, strict=True)):
+        length = 70 if i == winner else 16 if i in two else 8
+        assert np.array_equal(run.result.x, solve(x0, length).x)
+    assert sum(r.iterations for r in runs) <= race.planned_iterations(4, 70) == 4 * 8 + 2 * 8 + 1 * 54
+
+
+def test_planned_iterations_follow_the_stages(monkeypatch):
+    monkeypatch.setattr(race, "RACE_STAGES", (40, 100))
+    assert race.planned_iterations(4, 150) == 4 * 40 + 2 * 60 + 50
+    assert race.planned_iterations(8, 150) == 8 * 40 + 4 * 60 + 2 * 50
+    assert race.planned_iterations(3, 80) == 3 * 40 + 2 * 40  # the second stage lies beyond the last iteration
+    assert race.planned_iterations(2, 150) == 2 * 40 + 110
+    assert race.planned_iterations(4, 150, raced=False) == race.planned_iterations(1, 150) * 4 == 600
 
 
 def test_no_race_with_one_start_or_few_iterations():
     (x0,), runs = starts(1, 60)
     assert race.race(runs, 60) == [True] and np.array_equal(runs[0].result.x, solve(x0, 60).x)
-    _, runs = starts(3, race.RACE_ITERATIONS)
-    assert race.race(runs, race.RACE_ITERATIONS) == [True] * 3
-    assert race.planned_iterations(3, race.RACE_ITERATIONS) == 3 * race.RACE_ITERATIONS
+    _, runs = starts(3, STAGE)
+    assert race.race(runs, STAGE) == [True] * 3
+    assert race.planned_iterations(3, STAGE) == 3 * STAGE
 
 
 def test_error_inside_a_run_reaches_the_caller():
@@ -91,7 +125,7 @@ def test_error_inside_a_run_reaches_the_caller():
 
     run = race.Start(failing)
     with pytest.raises(ComputationError, match="regressor failed"):
-        run.advance(race.RACE_ITERATIONS)
+        run.advance(STAGE)
 
 
 def test_design_finalists_end_where_unraced_starts_end(monkeypatch):
@@ -104,7 +138,7 @@ def test_design_finalists_end_where_unraced_starts_end(monkeypatch):
     _, chain = load_chain("robots/puma560.yaml", DeriveOptions())
     base, limits, opts = derive_qr(chain), chain_limits(chain, 0.1), ExciteOptions(starts=3, max_iterations=30, harmonics=3, rate=20)
     raced = design(chain, base, opts, limits, np.random.default_rng(0))
-    monkeypatch.setattr(race, "RACE_ITERATIONS", 10**6)  # no race
+    monkeypatch.setattr(race, "RACE_STAGES", ())  # no race
     plain = design(chain, base, opts, limits, np.random.default_rng(0))
     stopped = [i for i, s in enumerate(raced.starts) if s.message.startswith("stopped")]
     assert len(stopped) == 1 and raced.starts[stopped[0]].iterations == 8
@@ -131,4 +165,4 @@ def test_an_error_ends_every_other_run():
         race.race(runs, 60)
     for r in runs[:2]:
         r._thread.join(timeout=10)
-        assert not r._thread.is_alive() and r.iterations == race.RACE_ITERATIONS
+        assert not r._thread.is_alive() and r.iterations == STAGE

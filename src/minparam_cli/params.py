@@ -26,6 +26,7 @@ as in Khalil's floating-base notation (XX0 ... M0), the robot's joints 1..n.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cached_property
 
 LINK_PARAMS: tuple[str, ...] = ("XX", "XY", "XZ", "YY", "YZ", "ZZ", "MX", "MY", "MZ", "M")
 N_LINK_PARAMS = len(LINK_PARAMS)
@@ -55,29 +56,29 @@ class ParamLayout:
     # inertial columns: MJCF's massless frames between the joints of one body
     massless: tuple[int, ...] = ()
 
-    @property
+    @cached_property
     def link_numbers(self) -> tuple[int | None, ...]:
         return tuple(range(1, self.n_links + 1)) if self.numbers is None else self.numbers
 
-    @property
+    @cached_property
     def links_with_columns(self) -> tuple[int, ...]:
         """Chain indices of the links that have inertial columns, in column order (10 each)."""
         return tuple(j for j, k in enumerate(self.link_numbers) if k is not None and j not in self.massless)
 
-    @property
+    @cached_property
     def inertial_columns(self) -> tuple[int, ...]:
         """Positions of the inertial columns among 10 per link of the chain (every link having 10)."""
         return tuple(N_LINK_PARAMS * j + i for j in self.links_with_columns for i in range(N_LINK_PARAMS))
 
-    @property
+    @cached_property
     def names(self) -> tuple[str, ...]:
         return standard_names(self.n_links, self.extras, self.numbers, self.massless)
 
-    @property
+    @cached_property
     def n_inertial(self) -> int:
         return N_LINK_PARAMS * len(self.links_with_columns)
 
-    @property
+    @cached_property
     def extra_columns(self) -> tuple[tuple[int, str], ...]:
         """(joint index 0-based, extra id) for every extra column, in column order."""
         out = []
@@ -87,7 +88,7 @@ class ParamLayout:
                     out.append((j, kind))
         return tuple(out)
 
-    @property
+    @cached_property
     def size(self) -> int:
         return self.n_inertial + len(self.extra_columns)
 

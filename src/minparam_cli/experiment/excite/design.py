@@ -14,7 +14,7 @@ excitation (``experiment.trajectory.fourier_excitation``: standard normal
 coefficients scaled into the margin-shrunk range and rate limits), one child
 generator per start from the one seeded generator; with ``rest`` each start
 is projected onto the rest conditions and scaled back into the limits.  The
-starts race (``race``: after RACE_ITERATIONS iterations only the better half goes on).  The
+starts race (``race``: after 40 and again after 100 iterations only the better half goes on).  The
 best end point that passes the dense check wins, after its repair
 (``constraints``), and the reported figures are computed on the output samples.
 """
