@@ -166,3 +166,14 @@ def test_an_error_ends_every_other_run():
     for r in runs[:2]:
         r._thread.join(timeout=10)
         assert not r._thread.is_alive() and r.iterations == STAGE
+
+
+def test_a_run_that_ends_before_a_stage_is_ranked_by_its_result_and_not_marked_stopped():
+    """A start whose SLSQP ends by itself before the stage (here: its own limit of 3 iterations) keeps its
+    own ending (``stopped`` False) and is ranked by its result's value, not by the last iteration's trial
+    point; a start the race ends is marked ``stopped``."""
+    x0s, runs = starts(3, 70)
+    short = race.Start(lambda cb, x0=x0s[0]: solve(x0, 3, cb))
+    finalists = race.race([short, *runs[1:]], 70)
+    assert not short.stopped and short.result.nit == 3 and short.value == float(short.result.fun)
+    assert [r.stopped for r in (short, *runs[1:])] == [False] + [not f for f in finalists[1:]]

@@ -146,31 +146,27 @@ def sensitivities(chain: Chain, kept, q, qd, qdd, kind: str, phi=None, scaled: b
     G = np.zeros(Y.shape)
     G[:, :, kept] = Gb.reshape(N, n, -1)
     ni = chain.layout.n_inertial
-    Gi = G[:, :, :ni].reshape(N, n * ni)
+    Gi = G[:, :, :ni]
+    with_tau = phi is not None
     phi = None if phi is None else np.asarray(phi, dtype=float)
-
-    def contract(Yx):
-        """Σ_ic G[s, i, c]·Y[s, i, c] per sample, and the torques Y·φ: the differences below are taken
-        of these (the contraction is linear), not of the (N, n, 10n) regressors themselves."""
-        return np.einsum("sj,sj->s", Gi, Yx.reshape(N, n * ni)), (None if phi is None else Yx @ phi)
-
-    g0, tau0 = contract(Y[:, :, :ni])
     out = {w: np.zeros((N, n)) for w in "qva"}
-    dtau = {w: np.zeros((N, n, n)) for w in "qva"} if phi is not None else None
+    dtau = {w: np.zeros((N, n, n)) for w in "qva"} if with_tau else None
+    Y0 = Y[:, :, :ni]
     for k in range(n):
         e = np.zeros(n)
         e[k] = 1.0
         # q: forward difference (first order, step Q_STEP); q̇: central (exact, Y is quadratic in q̇);
         # q̈: forward with a unit step (exact, Y is linear in q̈)
-        gq, tq = contract(regressor(chain, q + Q_STEP * e, qd, qdd, include_extras=False))
-        gp, tp = contract(regressor(chain, q, qd + e, qdd, include_extras=False))
-        gm, tm = contract(regressor(chain, q, qd - e, qdd, include_extras=False))
-        ga, ta = contract(regressor(chain, q, qd, qdd + e, include_extras=False))
-        out["q"][:, k], out["v"][:, k], out["a"][:, k] = (gq - g0) / Q_STEP, (gp - gm) / 2.0, ga - g0
-        if dtau is not None:
-            dtau["q"][:, :, k], dtau["v"][:, :, k], dtau["a"][:, :, k] = (tq - tau0) / Q_STEP, (tp - tm) / 2.0, ta - tau0
+        dYq = (regressor(chain, q + Q_STEP * e, qd, qdd, include_extras=False) - Y0) / Q_STEP
+        dYv = (regressor(chain, q, qd + e, qdd, include_extras=False) - regressor(chain, q, qd - e, qdd, include_extras=False)) / 2.0
+        dYa = regressor(chain, q, qd, qdd + e, include_extras=False) - Y0
+        for which, dY in (("q", dYq), ("v", dYv), ("a", dYa)):
+            out[which][:, k] = np.einsum("sic,sic->s", Gi, dY)
+            if dtau is not None:
+                dtau[which][:, :, k] = dY @ phi
     for col, k, which, values in _extra_derivatives(chain, qd):
         out[which][:, k] += G[:, k, col] * values
     if dtau is None:
         return Sensitivities(f, out["q"], out["v"], out["a"])
-    return Sensitivities(f, out["q"], out["v"], out["a"], tau0, dtau["q"], dtau["v"], dtau["a"])
+    tau = Y[:, :, :ni] @ phi
+    return Sensitivities(f, out["q"], out["v"], out["a"], tau, dtau["q"], dtau["v"], dtau["a"])

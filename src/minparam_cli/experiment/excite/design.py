@@ -284,9 +284,9 @@ def design(chain: Chain, base: BaseSet, options: ExciteOptions, limits: cons.Lim
         solvers.append(solver(x0))
     # the starts race (race.py), except with --collisions: the rounds (rounds.py) run several SLSQP calls,
     # which the race cannot pause and stop as one run
-    runs, went_on = race.run_starts(solvers, options.max_iterations, progress, raced=limits.collisions is None)
+    runs, _ = race.run_starts(solvers, options.max_iterations, progress, raced=limits.collisions is None)
     records, ends = [], []
-    for i, ((x0, f0), run, finalist) in enumerate(zip(firsts, runs, went_on, strict=True)):
+    for i, ((x0, f0), run) in enumerate(zip(firsts, runs, strict=True)):
         res = run.result
         x = np.asarray(res.x)
         feasible = _grid_feasible(x, A, b, constraints, slack)
@@ -294,7 +294,8 @@ def design(chain: Chain, base: BaseSet, options: ExciteOptions, limits: cons.Lim
         if not feasible:  # SLSQP stopped outside the limits: keep the start's (feasible) value
             x = x0
             f = f0 if _grid_feasible(x0, A, b, constraints, slack) else np.inf
-        message = str(res.message) if finalist else f"stopped after {res.nit} iterations (not among the best half)"
+        # a start the race ended says so; one that ended by itself before a stage keeps SLSQP's message
+        message = f"stopped after {res.nit} iterations (not among the best half)" if run.stopped else str(res.message)
         records.append(StartRecord(_report_value(f0, kind), _report_value(f, kind), int(res.nit), message))
         if np.isfinite(f):
             ends.append((f, i, x))

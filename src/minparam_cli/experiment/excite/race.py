@@ -33,7 +33,10 @@ class Start:
         self._solve = solve
         self._step_hook = step
         self.iterations = 0
-        self.value = float("inf")  # the criterion at the last iteration (inf before the first)
+        # the criterion at the last iteration (inf before the first): SLSQP's value at the point its last
+        # iteration reached, and once the run has ended by itself, its result's
+        self.value = float("inf")
+        self.stopped = False  # the race ended the run (not the optimiser's own test or iteration limit)
         self.result: Any = None
         self._error: BaseException | None = None
         self._target: float = 0
@@ -46,6 +49,8 @@ class Start:
     def _run(self) -> None:
         try:
             self.result = self._solve(self._callback)
+            if not self.stopped and self.result is not None and getattr(self.result, "fun", None) is not None:
+                self.value = float(self.result.fun)
         except BaseException as e:  # noqa: BLE001  # handed to the caller's thread by advance
             self._error = e
         self._done = True
@@ -61,6 +66,7 @@ class Start:
             self._resume.wait()
             self._resume.clear()
             if self._stop:
+                self.stopped = True
                 raise StopIteration  # SLSQP ends here and returns this iterate
 
     def advance(self, target: float) -> None:
