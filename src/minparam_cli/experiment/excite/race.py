@@ -69,6 +69,11 @@ class Start:
                 self.stopped = True
                 raise StopIteration  # SLSQP ends here and returns this iterate
 
+    @property
+    def ended(self) -> bool:
+        """The run is over (its optimiser returned, or it failed)."""
+        return self._done
+
     def advance(self, target: float) -> None:
         """Run to iteration ``target`` (inf: to the optimiser's own end) or the optimiser's end."""
         self._go(target, stop=False)
@@ -107,6 +112,9 @@ def race(runs: list[Start], max_iterations: int, raced: bool = True) -> list[boo
                 break
             for i in alive:
                 runs[i].advance(stage)
+            alive = [i for i in alive if not runs[i].ended]  # one that ended by itself is out (its result counts)
+            if len(alive) < 2:
+                break
             ranked = sorted(alive, key=lambda i: (runs[i].value, i))
             keep = (len(alive) + 1) // 2
             for i in ranked[keep:]:
