@@ -164,3 +164,19 @@ def test_massless_links_of_an_mjcf_tree_are_exported(tmp_path):
     assert m.njnt == chain.n
     urdf = urdf_from_chain(chain, phi, "", terms)
     assert urdf.count("<inertial>") == len(chain.layout.links_with_columns)
+
+
+def test_export_yaml_and_mjcf_of_the_four_bar_read_back(tmp_path):
+    """The route of the test above in this process, on the smallest closed chain (the fast tier's case):
+    simulate, identify --physical --export-yaml --export-mjcf, and both files derive to the four-bar's 8
+    base parameters."""
+    from conftest import cli
+
+    bar, data = ROOT / "robots" / "fourbar_hybroblib.yaml", tmp_path / "bar.csv"
+    assert cli("simulate", bar, "-o", data, "--seed", 1, "--noise", 0.05, "--duration", 6, "-q").exit_code == 0
+    r = cli("identify", bar, data, "--physical", "--export-yaml", tmp_path / "b.yaml", "--export-mjcf", tmp_path / "b.xml", "-q")
+    assert r.exit_code == 0, r.output
+    for out in (tmp_path / "b.yaml", tmp_path / "b.xml"):
+        r = cli("derive", out, "-f", "json")
+        assert r.exit_code == 0, r.output
+        assert json.loads(r.output)["n_base"] == 8
