@@ -7,14 +7,15 @@ Two whole runs of the fast tier, one after the other, in this repository:
    and the machine's load (1-minute average, os.getloadavg) before and after beside the number of cores:
    on a shared machine the wall time is as much the other jobs' as the tests';
 2. under `coverage run` (slower; not timed): line coverage of every module of src/minparam_cli, and the
-   modules below ``--min-percent``. With ``--full DATA`` (a coverage data file of the whole suite, e.g.
-   from `coverage run --data-file=DATA -m pytest`), the full suite's figure beside each module and the
-   modules that lost more than ``--max-loss`` points.
+   modules below ``--min-percent`` and the ``--lowest`` N least covered, least covered first. With
+   ``--full DATA`` (a coverage data file of the whole suite, e.g. from `coverage run --data-file=DATA -m
+   pytest`), the full suite's figure beside each module and the modules that lost more than ``--max-loss``
+   points.
 
 The tiers: tests/slow_tests.txt (why and how: docs/architecture.md, "Fast tier"). Tests never fail on time;
 this script reports it.
 
-Run: python benchmarks/fast_tier.py [--min-percent 50] [--full DATA] [--max-loss 30] [--no-coverage] [--all]
+Run: python benchmarks/fast_tier.py [--min-percent 50] [--lowest 5] [--full DATA] [--max-loss 30] [--no-coverage] [--all]
 """
 
 from __future__ import annotations
@@ -73,6 +74,7 @@ def percent_by_module(data: Path) -> dict[str, tuple[int, float]]:
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--min-percent", type=float, default=50.0, help="list modules whose fast-tier line coverage is below this (default 50)")
+    ap.add_argument("--lowest", type=int, default=5, help="also list the N modules the fast tier covers least (default 5)")
     ap.add_argument("--full", type=Path, help="coverage data file of the whole suite, to compare module by module")
     ap.add_argument("--max-loss", type=float, default=30.0, help="with --full: list modules that lost more than this many points (default 30)")
     ap.add_argument("--no-coverage", action="store_true", help="time the tier only")
@@ -98,11 +100,12 @@ def main() -> None:
             raise SystemExit("the fast tier failed under coverage")
         fast = percent_by_module(data)
     full = percent_by_module(args.full) if args.full else {}
+    lowest = set(sorted(fast, key=lambda m: (fast[m][1], m))[:max(args.lowest, 0)])
     rows = []
-    for module, (n, pct) in fast.items():
+    for module, (n, pct) in sorted(fast.items(), key=lambda item: (item[1][1], item[0])):
         loss = full[module][1] - pct if module in full else 0.0
         flags = (["below min"] if pct < args.min_percent else []) + ([f"lost {loss:.0f} points"] if loss > args.max_loss else [])
-        if flags or args.all:
+        if flags or args.all or module in lowest:
             rows.append((module, n, pct, full.get(module, (0, float("nan")))[1], ", ".join(flags)))
     total = sum(n for n, _ in fast.values())
     covered = sum(n * p / 100 for n, p in fast.values())
@@ -110,7 +113,8 @@ def main() -> None:
     if full:
         ftotal = sum(n * p / 100 for n, p in full.values())
         print(f"whole suite ({args.full}): {100 * ftotal / total:.1f} %")
-    print(f"modules below {args.min_percent:g} %" + (f" or losing more than {args.max_loss:g} points" if full else "") + f": {sum(1 for r in rows if r[4])}")
+    print(f"modules below {args.min_percent:g} %" + (f" or losing more than {args.max_loss:g} points" if full else "") + f": {sum(1 for r in rows if r[4])}"
+          + (f"; the {args.lowest} least covered listed too, least first" if args.lowest > 0 and not args.all else ""))
     if rows:
         width = max(len(r[0]) for r in rows)
         print(f"\n{'module':<{width}}  {'stmts':>5}  {'fast %':>6}  {'full %':>6}  flag")

@@ -9,6 +9,13 @@ from pathlib import Path
 import pytest
 import yaml
 
+from minparam_cli import runtime
+
+# One BLAS thread, as the CLI runs (cli/app.py calls this before numpy is imported; here it runs before any
+# test module imports numpy). OpenBLAS's default, a thread per core, made the tests run other arithmetic than
+# the CLI and, on the 2-core machine with another job on the second core, spin: a 1,500-sample Panda identify
+# took 30 s of wall and 31 s of CPU instead of 3.8 s and 3.4 s (tests/test_identify_tuning.py, load 2.7).
+runtime.single_thread_blas()
 ROOT = Path(__file__).resolve().parents[1]
 ROBOTS = ROOT / "robots"
 SHARED = ROOT.parent / "shared"

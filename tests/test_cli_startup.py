@@ -89,6 +89,20 @@ def test_the_console_script_freezes_before_exit(monkeypatch, capsys):
     assert gc.get_freeze_count() > 0  # the shutdown's collections skip what was alive at the end (runtime.py)
 
 
+@pytest.mark.parametrize("argv, code", [(["--version"], 0), (["check", "robots/no_such_file.yaml"], 2)], ids=str)
+def test_python_minus_m_minparam_cli_is_the_console_script(argv, code, monkeypatch, capsys):
+    """`python -m minparam_cli` (__main__.py) runs the console script's entry(), main() then the freeze,
+    and exits with its code: the output and exit code of the full app, here in this process."""
+    import runpy
+
+    monkeypatch.setattr(sys, "argv", ["minparam", *argv])
+    with pytest.raises(SystemExit) as e:
+        runpy.run_module("minparam_cli", run_name="__main__")
+    out, err = capsys.readouterr()
+    assert (e.value.code, out + err) == invoke(app_module.app, argv) and e.value.code == code
+    assert gc.get_freeze_count() > 0  # entry()'s, not main()'s: the fixture above unfreezes
+
+
 def test_main_derive_help_through_main(monkeypatch, capsys):
     monkeypatch.setattr(sys, "argv", ["minparam", "derive", "--help"])
     assert main() == 0

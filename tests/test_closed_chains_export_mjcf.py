@@ -12,6 +12,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from conftest import cli
 
 mujoco = pytest.importorskip("mujoco")
 
@@ -117,14 +118,17 @@ def arm_run(tmp_path_factory):
     d = tmp_path_factory.mktemp("arm_export")
     arm = ROOT / "robots" / "parallelogram_arm.yaml"
     data = d / "arm.csv"
-    assert _run("simulate", arm, "-o", data, "--seed", 1, "--noise", 0.5, "--duration", 6, "-q").returncode == 0
+    assert cli("simulate", arm, "-o", data, "--seed", 1, "--noise", 0.5, "--duration", 6, "-q").exit_code == 0
     return d, arm, data
+
+
+def _one_line_exit_2(r, needle: str) -> None:
+    assert r.exit_code == 2 and r.stderr.strip().count("\n") == 0 and needle in r.stderr and "Traceback" not in r.output, r.output
 
 
 def test_export_urdf_of_a_closed_chain_is_one_line_exit_2(arm_run):
     d, arm, data = arm_run
-    r = _run("identify", arm, data, "--physical", "--export-urdf", d / "x.urdf")
-    assert r.returncode == 2 and r.stderr.strip().count("\n") == 0 and "URDF has no loop-closing joints" in r.stderr
+    _one_line_exit_2(cli("identify", arm, data, "--physical", "--export-urdf", d / "x.urdf"), "URDF has no loop-closing joints")
     assert not (d / "x.urdf").exists()
 
 
@@ -143,8 +147,7 @@ def test_export_yaml_and_mjcf_of_a_closed_chain_read_back(arm_run):
 def test_export_yaml_of_a_platform_file_is_one_line_exit_2(arm_run, tmp_path):
     d, _, data = arm_run
     hexapod = ROOT / "robots" / "platforms" / "hexapod_6_6.yaml"
-    r = _run("identify", hexapod, data, "--physical", "--export-yaml", tmp_path / "h.yaml")
-    assert r.returncode == 2 and r.stderr.strip().count("\n") == 0 and "platform file holds one body" in r.stderr
+    _one_line_exit_2(cli("identify", hexapod, data, "--physical", "--export-yaml", tmp_path / "h.yaml"), "platform file holds one body")
 
 
 def test_massless_links_of_an_mjcf_tree_are_exported(tmp_path):
@@ -164,3 +167,17 @@ def test_massless_links_of_an_mjcf_tree_are_exported(tmp_path):
     assert m.njnt == chain.n
     urdf = urdf_from_chain(chain, phi, "", terms)
     assert urdf.count("<inertial>") == len(chain.layout.links_with_columns)
+
+
+def test_export_yaml_and_mjcf_of_the_four_bar_read_back(tmp_path):
+    """The route of the test above in this process, on the smallest closed chain (the fast tier's case):
+    simulate, identify --physical --export-yaml --export-mjcf, and both files derive to the four-bar's 8
+    base parameters."""
+    bar, data = ROOT / "robots" / "fourbar_hybroblib.yaml", tmp_path / "bar.csv"
+    assert cli("simulate", bar, "-o", data, "--seed", 1, "--noise", 0.05, "--duration", 6, "-q").exit_code == 0
+    r = cli("identify", bar, data, "--physical", "--export-yaml", tmp_path / "b.yaml", "--export-mjcf", tmp_path / "b.xml", "-q")
+    assert r.exit_code == 0, r.output
+    for out in (tmp_path / "b.yaml", tmp_path / "b.xml"):
+        r = cli("derive", out, "-f", "json")
+        assert r.exit_code == 0, r.output
+        assert json.loads(r.output)["n_base"] == 8

@@ -89,19 +89,41 @@ def test_excite_keeps_passive_joints_inside_their_limits(tmp_path):
     assert np.abs(passive).max() > 20.0
 
 
-def test_delta_round_trip_on_one_seed(tmp_path):
-    """robots/delta.yaml (3 motors, 34 base parameters) simulated with white torque noise 0.05 N·m on
-    seed 1 and identified with the default roles: every estimate within 3σ of the truth K·φ (textbook
-    σ and default HAC σ), and the test part's RMS is the noise."""
-    delta, noise = ROOT / "robots" / "delta.yaml", 0.05
+def _round_trip(robot: Path, noise: float, tmp_path: Path) -> tuple[dict, dict]:
+    """simulate (white torque noise, seed 1) then identify with the default roles: identify's JSON report and
+    the truth K·φ by base parameter name."""
     data, truth = tmp_path / "d.csv", tmp_path / "d.json"
-    _cli("simulate", delta, "-o", data, "--seed", 1, "--noise", noise, "--truth", truth, "-q")
-    result = json.loads(_cli("identify", delta, data, "--seed", 1, "--no-diagnose", "-f", "json").stdout)
-    base = derive_file(delta, DeriveOptions(seed=1))
+    _cli("simulate", robot, "-o", data, "--seed", 1, "--noise", noise, "--truth", truth, "-q")
+    result = json.loads(_cli("identify", robot, data, "--seed", 1, "--no-diagnose", "-f", "json").stdout)
+    base = derive_file(robot, DeriveOptions(seed=1))
     true = dict(zip(base.base_names, base.K @ np.array(json.loads(truth.read_text())["phi"]), strict=True))
-    assert set(result["parameters"]) == set(true) and len(true) == 34
+    return result, true
+
+
+def _assert_within_3_sigma_and_test_rms_is_the_noise(result: dict, true: dict, noise: float) -> None:
+    assert set(result["parameters"]) == set(true)  # identify's base set is derive's
     for name, p in result["parameters"].items():
         err = abs(p["value"] - true[name])
         assert err <= 3 * abs(p["value"]) * p["std_percent_textbook"] / 100, name
         assert err <= 3 * abs(p["value"]) * p["std_percent"] / 100, name
     assert result["test"]["final"]["rms_total"] == pytest.approx(noise, rel=0.1)
+
+
+def test_delta_round_trip_on_one_seed(tmp_path):
+    """robots/delta.yaml (3 motors, 34 base parameters) simulated with white torque noise 0.05 N·m on
+    seed 1 and identified with the default roles: every estimate within 3σ of the truth K·φ (textbook
+    σ and default HAC σ), and the test part's RMS is the noise."""
+    noise = 0.05
+    result, true = _round_trip(ROOT / "robots" / "delta.yaml", noise, tmp_path)
+    assert len(true) == 34
+    _assert_within_3_sigma_and_test_rms_is_the_noise(result, true, noise)
+
+
+def test_fourbar_round_trip_on_one_seed(tmp_path):
+    """The smallest closed chain, robots/fourbar_hybroblib.yaml (one motor, one loop, 8 base parameters),
+    through the same round trip as the Delta: every estimate within 3σ of the truth K·φ (textbook σ and
+    default HAC σ), and the test part's RMS is the noise."""
+    noise = 0.05
+    result, true = _round_trip(ROOT / "robots" / "fourbar_hybroblib.yaml", noise, tmp_path)
+    assert len(true) == 8
+    _assert_within_3_sigma_and_test_rms_is_the_noise(result, true, noise)

@@ -134,6 +134,25 @@ def test_every_limit_holds_on_a_fine_grid_and_the_csv_matches_the_json(tmp_path,
     assert (tmp_path / "t.png").stat().st_size > 0
 
 
+def test_the_plot_draws_each_joints_designed_q_between_its_limits(tmp_path):
+    """excite --plot's figure (render/excite_plot.py) on the limited arm, from a short design: one axis per
+    joint labelled with its unit, its curve the designed q in degrees, the file's limits as lines and the
+    margin's lines inside them."""
+    import minparam
+    from minparam_cli.render.excite_plot import render_trajectory
+
+    r = minparam.excite(arm(tmp_path, *LIMITED), harmonics=3, rate=50, starts=1, max_iterations=10)
+    axes = render_trajectory(r.design, ("revolute", "revolute")).get_axes()
+    assert [ax.get_ylabel() for ax in axes] == ["q1 (deg)", "q2 (deg)"] and axes[-1].get_xlabel() == "t (s)"
+    for j, (ax, (lo, hi)) in enumerate(zip(axes, [(-90, 90), (-120, 120)], strict=True)):
+        curve, *lines = ax.get_lines()
+        np.testing.assert_allclose(curve.get_xdata(), r.t)
+        np.testing.assert_allclose(curve.get_ydata(), np.degrees(r.q[:, j]))
+        levels = [float(line.get_ydata()[0]) for line in lines]
+        assert levels[:2] == pytest.approx([lo, hi])
+        assert lo < levels[2] < levels[3] < hi  # the margin the design keeps free
+
+
 def test_torque_limits_that_bind_are_kept(tmp_path, app):
     """An effort limit below what the free design would use: the output still meets it on a fine grid."""
     path = arm(tmp_path, "effort: 22,", "effort: 6,")

@@ -128,14 +128,15 @@ def test_error_inside_a_run_reaches_the_caller():
         run.advance(STAGE)
 
 
-def test_design_finalists_end_where_unraced_starts_end(monkeypatch):
-    """In excite's design (PUMA 560, 3 starts): the two starts that go on end exactly where the same
-    starts end without the race, the third stops after the race's stage, and the record says so."""
+@pytest.mark.parametrize("robot", ["puma560.yaml", "planar3r.yaml"])  # the planar arm: the fast tier's case
+def test_design_finalists_end_where_unraced_starts_end(monkeypatch, robot):
+    """In excite's design (3 starts): the two starts that go on end exactly where the same starts end
+    without the race, the third stops after the race's stage, and the record says so."""
     from minparam_cli.base.qr import derive_qr
     from minparam_cli.experiment.excite.design import ExciteOptions, chain_limits, design
     from minparam_cli.robot import DeriveOptions, load_chain
 
-    _, chain = load_chain("robots/puma560.yaml", DeriveOptions())
+    _, chain = load_chain(f"robots/{robot}", DeriveOptions())
     base, limits, opts = derive_qr(chain), chain_limits(chain, 0.1), ExciteOptions(starts=3, max_iterations=30, harmonics=3, rate=20)
     raced = design(chain, base, opts, limits, np.random.default_rng(0))
     monkeypatch.setattr(race, "RACE_STAGES", ())  # no race

@@ -12,6 +12,7 @@ import math
 from dataclasses import replace
 from pathlib import Path
 
+import pytest
 from test_identify_scale import _panda_sample
 
 from minparam_cli.identify import stage
@@ -46,12 +47,15 @@ def _report(path: Path, opts: stage.IdentifyOptions) -> dict:
     return result.to_dict()
 
 
-def test_the_speed_settings_change_no_result(tmp_path, monkeypatch):
-    path = _panda_sample(tmp_path, samples=6000)  # 3,600 fit samples, every one in the diagnosis sample
+# 6000 samples: 3,600 fit samples, every one in the diagnosis sample, 6 regressor blocks where the default makes
+# 1; 2500 (the fast tier's case): 1,500 fit samples, still 3 blocks of each tuned setting where the default makes 1
+@pytest.mark.parametrize("samples", [6000, 2500])
+def test_the_speed_settings_change_no_result(tmp_path, monkeypatch, samples):
+    path = _panda_sample(tmp_path, samples=samples)
     opts = stage.IdentifyOptions()
     default = _report(path, opts)
 
-    monkeypatch.setattr(stream, "REGRESSOR_ROWS", 700)  # 6 blocks of rows where the default makes 1
+    monkeypatch.setattr(stream, "REGRESSOR_ROWS", 700)  # several blocks of rows where the default makes 1
     monkeypatch.setattr(stream, "READ_AHEAD", 3)
     monkeypatch.setattr(stream, "ROWS_AHEAD", 1)
     monkeypatch.setattr(arrow_csv, "BLOCK_BYTES", 8192)  # pyarrow batches of ~28 lines (with pyarrow)

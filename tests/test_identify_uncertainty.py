@@ -28,22 +28,30 @@ def _sigma(rep: dict, key: str) -> np.ndarray:
     return np.array([abs(v["value"]) * v[key] / 100 for v in p.values()])
 
 
+CUTOFF = {"white": None, "coloured": 2.0}  # Hz: the noise's low-pass (None: white)
+
+
 @pytest.fixture(scope="module")
 def runs(tmp_path_factory):
-    """Per noise kind: estimates, textbook σ and hac σ of every base parameter over SEEDS recordings."""
+    """``runs(kind)``: estimates, textbook σ and hac σ of every base parameter over SEEDS recordings of that
+    noise kind, computed the first time a test asks for the kind (the fast tier's test needs only coloured)."""
     ch = ud.chain()
-    out = {}
-    for kind, cutoff in (("white", None), ("coloured", 2.0)):
-        est, text, hac = [], [], []
-        for s in range(SEEDS):
-            path = ud.write(tmp_path_factory.mktemp(kind) / "d.csv", DURATION, s, cutoff, ch=ch)
-            rep, _ = identify(ch, path, _opts())
-            rep = rep.to_dict()
-            est.append([v["value"] for v in rep["parameters"].values()])
-            text.append(_sigma(rep, "std_percent_textbook"))
-            hac.append(_sigma(rep, "std_percent"))
-        out[kind] = (np.array(est), np.array(text), np.array(hac))
-    return out
+    done: dict[str, tuple[np.ndarray, np.ndarray, np.ndarray]] = {}
+
+    def run(kind: str):
+        if kind not in done:
+            est, text, hac = [], [], []
+            for s in range(SEEDS):
+                path = ud.write(tmp_path_factory.mktemp(kind) / "d.csv", DURATION, s, CUTOFF[kind], ch=ch)
+                rep, _ = identify(ch, path, _opts())
+                rep = rep.to_dict()
+                est.append([v["value"] for v in rep["parameters"].values()])
+                text.append(_sigma(rep, "std_percent_textbook"))
+                hac.append(_sigma(rep, "std_percent"))
+            done[kind] = (np.array(est), np.array(text), np.array(hac))
+        return done[kind]
+
+    return run
 
 
 def _ratios(run):
@@ -53,15 +61,15 @@ def _ratios(run):
 
 
 def test_white_noise_hac_agrees_with_textbook(runs):
-    _, text, hac = runs["white"]
+    _, text, hac = runs("white")
     r = hac.mean(axis=0) / text.mean(axis=0)
     assert np.all(np.abs(r - 1) < 0.2), r
-    t_ratio, _ = _ratios(runs["white"])
+    t_ratio, _ = _ratios(runs("white"))
     assert np.all((t_ratio > 1 / 1.5) & (t_ratio < 1.5)), t_ratio  # white noise: the textbook σ is right
 
 
 def test_coloured_noise_textbook_too_small_hac_matches_spread(runs):
-    t_ratio, h_ratio = _ratios(runs["coloured"])
+    t_ratio, h_ratio = _ratios(runs("coloured"))
     assert np.all(t_ratio < 1 / 1.5), t_ratio
     assert np.all((h_ratio > 1 / 1.5) & (h_ratio < 1.5)), h_ratio
 

@@ -67,6 +67,19 @@ def test_payload_mass_and_com_from_joint_torques(recordings):
     assert p["parameters"]["ZZ"]["value"] == pytest.approx(INERTIA[5] + MASS * (COM[0] ** 2 + COM[1] ** 2), rel=0.05)
 
 
+def test_the_text_report_shows_the_json_reports_payload(recordings):
+    """identify's text report (render/payload_text.py) ends with the payload block: the same figures as
+    the JSON report of the same run, to the digits it prints."""
+    _, robot, _, f = recordings
+    p = identify(robot, f["a"], "--payload-data", f["b"])["payload"]
+    text = ok("identify", robot, f["a"], "--payload-data", f["b"], "--no-diagnose", "-q").output
+    block = text[text.index("\npayload (about the origin of"):].strip().splitlines()
+    assert f"{p['samples'][0]} + {p['samples'][1]} samples" in block[0]
+    for name, e in p["parameters"].items():
+        assert f"  {name:<12} {e['value']:.6g}  (σ {e['std']:.3g}, {e['std_percent']:.3g} %)" in block
+    assert "  centre of mass " + ", ".join(f"{c:.4g}" for c in p["com"]) + " m" in block
+
+
 def test_currents_without_gains_or_mass_say_the_unit_is_arbitrary(recordings):
     _, _, without, f = recordings
     r = identify(without, f["a_cur"], "--side", "motor", "--current")

@@ -83,6 +83,27 @@ def test_scan_and_plot(tmp_path):
     assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
 
 
+def test_the_plot_maps_sigma_over_the_two_joints_of_a_planar_arm(tmp_path, monkeypatch):
+    """singular --plot (render/singular_plot.py) on the planar 3R over joints 2 and 3, the fast tier's case
+    of the PUMA map above: the PNG is written, and the figure saved is the map over the two joints in
+    degrees, its colours log10(σ_min/σ_max) (floored at 1e-6), whose smallest σ is the JSON's."""
+    from minparam_cli.cli import singular as command
+
+    saved = []
+    monkeypatch.setattr(command, "save_png", lambda fig, path, save=command.save_png: (saved.append(fig), save(fig, path)))
+    planar, png = str(ROBOTS / "planar3r.yaml"), tmp_path / "map.png"
+    r = cli("singular", planar, "--plot", png, "--joints", "2,3", "--format", "json", "--quiet")
+    assert r.exit_code == 0, r.output
+    assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    ax = saved[0].axes[0]
+    assert (ax.get_xlabel(), ax.get_ylabel()) == ("q2 (deg)", "q3 (deg)")
+    x, y = ax.collections[0].get_coordinates()[0, :, 0], ax.collections[0].get_coordinates()[:, 0, 1]
+    assert x.min() < -179 and x.max() > 179 and y.min() < -179 and y.max() > 179  # the whole turn of each joint
+    colours = np.asarray(ax.collections[0].get_array())
+    smallest = json.loads(r.stdout)["plot"]["sigma_min_on_map"]
+    assert colours.min() == pytest.approx(np.log10(max(smallest, 1e-6))) and colours.max() <= 0
+
+
 def test_scan_json():
     r = cli("singular", PUMA, "--scan", "--step", "60", "--format", "json", "--quiet")
     doc = json.loads(r.stdout)
