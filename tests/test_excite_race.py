@@ -169,14 +169,15 @@ def test_an_error_ends_every_other_run():
         assert not r._thread.is_alive() and r.iterations == STAGE
 
 
-def test_a_run_that_ends_before_a_stage_leaves_the_race_to_the_others():
-    """A start whose SLSQP ends by itself before the stage (here: from the optimum itself, with its own
-    limit of 3 iterations) keeps its own ending (``stopped`` False) and its result's value, and takes no
-    place among the half that goes on: of the three other starts, the better two go on."""
+@pytest.mark.parametrize("own_limit", [3, STAGE])
+def test_a_run_that_ends_before_a_stage_leaves_the_race_to_the_others(own_limit):
+    """A start whose SLSQP ends by itself before the stage or exactly at it (here: near the optimum, with its
+    own limit of 3 or STAGE iterations) keeps its own ending (``stopped`` False) and its result's value, and
+    takes no place among the half that goes on: of the three other starts, the better two go on."""
     x0s, runs = starts(3, 70)
-    short = race.Start(lambda cb: solve(np.ones(6) * 0.5, 3, cb))
+    short = race.Start(lambda cb: solve(np.ones(6) * 0.5, own_limit, cb))
     finalists = race.race([short, *runs], 70)
-    assert short.ended and not short.stopped and short.value == float(short.result.fun)
+    assert short.ended and not short.stopped and short.value == float(short.result.fun) and short.result.nit == own_limit
     assert finalists[0] is False and sum(finalists[1:]) == 2
     at8 = [uninterrupted_values(x0, STAGE)[-1] for x0 in x0s]
     assert finalists[1:] == [i in set(np.argsort(at8)[:2]) for i in range(3)]

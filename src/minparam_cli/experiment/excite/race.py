@@ -36,7 +36,9 @@ class Start:
         # the criterion at the last iteration (inf before the first): SLSQP's value at the point its last
         # iteration reached, and once the run has ended by itself, its result's
         self.value = float("inf")
-        self.stopped = False  # the race ended the run (not the optimiser's own test or iteration limit)
+        # the race ended the run (not the optimiser's own test or iteration limit); a run stopped at the very
+        # iteration at which SLSQP would have ended by itself counts as stopped (scipy reports status 99 for both)
+        self.stopped = False
         self.result: Any = None
         self._error: BaseException | None = None
         self._target: float = 0
@@ -115,11 +117,17 @@ def race(runs: list[Start], max_iterations: int, raced: bool = True) -> list[boo
             alive = [i for i in alive if not runs[i].ended]  # one that ended by itself is out (its result counts)
             if len(alive) < 2:
                 break
-            ranked = sorted(alive, key=lambda i: (runs[i].value, i))
-            keep = (len(alive) + 1) // 2
-            for i in ranked[keep:]:
-                runs[i].stop()
-            alive = sorted(ranked[:keep])
+            keep, going = (len(alive) + 1) // 2, []
+            for i in sorted(alive, key=lambda i: (runs[i].value, i)):
+                if len(going) < keep:
+                    # one iteration more: SLSQP calls back on its last iteration too, so a run that ended
+                    # by itself exactly at the stage ends only now, and leaves its place to the next one
+                    runs[i].advance(stage + 1)
+                    if not (runs[i].ended and runs[i].iterations <= stage):
+                        going.append(i)
+                else:
+                    runs[i].stop()
+            alive = sorted(going)
         for i in alive:
             runs[i].advance(float("inf"))  # SLSQP's own iteration limit ends it
     except BaseException:
