@@ -117,7 +117,7 @@ def race(runs: list[Start], max_iterations: int, raced: bool = True) -> list[boo
             alive = [i for i in alive if not runs[i].ended]  # one that ended by itself is out (its result counts)
             if len(alive) < 2:
                 break
-            keep, going = (len(alive) + 1) // 2, []
+            keep, going = (len(alive) + 1) // 2, list[int]()
             for i in sorted(alive, key=lambda i: (runs[i].value, i)):
                 if len(going) < keep:
                     # one iteration more: SLSQP calls back on its last iteration too, so a run that ended
