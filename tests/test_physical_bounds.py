@@ -215,3 +215,36 @@ def test_urdf_shapes_give_each_link_its_box(tmp_path):
         for corner in np.array(np.meshgrid(*zip(lo, hi, strict=True))).reshape(3, -1).T:
             x = np.append(corner, 1.0)
             assert abs(x @ Q @ x) < 1e-9
+
+
+@pytest.mark.parametrize("layout", ["package-above", "ros-package-path", "file-relative"])
+def test_a_mesh_found_by_the_urdf_lookup_gives_the_same_box(tmp_path, monkeypatch, layout):
+    """The physical fit reads a mesh wherever the URDF's one lookup (describe/mesh_files.py, also excite's
+    collision shapes) finds it: package://PKG/... in the URDF's package above its folder, or under
+    ROS_PACKAGE_PATH, and file:// relative to the URDF; the box equals the one of the STL next to it."""
+    import struct
+
+    from minparam_cli.robot import DeriveOptions, load_chain
+
+    verts = [(0, -0.05, -0.05), (0.2, 0.05, -0.05), (0.1, 0.0, 0.06)]
+    tri = struct.pack("<12fH", 0, 0, 1, *[x for v in verts for x in v], 0)
+    stl = b"\0" * 80 + struct.pack("<I", 1) + tri
+    if layout == "package-above":
+        urdf, mesh, name = tmp_path / "mypkg" / "urdf" / "two.urdf", tmp_path / "mypkg" / "meshes" / "part.stl", "package://mypkg/meshes/part.stl"
+    elif layout == "ros-package-path":
+        urdf, mesh, name = tmp_path / "robot" / "two.urdf", tmp_path / "ros" / "mypkg" / "meshes" / "part.stl", "package://mypkg/meshes/part.stl"
+        monkeypatch.setenv("ROS_PACKAGE_PATH", str(tmp_path / "ros"))
+    else:
+        urdf, mesh, name = tmp_path / "two.urdf", tmp_path / "meshes" / "part.stl", "file://meshes/part.stl"
+    for p in (urdf, mesh):
+        p.parent.mkdir(parents=True, exist_ok=True)
+    mesh.write_bytes(stl)
+    urdf.write_text(URDF.replace('filename="part.stl"', f'filename="{name}"'))
+    (tmp_path / "next").mkdir()
+    (tmp_path / "next" / "two.urdf").write_text(URDF)
+    (tmp_path / "next" / "part.stl").write_bytes(stl)
+    found = load_chain(urdf, DeriveOptions())[1].link_geometry[1]
+    beside = load_chain(tmp_path / "next" / "two.urdf", DeriveOptions())[1].link_geometry[1]
+    assert found is not None and found[0] == "collision" and np.allclose(found[1:], beside[1:])
+    mesh.unlink()  # gone: l2 falls back to its visual box (urdf_geometry.link_box), lumped with the tip
+    assert load_chain(urdf, DeriveOptions())[1].link_geometry[1][0] == "collision+visual"  # with the tip's sphere

@@ -3,9 +3,9 @@ ellipsoid its mass must stay inside (identify/physical/geometry.py).
 
 The link's ``<collision>`` shapes, or its ``<visual>`` ones when it has no collision shape: ``box``,
 ``cylinder`` (axis z), ``sphere``, and ``mesh`` only where the file is an STL (binary or ASCII) that
-exists next to the URDF (a relative path or ``file://``; ``package://`` is not resolved) and is
-within the size cap; its ``scale`` applies.  Each shape's own bounding box, moved by its
-``<origin>``, gives eight corners; the link's box holds them all.  A shape that cannot be read (a
+the URDF's lookup finds (``describe/mesh_files.py``: a relative path, ``file://``, or ``package://``
+under the URDF's folder, a folder above it or ``ROS_PACKAGE_PATH``) and is within the size cap; its
+``scale`` applies.  Each shape's own bounding box, moved by its ``<origin>``, gives eight corners; the link's box holds them all.  A shape that cannot be read (a
 missing or malformed number, another mesh format, a missing file) is skipped, and a link with no
 readable shape has no box: the shapes are a hint for the physical fit, never needed to load the robot.
 """
@@ -17,6 +17,8 @@ from itertools import product
 from pathlib import Path
 
 import numpy as np
+
+from minparam_cli.describe.mesh_files import find_mesh
 
 MAX_MESH_BYTES = 64 * 2**20  # an STL larger than this is skipped
 
@@ -71,9 +73,10 @@ def _shape_box(geom, base_dir: Path | None) -> tuple[np.ndarray, np.ndarray] | N
             return -half, half
         if tag == "mesh":
             name = shape.get("filename") or ""
-            if base_dir is None or not name.lower().endswith(".stl") or name.startswith("package://"):
+            found = None if base_dir is None or not name.lower().endswith(".stl") else find_mesh(name, base_dir)
+            if found is None:
                 return None
-            box = _stl_box(base_dir / name.removeprefix("file://"))
+            box = _stl_box(found)
             scale = _numbers(shape.get("scale"), 3) if shape.get("scale") else np.ones(3)
             if box is None or scale is None:
                 return None

@@ -35,6 +35,7 @@ from typing import Any
 
 import numpy as np
 
+from minparam_cli.describe.mesh_files import find_mesh
 from minparam_cli.errors import InputError
 from minparam_cli.experiment.excite import constraints as cons
 
@@ -162,28 +163,6 @@ def _joint_jacobian(chain, q: np.ndarray) -> np.ndarray:
     return cons._central_differences(lambda x: cons.joint_states(chain, x), q)
 
 
-def _mesh_file(name: str, folder: Path) -> Path | None:
-    """A URDF mesh's file: package://PKG/REST under the URDF's folder or a folder above it (as PKG/REST or
-    REST) or a ROS_PACKAGE_PATH entry; file://PATH; else relative to the URDF's folder."""
-    import os
-
-    if name.startswith("file://"):
-        p = Path(name[len("file://"):])
-        return p if p.is_file() else None
-    if name.startswith("package://"):
-        rest = name[len("package://"):]
-        tail = rest.split("/", 1)[1] if "/" in rest else rest
-        roots = [folder.resolve(), *folder.resolve().parents]
-        roots += [Path(e) for e in os.environ.get("ROS_PACKAGE_PATH", "").split(os.pathsep) if e]
-        for root in roots:
-            for candidate in (root / rest, root / tail):
-                if candidate.is_file():
-                    return candidate
-        return None
-    p = folder / name
-    return p if p.is_file() else None
-
-
 def urdf_for_mujoco(path: Path) -> str:
     """The URDF's text for MuJoCo's URDF reader: no <visual>, collision meshes as absolute paths (each one
     found, or a one-line error naming it), mass and inertia bounded (they do not matter here)."""
@@ -198,7 +177,7 @@ def urdf_for_mujoco(path: Path) -> str:
     for link in root.findall("link"):
         for mesh in link.findall("collision/geometry/mesh"):
             name = mesh.get("filename", "")
-            found = _mesh_file(name, path.parent)
+            found = find_mesh(name, path.parent)
             where = f"{src}: link '{link.get('name')}'"
             if found is None:
                 raise InputError(f"{where}: --collisions: collision mesh {name!r} not found (looked beside the URDF, in "
