@@ -136,12 +136,24 @@ def test_export_yaml_and_mjcf_of_a_closed_chain_read_back(arm_run):
     """--export-yaml keeps the closed_chain document (its 'identified' block read back as a record) and
     --export-mjcf the loops: both derive to the arm's 18 base parameters."""
     d, arm, data = arm_run
-    r = _run("identify", arm, data, "--physical", "--export-yaml", d / "a.yaml", "--export-mjcf", d / "a.xml", "-q")
-    assert r.returncode == 0, r.stderr
-    for out in (d / "a.yaml", d / "a.xml"):
-        r = _run("derive", out, "-f", "json")
-        assert r.returncode == 0, r.stderr
-        assert json.loads(r.stdout)["n_base"] == 18
+
+    def run(*args):
+        r = _run(*args)
+        return r.returncode, r.stdout, r.stderr
+
+    _exports_read_back(run, arm, data, d, 18)
+
+
+def _exports_read_back(run, robot, data, folder, n_base: int) -> None:
+    """identify --physical --export-yaml --export-mjcf on ``data``, then both files derive to ``n_base``
+    base parameters; ``run(*args)`` gives (exit code, stdout, stderr) of one minparam command."""
+    code, _, err = run("identify", robot, data, "--physical", "--export-yaml", folder / "a.yaml", "--export-mjcf",
+                       folder / "a.xml", "-q")
+    assert code == 0, err
+    for out in (folder / "a.yaml", folder / "a.xml"):
+        code, text, err = run("derive", out, "-f", "json")
+        assert code == 0, err
+        assert json.loads(text)["n_base"] == n_base
 
 
 def test_export_yaml_of_a_platform_file_is_one_line_exit_2(arm_run, tmp_path):
@@ -175,9 +187,9 @@ def test_export_yaml_and_mjcf_of_the_four_bar_read_back(tmp_path):
     base parameters."""
     bar, data = ROOT / "robots" / "fourbar_hybroblib.yaml", tmp_path / "bar.csv"
     assert cli("simulate", bar, "-o", data, "--seed", 1, "--noise", 0.05, "--duration", 6, "-q").exit_code == 0
-    r = cli("identify", bar, data, "--physical", "--export-yaml", tmp_path / "b.yaml", "--export-mjcf", tmp_path / "b.xml", "-q")
-    assert r.exit_code == 0, r.output
-    for out in (tmp_path / "b.yaml", tmp_path / "b.xml"):
-        r = cli("derive", out, "-f", "json")
-        assert r.exit_code == 0, r.output
-        assert json.loads(r.output)["n_base"] == 8
+
+    def run(*args):
+        r = cli(*args)
+        return r.exit_code, r.output, r.output
+
+    _exports_read_back(run, bar, data, tmp_path, 8)
