@@ -4,7 +4,8 @@ the chunk and block sizes of identify's streaming pass (constants only: the one 
 
 ``single_thread_blas``, ``tune_allocator`` and ``freeze_before_exit`` change the
 whole process: only the CLI's entry point (``cli/app.py``: ``main`` and
-``entry``) and the benchmarks call them; importing minparam as a library or
+``entry``), the benchmarks and the test suite's conftest (``single_thread_blas``,
+so that the tests run the CLI's arithmetic) call them; importing minparam as a library or
 calling ``minparam.<command>()`` never does (a library must not change its
 host process).  ``workers`` only reads.
 
