@@ -64,6 +64,7 @@ class Collisions:
     floor_pairs: int = 0
     left_out: tuple[str, ...] = ()
     seconds: float = 0.0  # time spent in the distance computations
+    per_harmonic: int = GRID_POINTS_PER_HARMONIC  # the design's grid for the constraint: points per period of the highest harmonic
 
     def distances(self, qj: np.ndarray, gradients: bool = False, reach: float = REACH) -> tuple[np.ndarray, np.ndarray | None]:
         """Signed distances (N, P), capped at clearance + reach, at joint states qj (N, chain joints);

@@ -244,9 +244,7 @@ def design(chain: Chain, base: BaseSet, options: ExciteOptions, limits: cons.Lim
         constraints.append(cons.floor_constraint(chain, limits.floor, Bq_grid(options, H, period), n, m, BOX_MARGIN))
         slack.append(BOX_MARGIN / 2)
     if limits.collisions is not None:
-        from minparam_cli.experiment.excite.collisions import GRID_POINTS_PER_HARMONIC as COLLISION_PER_HARMONIC
-
-        constraints.append(limits.collisions.constraint(chain, Bq_grid(options, H, period, COLLISION_PER_HARMONIC), n, m))
+        constraints.append(limits.collisions.constraint(chain, Bq_grid(options, H, period, limits.collisions.per_harmonic), n, m))
         slack.append(0.5)  # (in units of the clearance) half of it
 
     margins = getattr(chain.coupling, "limit_margins", None)
@@ -335,10 +333,8 @@ def design(chain: Chain, base: BaseSet, options: ExciteOptions, limits: cons.Lim
     lowest = None if limits.floor is None else cons.heights(chain, q).min(axis=0)
     collisions = None
     if limits.collisions is not None:
-        from minparam_cli.experiment.excite.collisions import GRID_POINTS_PER_HARMONIC as PER_HARMONIC
-
         dense = cons.dense_times(traj, t)
-        collisions = limits.collisions.report(chain, traj.evaluate(dense)[0], dense, PER_HARMONIC * max(H, 4))
+        collisions = limits.collisions.report(chain, traj.evaluate(dense)[0], dense, limits.collisions.per_harmonic * max(H, 4))
     qg, dqg, ddqg = traj.evaluate(tg)
     final = criterion_value(base_regressor(chain, kept, qg, dqg, ddqg), kind, options.scaled)
     return ExciteResult(

@@ -1,7 +1,9 @@
 """Racing the starts of the design (successive halving): every start runs to the first stage of
 RACE_STAGES (40 iterations of SLSQP), then only the better half (by the criterion at that iteration;
 ties: the earlier start) goes on; at the next stage (100) the better half of those goes on, and so on
-to the last iteration.  The others stop where they are.
+to the last iteration.  The others stop where they are.  A start whose SLSQP ends by itself before a
+stage (or at it) leaves the race: its end point still counts, and it takes no place among the half that
+goes on.
 
 SLSQP's iterations cost about the same at every stage, so with the default 4 starts of 150
 iterations the race runs 4·40 + 2·60 + 1·50 = 330 iterations instead of 600.  A start that goes on is not
