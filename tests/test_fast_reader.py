@@ -93,6 +93,21 @@ def test_a_clean_file_is_read_by_pyarrow_alone(tmp_path, monkeypatch):
     assert not calls and sum(len(c) for c in got) == 2000
 
 
+def test_the_reader_draws_on_the_chosen_memory_pool(tmp_path, monkeypatch):
+    """The parse buffers come from ``arrow_csv.memory_pool()`` (jemalloc where the wheel has it: a lower
+    peak than pyarrow's default, docs/methods/streaming.md), not from the default pool."""
+    from minparam_cli.measured.arrow_csv import memory_pool
+
+    rows = [[f"{i / 100:.2f}"] + ["1.5"] * 8 for i in range(2000)]
+    path = write(tmp_path / "d.csv", rows)
+    pool = memory_pool()
+    assert pool.backend_name in ("jemalloc", "system")
+    before = pool.total_bytes_allocated()
+    got = chunks(path, monkeypatch, "pyarrow")
+    assert sum(len(c) for c in got) == 2000
+    assert pool.total_bytes_allocated() - before > 2000 * 9 * 8  # at least the floats themselves went through it
+
+
 @pytest.mark.parametrize("case", ["comment lines", "blank lines", "quoted values", "carriage returns only", "no final newline",
                                   "every row too wide", "an empty cell", "nan and inf", "a null word", "header only",
                                   "a late bad row", "not utf-8"])
