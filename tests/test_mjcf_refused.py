@@ -238,3 +238,10 @@ def test_mujoco_warning_is_one_line(tmp_path):
         _load(p)
     notes = [str(w.message) for w in caught if issubclass(w.category, MinparamWarning)]
     assert notes and all("\n" not in n for n in notes) and "Element name 'f'" in notes[0]
+
+
+def test_more_loop_equalities_than_joints(tmp_path):
+    """Each active connect equality is a loop cut: 200 of them on a two-joint arm is refused before the loop analysis."""
+    eqs = "".join(f'<connect name="c{i}" body1="b" body2="world" anchor="0 0 0"/>' for i in range(200))
+    with pytest.raises(DescriptionError, match=r"equality\[c0\]: 200 active connect/weld equalities for 2 joints: at most one per joint"):
+        _load(_model(tmp_path, _two_links(), f"<equality>{eqs}</equality>"))
