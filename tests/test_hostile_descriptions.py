@@ -73,3 +73,16 @@ def test_urdf_joint_names_that_map_to_one_symbol_get_distinct_symbols(tmp_path):
     first, second = (j.origin for j in desc.joints)
     assert {gv.symbol for gv in first.values()}.isdisjoint(gv.symbol for gv in second.values())
     assert geometry[first["z"].symbol].value == 0.1 and geometry[second["z"].symbol].value == 0.3
+
+
+def test_platform_home_that_no_leg_can_reach(tmp_path):
+    """dynamics.home 100 m above the dodekapod (legs 150..300 mm): derive closed the loops from there for minutes."""
+    doc = yaml.safe_load((FOURBAR.parent / "dodekapod_dang2013.yaml").read_text())
+    doc["dynamics"]["home"] = [0, 0, 1e5, 0, 0, 0]
+    p = tmp_path / "dodekapod.yaml"
+    p.write_text(yaml.safe_dump(doc, sort_keys=False))
+    t0 = time.process_time()
+    r = CliRunner().invoke(app, ["derive", str(p)])
+    assert r.exit_code == 2 and len(r.stderr.strip().splitlines()) == 1, r.output
+    assert "dynamics.home: leg l12 is 100000 mm long at the home pose, outside its limits [150, 300]" in r.stderr
+    assert time.process_time() - t0 < 2.0
