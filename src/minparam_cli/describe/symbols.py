@@ -43,5 +43,7 @@ def distinct_symbols(desc: RobotDescription) -> RobotDescription:
                                            f"and {where} = {gv.value:g}", desc.source, where)
                 seen.setdefault(gv.symbol, (gv, where))
             if renamed:
-                joints[k] = replace(jr, **{field: {**table, **renamed}})
+                new = {**table, **renamed}
+                jr = replace(jr, dh=new) if field == "dh" else replace(jr, origin=new)
+                joints[k] = jr
     return desc if joints == list(desc.joints) else replace(desc, joints=tuple(joints))
