@@ -89,7 +89,7 @@ def description_from_mapping(doc: Any, src: str) -> RobotDescription:
     if len(joints_in) > MAX_JOINTS:
         raise DescriptionError(f"{len(joints_in)} joints exceed the limit of {MAX_JOINTS}", src, "joints")
 
-    joints = []
+    joints: list[JointRecord] = []
     for i, jd in enumerate(joints_in):
         j = i + 1
         where = f"joints[{j}]"
