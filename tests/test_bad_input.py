@@ -229,3 +229,10 @@ def test_xml_declarations_urdfdom_reads_are_read(tmp_path, prolog):
 def test_doctype_after_a_lenient_prolog_is_still_refused(tmp_path):
     p = write(tmp_path, "r.urdf", '\n<?xml version="0.0"?>\n<!DOCTYPE r [<!ENTITY a "b">]>\n<robot name="x"/>\n')
     assert_cli_rejects(p, "DOCTYPE")
+
+
+def test_yaml_joint_name_used_twice(tmp_path):
+    """URDF, MJCF and closed-chain files refuse it; a DH table took it, and an export then wrote joints a
+    URDF reader refuses ("joint 'shoulder' is defined twice")."""
+    p = write(tmp_path, "r.yaml", yaml_robot(GOOD_JOINT.replace("{type", "{name: shoulder, type") * 2))
+    assert_cli_rejects(p, "joints[2].name", "joint name 'shoulder' is used twice")

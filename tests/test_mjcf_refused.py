@@ -183,3 +183,65 @@ def test_export_urdf_of_massless_frames_refused_before_the_data(tmp_path):
     r = _cli("identify", str(arm), str(data), "--physical", "--export-urdf", str(tmp_path / "x.urdf"))
     assert r.returncode == 2 and r.stderr.strip().count("\n") == 0
     assert "--export-urdf:" in r.stderr and "massless frames the URDF export does not write yet" in r.stderr
+
+
+def test_included_or_asset_file_that_is_not_a_regular_file(tmp_path):
+    """MuJoCo opens what <include> and <mesh> name itself: a FIFO made it wait forever, /dev/zero read without end."""
+    import os
+
+    os.mkfifo(tmp_path / "parts.xml")
+    p = _model(tmp_path, _two_links(), '<include file="parts.xml"/>', name="fifo.xml")
+    with pytest.raises(DescriptionError, match=r'<include file="parts.xml">: .*parts.xml is a named pipe \(FIFO\), expected a regular file'):
+        _load(p)
+    mesh = _model(tmp_path, ARM.format(inner='<body><joint/><geom type="mesh" mesh="m"/></body>'),
+                  '<asset><mesh name="m" file="/dev/zero"/></asset>', name="zero.xml")
+    with pytest.raises(DescriptionError, match=r'<mesh file="/dev/zero">: /dev/zero is a character device'):
+        _load(mesh)
+
+
+def test_replication_bomb_is_refused_before_compiling(tmp_path):
+    """Nested <replicate> counts multiply: 1000 x 1000 bodies kept MuJoCo's compiler busy for minutes."""
+    import time
+
+    bomb = ('<replicate count="1000" offset="0 0 0.01"><replicate count="1000" offset="0.01 0 0">'
+            '<body><joint/><geom size=".01"/></body></replicate></replicate>')
+    t0 = time.process_time()
+    with pytest.raises(DescriptionError, match=r"replication makes 1000000 copies \(nested counts multiply\), more than the limit"):
+        _load(_model(tmp_path, _two_links() + bomb))
+    assert time.process_time() - t0 < 2.0
+    _, chain = _load(_model(tmp_path, _two_links() + '<replicate count="3" offset="1 0 0"><geom size=".01"/></replicate>', name="ok.xml"))
+    assert chain.dof == 2
+
+
+@pytest.mark.parametrize("change, match", [
+    (('pos="0.2 0 0"', 'pos="nan 0 0"'), r"body\[b\]: body_pos is not finite after compiling"),
+    (('pos="0.2 0 0"', 'pos="1e308 0 0"'), r"body\[b\]: body_pos is out of range after compiling"),
+    (('mass="1"', 'mass="1e308"'), r"body\[a\]: body_mass is out of range after compiling"),
+], ids=["nan-pos", "huge-pos", "huge-mass"])
+def test_non_finite_or_huge_compiled_numbers(tmp_path, change, match):
+    """MuJoCo compiles NaN (with a warning), inf and 1e308; they ended in an internal error (Fraction('nan'),
+    OverflowError) or numpy's RuntimeWarnings on stderr."""
+    p = _model(tmp_path, _two_links().replace(*change))
+    with pytest.raises(DescriptionError, match=match):
+        _load(p)
+
+
+def test_mujoco_warning_is_one_line(tmp_path):
+    """MuJoCo's warnings carry a second line ("Element name 'f', id 0"): shown as one."""
+    import warnings
+
+    from minparam_cli.errors import MinparamWarning
+
+    p = _model(tmp_path, '<flexcomp name="f" type="grid" count="4 4 1" spacing=".1 .1 .1" dim="2"/>' + _two_links())
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        _load(p)
+    notes = [str(w.message) for w in caught if issubclass(w.category, MinparamWarning)]
+    assert notes and all("\n" not in n for n in notes) and "Element name 'f'" in notes[0]
+
+
+def test_more_loop_equalities_than_joints(tmp_path):
+    """Each active connect equality is a loop cut: 200 of them on a two-joint arm is refused before the loop analysis."""
+    eqs = "".join(f'<connect name="c{i}" body1="b" body2="world" anchor="0 0 0"/>' for i in range(200))
+    with pytest.raises(DescriptionError, match=r"equality\[c0\]: 200 active connect/weld equalities for 2 joints: at most one per joint"):
+        _load(_model(tmp_path, _two_links(), f"<equality>{eqs}</equality>"))

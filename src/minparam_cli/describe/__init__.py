@@ -13,13 +13,19 @@ __all__ = ["GeomValue", "Inertial", "JointRecord", "RobotDescription", "load_des
 
 
 def load_description(path: str | Path, snap_angles: float | None = None, mimic: str = "coupled", floating_base: bool = False) -> RobotDescription:
-    """Load a YAML DH/MDH table, a URDF or an MJCF (``.xml``, through MuJoCo's compiler), chosen by the file suffix.
+    """Load a YAML DH/MDH table, a URDF or an MJCF (``.xml``, through MuJoCo's compiler), chosen by the file suffix;
+    every geometry symbol then names one value (``describe/symbols.py``).
 
     ``snap_angles`` (rad): round angles within it of a multiple of 15° (``describe/snap.py``).
     ``mimic``: URDF mimic joints move with their master ("coupled") or stay at their offset ("fixed").
     ``floating_base``: a URDF's root link is free (six virtual base joints); YAML tables refuse it.
     """
-    path = Path(path)
+    from minparam_cli.describe.symbols import distinct_symbols
+
+    return distinct_symbols(_load(Path(path), snap_angles, mimic, floating_base))
+
+
+def _load(path: Path, snap_angles: float | None, mimic: str, floating_base: bool) -> RobotDescription:
     suffix = path.suffix.lower()
     if suffix in (".yaml", ".yml"):
         from minparam_cli.describe.closed_yaml import load_closed

@@ -157,7 +157,9 @@ def _origin(v: Any, j: int, scale: Fraction, au: str, src: str, where: str) -> d
 def _cuts(items: Any, index: dict[str, int], scale: float, angle: float, src: str) -> tuple[LoopCut, ...]:
     if not isinstance(items, list) or not items:
         raise DescriptionError("expected a non-empty list of loop-closing cuts", src, "loops")
-    cuts = []
+    if len(items) > len(index):  # each loop a cut closes runs through a joint of its own: 1000 copies of one cut took minutes
+        raise DescriptionError(f"{len(items)} loop-closing cuts for {len(index)} joints: at most one cut per joint", src, "loops")
+    cuts: list[LoopCut] = []
     for c, cd in enumerate(items):
         where = f"loops[{c + 1}]"
         mapping_entry(cd, CUT_KEYS, src, where, "type, between, at")
@@ -185,6 +187,8 @@ def _cuts(items: Any, index: dict[str, int], scale: float, angle: float, src: st
                 raise DescriptionError(f"expected [x, y, z] or [x, y, z, roll, pitch, yaw], got {short_repr(v)}", src, w)
             x = [_number(e, src, w) for e in v]
             frames.append(pose([scale * e for e in x[:3]], [angle * e for e in x[3:]] if len(x) == 6 else (0.0, 0.0, 0.0)))
-        cuts.append(LoopCut(_text(cd.get("name"), src, f"{where}.name") or f"cut{c + 1}", kind, bodies[0], bodies[1],
-                            frames[0], frames[1]))
+        name = _text(cd.get("name"), src, f"{where}.name") or f"cut{c + 1}"
+        if any(cut.name == name for cut in cuts):
+            raise DescriptionError(f"cut name {short_repr(name)} is used twice", src, f"{where}.name")
+        cuts.append(LoopCut(name, kind, bodies[0], bodies[1], frames[0], frames[1]))
     return tuple(cuts)

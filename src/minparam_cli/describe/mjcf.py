@@ -104,7 +104,8 @@ def one_line(error: Exception) -> str:
 
 def compile_model(path: Path, src: str):
     """The compiled ``mujoco.MjModel`` of the file, or MuJoCo's message in one line; the compiler's
-    warnings become MinparamWarning notes."""
+    warnings become MinparamWarning notes (one line each) once its numbers are known to be usable
+    (``_check_values``: a refused file shows the refusal alone)."""
     from minparam_cli.optional import import_optional
 
     mujoco = import_optional("mujoco", "mujoco", "reading MJCF (.xml) robot files")
@@ -112,8 +113,9 @@ def compile_model(path: Path, src: str):
         model, notes = captured_warnings(mujoco, lambda: mujoco.MjModel.from_xml_path(str(path)))
     except ValueError as e:
         raise DescriptionError(f"MuJoCo cannot compile the file: {one_line(e)}", src) from None
-    for note in notes:
-        warnings.warn(f"{src}: MuJoCo: {note}", MinparamWarning, stacklevel=4)
+    _check_values(model, _Names(model), src)
+    for note in notes:  # several lines ("...\nElement name 'f', id 0"): one
+        warnings.warn(f"{src}: MuJoCo: {one_line(Exception(note))}", MinparamWarning, stacklevel=4)
     return model
 
 
@@ -125,7 +127,11 @@ def load_mjcf(path: Path, snap_angles: float | None = None, mimic: str = "couple
     if mimic not in MIMIC_MODES:
         raise ValueError(f"mimic must be one of {MIMIC_MODES}, got {mimic!r}")
     src = str(path)
-    check_mjcf_text(read_bounded(path), src)
+    data = read_bounded(path)
+    check_mjcf_text(data, src)
+    from minparam_cli.describe.mjcf_files import check_mjcf_files
+
+    check_mjcf_files(path, data, src)
     m = compile_model(path, src)
     names = _Names(m)
     free, left_out = _check_joints(m, names, src)
@@ -144,6 +150,53 @@ def load_mjcf(path: Path, snap_angles: float | None = None, mimic: str = "couple
     from minparam_cli.describe.mjcf_loops import closed_loops
 
     return replace(desc, loops=closed_loops(m, names, src, loops, frames, index, free, masters))
+
+
+# the compiled arrays the reader uses, by element kind: (attribute, bounded by MAX_ABS_VALUE or only finite)
+_VALUES = {
+    "body": (("body_pos", True), ("body_quat", True), ("body_ipos", True), ("body_iquat", True), ("body_mass", True), ("body_inertia", True)),
+    "joint": (("jnt_pos", True), ("jnt_axis", True), ("jnt_range", False), ("jnt_actfrcrange", False)),
+    "site": (("site_pos", True),),
+    "equality": (("eq_data", True),),
+}
+_DOF_VALUES = ("dof_armature", "dof_damping", "dof_frictionloss")
+
+
+def _check_values(m, names: "_Names", src: str) -> None:
+    """Every compiled number the reader uses is finite, and within MAX_ABS_VALUE where it is a length, a
+    mass or an inertia: MuJoCo compiles NaN (with a warning), inf and 1e308, which would break the chain
+    far from the file."""
+    import numpy as np
+
+    from minparam_cli.safety import MAX_ABS_VALUE
+
+    def check(values, bound: bool, where: str, attr: str) -> None:
+        v = np.asarray(values, dtype=float).ravel()
+        if not np.all(np.isfinite(v)):
+            raise DescriptionError(f"{attr} is not finite after compiling ({' '.join(f'{x:g}' for x in v[:7])})", src, where)
+        if bound and v.size and float(np.max(np.abs(v))) > MAX_ABS_VALUE:
+            raise DescriptionError(f"{attr} is out of range after compiling: a magnitude of at most {MAX_ABS_VALUE:g} is expected "
+                                   f"(got {float(np.max(np.abs(v))):g})", src, where)
+
+    label = {"body": lambda i: f"body[{names.body[i]}]", "joint": lambda i: f"joint[{names.joint[i]}]",
+             "site": lambda i: f"site[{names.site[i] or i}]", "equality": lambda i: names.equality[i]}
+    for kind, attrs in _VALUES.items():
+        for attr, bound in attrs:
+            arr = np.asarray(getattr(m, attr), dtype=float)
+            if not arr.size:
+                continue
+            arr = arr.reshape(len(arr), -1)
+            bad = ~np.all(np.isfinite(arr), axis=1)
+            if bound:
+                bad |= np.max(np.abs(np.where(np.isfinite(arr), arr, 0.0)), axis=1) > MAX_ABS_VALUE
+            for i in np.flatnonzero(bad)[:1]:
+                check(arr[i], bound, label[kind](int(i)), attr)
+    for j in range(m.njnt):
+        check(m.qpos0[m.jnt_qposadr[j]], True, label["joint"](j), "qpos0")
+        dof = int(m.jnt_dofadr[j])
+        for attr in _DOF_VALUES:
+            check(getattr(m, attr)[dof], True, label["joint"](j), attr)
+    check(m.opt.gravity, True, "option", "gravity")
 
 
 class _Names:

@@ -54,6 +54,8 @@ def closed_loops(m, names, src: str, equalities: list[int], frames: dict, index:
     if masters:
         raise UnsupportedError("joint equalities coupling two joints (mimic joints) in a model with connect/weld "
                                "equalities are not supported yet", src, first)
+    if len(equalities) > len(index):  # as for a closed-chain YAML (closed_yaml._cuts): one cut per joint at most
+        raise DescriptionError(f"{len(equalities)} active connect/weld equalities for {len(index)} joints: at most one per joint", src, first)
     cuts = []
     for e in equalities:
         where, kind = names.equality[e], int(m.eq_type[e])

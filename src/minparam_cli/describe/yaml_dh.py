@@ -89,7 +89,7 @@ def description_from_mapping(doc: Any, src: str) -> RobotDescription:
     if len(joints_in) > MAX_JOINTS:
         raise DescriptionError(f"{len(joints_in)} joints exceed the limit of {MAX_JOINTS}", src, "joints")
 
-    joints = []
+    joints: list[JointRecord] = []
     for i, jd in enumerate(joints_in):
         j = i + 1
         where = f"joints[{j}]"
@@ -125,9 +125,12 @@ def description_from_mapping(doc: Any, src: str) -> RobotDescription:
         max_acceleration = _positive(jd.get("acceleration"), rate_unit, src, f"{where}.acceleration")
         max_effort = _positive(jd.get("effort"), 1.0, src, f"{where}.effort")
         inertial = _inertial(jd.get("inertial"), scale, src, f"{where}.inertial")
+        joint_name = _text(jd.get("name"), src, f"{where}.name") or f"joint{j}"
+        if any(jr.name == joint_name for jr in joints):  # as URDF, MJCF and closed chains: an export names joints by it
+            raise DescriptionError(f"joint name {short_repr(joint_name)} is used twice", src, f"{where}.name")
         joints.append(
             JointRecord(
-                name=_text(jd.get("name"), src, f"{where}.name") or f"joint{j}",
+                name=joint_name,
                 type=jtype,
                 parent=i - 1,
                 link_name=f"link{j}",
