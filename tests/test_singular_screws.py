@@ -375,3 +375,43 @@ def test_branched_chain_refused(puma):
     branched = replace(puma, parents=(-1, 0, 1, 1, 3, 4))
     with pytest.raises(UnsupportedError, match="serial chain"):
         analyse(branched, np.zeros(6))
+
+
+def _long_arm(tmp_path, n: int):
+    """A redundant arm of n revolute joints with runs of parallel axes (alpha 0) between twisted ones:
+    at a configuration of right angles it has many small dependent groups."""
+    rows = "\n".join(f"  - {{type: revolute, a: 0.1, alpha: {(-90, 0, 0, 90)[j % 4]}, d: 0.05, theta: 0}}" for j in range(n))
+    f = tmp_path / f"arm{n}.yaml"
+    f.write_text(f"name: arm{n}\nconvention: dh\nunits: {{length: m, angle: deg}}\njoints:\n{rows}\n")
+    return build_chain(load_description(f))
+
+
+def test_dependent_groups_are_the_minimal_rank_deficient_sets(tmp_path):
+    """The batched search against the definition, set by set: a group is a set of k columns of rank
+    k - 1 none of whose proper subsets is such a set (rank by numpy's matrix_rank at the same cut)."""
+    from itertools import combinations
+
+    from minparam_cli.kinematics.serial.plucker import plucker_matrices
+    from minparam_cli.kinematics.serial.screws import dependent_groups
+
+    arm = _long_arm(tmp_path, 9)
+    rng = np.random.default_rng(3)
+    counts = []
+    for q in (rng.choice([0.0, np.pi / 2, np.pi], 9), rng.uniform(-3, 3, 9)):
+        J0, c = plucker_matrices(arm, q[None])
+        Jn = normalised_matrices(arm, J0[0], c[0], float(arm.length_scale))
+        cut = DEFAULT_EPSILON * np.linalg.svd(Jn, compute_uv=False)[0]
+        expect: list[tuple[int, ...]] = []
+        for k in range(1, 7):
+            for S in combinations(range(9), k):
+                if np.linalg.matrix_rank(Jn[:, S], tol=cut) < k and not any(set(g) <= set(S) for g in expect):
+                    expect.append(S)
+        assert dependent_groups(Jn, cut) == tuple(expect)
+        counts.append(len(expect))
+    assert counts[0] >= 3  # the right angles: several groups, of several sizes, for the minimality rule to act on
+
+
+def test_too_long_a_chain_for_the_group_search_is_refused_at_once(tmp_path):
+    arm = _long_arm(tmp_path, 35)
+    with pytest.raises(InputError, match="2,007,327 sets.*at most 34 joints"):
+        analyse(arm, np.zeros(35))
