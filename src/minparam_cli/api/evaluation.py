@@ -61,11 +61,18 @@ def _identify_test(setup: EvaluationSetup):
 
 
 def check_data_file(p: Path) -> None:
-    """A data file must exist (a ROS bag may be a folder)."""
+    """A data file must exist and be a regular file (a ROS bag may be a folder); a FIFO, a device or
+    another folder is refused in the words of identify's readers (``safety.require_regular_file``)."""
     from minparam_cli.measured.rosbag import is_bag
+    from minparam_cli.safety import require_regular_file
 
-    if not p.is_file() and not (p.is_dir() and is_bag(p)):
+    if not p.exists() and not p.is_symlink():
         raise InputError(f"{p}: data file not found")
+    if p.is_dir():
+        if not is_bag(p):
+            raise InputError(f"{p}: is a folder, expected a data file (CSV, .npz, .parquet or a ROS bag)")
+        return
+    require_regular_file(p, InputError)
 
 
 def _band(m: SavedModel, kind: str, n: int, source: str, level: float):
