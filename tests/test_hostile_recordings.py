@@ -1,0 +1,158 @@
+"""Measured recordings as a batch run on untrusted files meets them (a fuzz sweep of the data readers).
+
+A good but unusual recording (a byte-order mark, quoted column names, a header wider than the head
+that the time span reads) gives the same identification as the plain file, with either CSV parser; a
+broken one (a column named twice, a compressed file under a .csv name, a damaged Parquet page, a
+torque too large to square, a FIFO given to evaluate) is refused with one line and exit code 2.
+"""
+
+from __future__ import annotations
+
+import gzip
+import json
+import os
+from pathlib import Path
+
+import numpy as np
+import pytest
+from conftest import cli
+
+ROBOT = Path(__file__).resolve().parents[1] / "robots" / "planar2r.yaml"
+
+
+@pytest.fixture(scope="module")
+def rec(tmp_path_factory) -> Path:
+    """A 6 s simulated recording (t, q, dq, ddq, tau of the planar 2R) and a model identified from it."""
+    d = tmp_path_factory.mktemp("rec")
+    r = cli("simulate", ROBOT, "--duration", "6", "--effects", "coulomb,viscous", "--noise", "0.01", "-q", "-o", d / "sim.csv")
+    assert r.exit_code == 0, r.output
+    r = cli("identify", ROBOT, d / "sim.csv", "--no-diagnose", "-q", "--save-model", d / "model.json", "-o", d / "report.txt")
+    assert r.exit_code == 0, r.output
+    return d
+
+
+def parameters(*args) -> list:
+    """identify's fitted parameters (JSON) on the data, with the declared model only."""
+    r = cli("identify", ROBOT, *args, "--no-diagnose", "-q", "-f", "json")
+    assert r.exit_code == 0, r.output
+    return json.loads(r.stdout)["parameters"]
+
+
+def refused(*args, needle: str) -> str:
+    """Exit 2 with one line (no traceback) holding ``needle``."""
+    r = cli(*args)
+    lines = [ln for ln in r.output.strip().splitlines() if ln.strip()]
+    assert r.exit_code == 2 and len(lines) == 1 and "Traceback" not in r.output, r.output
+    assert needle in lines[0], lines[0]
+    return lines[0]
+
+
+@pytest.mark.parametrize("reader", ["arrow", "numpy"])
+def test_byte_order_mark_is_not_part_of_the_header(rec, tmp_path, monkeypatch, reader):
+    """Excel's "CSV UTF-8" starts the file with a byte-order mark (and ends lines with CRLF): the first
+    column is still 't' (it read as '\\ufefft', and the file was refused as missing its time column)."""
+    monkeypatch.setenv("MINPARAM_CSV_READER", reader)
+    text = (rec / "sim.csv").read_text()
+    bom = tmp_path / "excel.csv"
+    bom.write_bytes(b"\xef\xbb\xbf" + text.replace("\n", "\r\n").encode())
+    assert parameters(bom) == parameters(rec / "sim.csv")
+
+
+@pytest.mark.parametrize("reader", ["arrow", "numpy"])
+def test_quoted_column_names(rec, tmp_path, monkeypatch, reader):
+    """Python's csv module (QUOTE_NONNUMERIC) and R's write.csv quote the names, not the numbers."""
+    monkeypatch.setenv("MINPARAM_CSV_READER", reader)
+    lines = (rec / "sim.csv").read_text().splitlines(keepends=True)
+    quoted = tmp_path / "quoted.csv"
+    quoted.write_text(",".join(f'"{h}"' for h in lines[0].strip().split(",")) + "\n" + "".join(lines[1:]))
+    assert parameters(quoted) == parameters(rec / "sim.csv")
+
+
+def test_header_wider_than_the_time_span_head(rec, tmp_path):
+    """A logger's many extra signals make a header longer than the 64 KiB head the time span reads: it
+    was refused as an 'empty file'."""
+    lines = (rec / "sim.csv").read_text().splitlines()
+    extra = [f"aux_signal_{k:03d}_{'x' * 100}" for k in range(600)]  # 69 KiB of names
+    zeros = "," + ",".join("0" * len(extra))
+    wide = tmp_path / "wide.csv"
+    wide.write_text(",".join([lines[0], *extra]) + "\n" + "".join(line + zeros + "\n" for line in lines[1:]))
+    assert len(lines[0]) + sum(len(e) + 1 for e in extra) > 65536
+    assert parameters(wide) == parameters(rec / "sim.csv")
+
+
+def test_header_longer_than_the_line_limit(rec, tmp_path):
+    """A header past the reader's line limit is named as such (it was an 'empty file')."""
+    lines = (rec / "sim.csv").read_text().splitlines()
+    long = tmp_path / "long.csv"
+    long.write_text("x" * (2**20 + 10) + "," + lines[0] + "\n" + "\n".join(lines[1:]) + "\n")
+    refused("identify", ROBOT, long, "--no-diagnose", needle="line 1 (the header) is longer than")
+
+
+@pytest.mark.parametrize("fmt", ["csv", "parquet"])
+def test_used_column_named_twice(rec, tmp_path, fmt):
+    """Two columns named q1 with different values: which one is the joint's cannot be told (the CSV
+    reader took the last, the time column the first; both read silently)."""
+    lines = (rec / "sim.csv").read_text().splitlines()
+    header = lines[0].split(",")
+    table = np.loadtxt(rec / "sim.csv", delimiter=",", skiprows=1)
+    table = np.column_stack([table, table[:, header.index("q1")] + 1.0])
+    header.append("q1")
+    if fmt == "csv":
+        path = tmp_path / "twice.csv"
+        np.savetxt(path, table, delimiter=",", header=",".join(header), comments="", fmt="%.17g")
+    else:
+        pa = pytest.importorskip("pyarrow")
+        import pyarrow.parquet as pq
+
+        path = tmp_path / "twice.parquet"
+        pq.write_table(pa.Table.from_arrays([pa.array(c) for c in table.T], names=header), path)
+    refused("identify", ROBOT, path, "--no-diagnose", needle="column 'q1' appears 2 times")
+
+
+def test_compressed_file_named_csv(rec, tmp_path):
+    """A gzip-compressed recording under a .csv name is told as such (identify showed its bytes as a
+    one-column header, evaluate called line 1 not UTF-8)."""
+    packed = tmp_path / "run.csv"
+    packed.write_bytes(gzip.compress((rec / "sim.csv").read_bytes()))
+    refused("identify", ROBOT, packed, "--no-diagnose", needle="not CSV text but a gzip-compressed file")
+    refused("evaluate", rec / "model.json", packed, needle="not CSV text but a gzip-compressed file")
+
+
+def test_damaged_parquet_page(rec, tmp_path):
+    """Bytes overwritten inside a column chunk (its footer intact): pyarrow's OSError while decoding
+    the page was an internal error, exit 1."""
+    pa = pytest.importorskip("pyarrow")
+    import pyarrow.parquet as pq
+
+    lines = (rec / "sim.csv").read_text().splitlines()
+    table = np.loadtxt(rec / "sim.csv", delimiter=",", skiprows=1)
+    good = tmp_path / "good.parquet"
+    pq.write_table(pa.Table.from_arrays([pa.array(c) for c in table.T], names=lines[0].split(",")), good, compression="snappy")
+    data = good.read_bytes()
+    bad = tmp_path / "bad.parquet"
+    bad.write_bytes(data[:200] + b"\xff" * 400 + data[600:])
+    refused("identify", ROBOT, bad, "--no-diagnose", needle="cannot read Parquet")
+    refused("evaluate", rec / "model.json", bad, needle="cannot read Parquet")
+
+
+def test_evaluate_torque_too_large_to_square(rec, tmp_path):
+    """A torque of 1e308 is finite, its square is not: evaluate printed numpy's RuntimeWarning and an
+    RMS of inf, exit 0 (identify refuses the same file)."""
+    lines = (rec / "sim.csv").read_text().splitlines()
+    header = lines[0].split(",")
+    table = np.loadtxt(rec / "sim.csv", delimiter=",", skiprows=1)
+    table[100, header.index("tau2")] = 1e308
+    big = tmp_path / "big.csv"
+    np.savetxt(big, table, delimiter=",", header=lines[0], comments="", fmt="%.17g")
+    out = tmp_path / "report.txt"
+    refused("evaluate", rec / "model.json", big, "-o", out, needle="measured torque too large to use")
+    assert not out.exists()
+
+
+def test_evaluate_names_a_fifo(rec, tmp_path):
+    """A FIFO (or a device, a folder that is no bag) given to evaluate is named as what it is, as
+    identify names it (it was 'data file not found')."""
+    fifo = tmp_path / "pipe.csv"
+    os.mkfifo(fifo)
+    refused("evaluate", rec / "model.json", fifo, needle="is a named pipe (FIFO)")
+    refused("evaluate", rec / "model.json", tmp_path, needle="is a folder")
