@@ -139,9 +139,11 @@ def run_evaluate(model: Model | str | Path, data: Sequence[Any], opts: EvaluateO
         if is_in_memory(x):
             records.append(as_record(x, f"<data{k + 1}>"))
             names.append(f"<data{k + 1}>")
-        else:
+        elif isinstance(x, (str, Path)):
             check_data_file(Path(x))
             names.append(x if isinstance(x, Path) else str(x))
+        else:
+            raise InputError(f"data{k + 1}: expected a file path, a mapping of arrays or a pandas DataFrame, got {type(x).__name__}")
     setup = evaluation_setup(source, saved, robot_file, design, opts.which, opts.time_unit, opts.topic,
                              opts.columns)  # type: ignore[arg-type]  # a dict once the record is built
     band = _band(setup.saved, setup.kind, design.chain.dof, source, opts.band_level) if opts.band else None
@@ -166,5 +168,10 @@ def evaluate(model: Model | str | Path, data: Any, *, which: str | None = None, 
 
     opts = EvaluateOptions(which=which, robot=None if robot is None else Path(robot), time_unit=time_unit, topic=topic,
                            columns=columns)
-    items = [data] if isinstance(data, (str, Path)) or is_in_memory(data) else list(data)
+    if isinstance(data, (str, Path)) or is_in_memory(data):
+        items = [data]
+    elif isinstance(data, (list, tuple)):
+        items = list(data)
+    else:
+        raise InputError(f"data: expected a file path, a mapping of arrays, a pandas DataFrame or a list of them, got {type(data).__name__}")
     return run_evaluate(model, items, opts)

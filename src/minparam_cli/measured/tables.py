@@ -150,7 +150,7 @@ def open_npz(path: Path):
     except OSError as e:
         raise DataError(f"{src}: cannot read file ({e.strerror})") from None
     if magic != b"PK\x03\x04":
-        what = "a single .npy array" if magic.startswith(b"\x93NUM") else "empty" if not magic else "no zip header"
+        what = "a single .npy array" if magic.startswith(b"\x93NUM") else "empty" if not magic else "no arrays" if magic == b"PK\x05\x06" else "no zip header"
         raise DataError(f"{src}: not an .npz archive ({what}); expected arrays t, q, tau, ... saved by numpy.savez")
     try:
         z = np.load(path, allow_pickle=False)
