@@ -156,3 +156,40 @@ def test_evaluate_names_a_fifo(rec, tmp_path):
     os.mkfifo(fifo)
     refused("evaluate", rec / "model.json", fifo, needle="is a named pipe (FIFO)")
     refused("evaluate", rec / "model.json", tmp_path, needle="is a folder")
+
+
+def test_complex_npz_member_refused(rec, tmp_path):
+    """numpy casts complex numbers to floats by dropping the imaginary part, with a ComplexWarning on
+    stderr: an .npz member of complex numbers was read so, exit 0."""
+    table = np.loadtxt(rec / "sim.csv", delimiter=",", skiprows=1)
+    arrays = {"t": table[:, 0], "q": table[:, 1:3] + 0j, "dq": table[:, 3:5], "ddq": table[:, 5:7], "tau": table[:, 7:9]}
+    np.savez(tmp_path / "complex.npz", **arrays)
+    line = refused("identify", ROBOT, tmp_path / "complex.npz", "--no-diagnose", needle="array 'q' holds complex numbers")
+    assert "Warning" not in line
+
+
+def test_api_dates_and_masks(rec):
+    """In memory: a time array of datetime64 was read as nanoseconds (the error then blamed the
+    velocities); a masked array's masked entries were used as data.  Masked entries are now missing
+    values (their rows dropped and counted, as a NaN's), and data=None is an InputError, not a TypeError."""
+    import minparam
+    from minparam_cli.errors import DataError, InputError
+
+    table = np.loadtxt(rec / "sim.csv", delimiter=",", skiprows=1)
+    arrays = {"t": table[:, 0], "q": table[:, 1:3], "dq": table[:, 3:5], "ddq": table[:, 5:7], "tau": table[:, 7:9]}
+    with pytest.raises(DataError, match="array 't' holds dates"):
+        minparam.identify(ROBOT, {**arrays, "t": (arrays["t"] * 1e9).astype("datetime64[ns]")}, diagnose=False)
+    with pytest.raises(InputError, match="got NoneType"):
+        minparam.identify(ROBOT, None, diagnose=False)
+    hidden = arrays["q"].copy()
+    hidden[::50] = 1e3  # nonsense under the mask
+    masked = minparam.identify(ROBOT, {**arrays, "q": np.ma.masked_array(hidden, mask=hidden == 1e3)}, diagnose=False)
+    nan = hidden.copy()
+    nan[::50] = np.nan
+    dropped = minparam.identify(ROBOT, {**arrays, "q": nan}, diagnose=False)
+    assert np.array_equal(masked.theta, dropped.theta)
+
+
+def test_decimate_beyond_a_slice(rec):
+    """--decimate 1e20 (an int click accepts) overflowed numpy's slice: an internal error, exit 1."""
+    refused("identify", ROBOT, rec / "sim.csv", "--no-diagnose", "--decimate", str(10**20), needle="--decimate")

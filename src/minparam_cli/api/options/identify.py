@@ -29,6 +29,7 @@ GEOMETRIES = ("auto", "on", "none")  # auto: the links' ellipsoids when the fit 
 SIGMAS = ("hac", "bootstrap", "textbook")
 SIDES = ("joint", "motor")
 DEFAULT_SPLIT = (0.6, 0.2, 0.2)
+MAX_DECIMATE = 2**31 - 1  # --decimate: one sample in K; a larger K keeps one sample of any recording (and overflows a slice)
 
 
 def _items(value: str | Iterable[str] | None) -> tuple[str, ...]:
@@ -180,8 +181,8 @@ class IdentifyOptions:
             raise OptionError("--cutoff", "must be positive")
         if self.rate is not None and not _finite_positive(self.rate):
             raise OptionError("--rate", "must be positive")
-        if self.decimate is not None and self.decimate < 1:
-            raise OptionError("--decimate", f"{self.decimate} is not in the range x>=1.")
+        if self.decimate is not None and not 1 <= self.decimate <= MAX_DECIMATE:  # numpy's slices take a C long
+            raise OptionError("--decimate", f"{self.decimate} is not in the range 1<=x<={MAX_DECIMATE}.")
         if self.trim_still is not None and not _finite_positive(self.trim_still):
             raise OptionError("--trim-still", "must be a positive number of seconds")
         if not _finite_positive(self.still_speed):
