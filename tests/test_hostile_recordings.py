@@ -193,3 +193,21 @@ def test_api_dates_and_masks(rec):
 def test_decimate_beyond_a_slice(rec):
     """--decimate 1e20 (an int click accepts) overflowed numpy's slice: an internal error, exit 1."""
     refused("identify", ROBOT, rec / "sim.csv", "--no-diagnose", "--decimate", str(10**20), needle="--decimate")
+
+
+def test_bootstrap_replicates_bounded(rec):
+    """--replicates 1e9 ran for ever (each replicate a refit); refused before any fit."""
+    refused("identify", ROBOT, rec / "sim.csv", "--no-diagnose", "--sigma", "bootstrap", "--replicates", "1000000000",
+            needle="--replicates 1000000000: at most")
+
+
+def test_gravity_beyond_any_unit(rec):
+    """--gravity 1e308,0,0 (finite) overflowed the design: an internal IndexError, exit 1."""
+    refused("identify", ROBOT, rec / "sim.csv", "--no-diagnose", "--gravity", "1e308,0,0", needle="--gravity")
+
+
+def test_report_path_link_loop(rec, tmp_path):
+    """-o naming a symbolic link to itself: Path.resolve()'s RuntimeError was an internal error, exit 1."""
+    loop = tmp_path / "loop.txt"
+    os.symlink(loop, loop)
+    refused("identify", ROBOT, rec / "sim.csv", "--no-diagnose", "-o", loop, needle="symbolic link loop")
