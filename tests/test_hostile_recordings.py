@@ -211,3 +211,12 @@ def test_report_path_link_loop(rec, tmp_path):
     loop = tmp_path / "loop.txt"
     os.symlink(loop, loop)
     refused("identify", ROBOT, rec / "sim.csv", "--no-diagnose", "-o", loop, needle="symbolic link loop")
+
+
+def test_simulate_sample_count_bounded(tmp_path):
+    """--duration 1e9 ran out of memory (exit 1) and 1e6 wrote for hours: refused before any work,
+    the -o file untouched."""
+    out = tmp_path / "sim.csv"
+    out.write_text("kept\n")
+    refused("simulate", ROBOT, "--duration", "1e9", "-q", "-o", out, needle="-sample limit")
+    assert out.read_text() == "kept\n"

@@ -14,6 +14,8 @@ from minparam_cli.errors import InputError
 from minparam_cli.dynamics.effects import EFFECT_IDS, EFFECTS
 from minparam_cli.experiment.trajectory import LIMIT_MARGIN
 
+MAX_SAMPLES = 10**8  # samples a simulate run may write: 28 h at 1 kHz, tens of GB of CSV
+
 # Hyper-parameter of the grid effects: spec key and default (each default lies on its effect's grid).
 HYPER_KEY: dict[str, str] = {"stribeck": "vs", "cogging": "k", "position_error": "k"}
 HYPER_DEFAULT: dict[str, float] = {"stribeck": 0.05, "cogging": 12.0, "position_error": 2.0}
@@ -217,5 +219,8 @@ def validate_options(options: SimulationOptions) -> int:
     samples = int(round(o.duration * o.rate))
     if samples < 2:
         raise InputError(f"--duration x --rate gives {samples} sample(s); need at least 2")
+    if samples > MAX_SAMPLES:  # --duration 1e9 ran out of memory (exit 1); 1e6 wrote for hours
+        raise InputError(f"--duration x --rate gives {samples:.3g} samples, more than the {MAX_SAMPLES:.0e}-sample limit "
+                         "(about 28 h at 1 kHz); simulate several shorter recordings")
     return samples
 
