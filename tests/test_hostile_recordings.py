@@ -220,3 +220,13 @@ def test_simulate_sample_count_bounded(tmp_path):
     out.write_text("kept\n")
     refused("simulate", ROBOT, "--duration", "1e9", "-q", "-o", out, needle="-sample limit")
     assert out.read_text() == "kept\n"
+
+
+def test_simulate_noise_and_strength_bounded(tmp_path):
+    """--strength 1e308 (finite) made the effect's amplitude overflow: numpy's RuntimeWarning on stderr and
+    torques of inf written to the CSV, exit 0."""
+    out = tmp_path / "sim.csv"
+    refused("simulate", ROBOT, "--duration", "2", "--effects", "coulomb", "--strength", "1e308", "-q", "-o", out,
+            needle="--strength must be at most")
+    refused("simulate", ROBOT, "--duration", "2", "--noise", "1e308", "-q", "-o", out, needle="--noise must be at most")
+    assert not out.exists()

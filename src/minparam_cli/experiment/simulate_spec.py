@@ -14,6 +14,7 @@ from minparam_cli.errors import InputError
 from minparam_cli.dynamics.effects import EFFECT_IDS, EFFECTS
 from minparam_cli.experiment.trajectory import LIMIT_MARGIN
 
+MAX_SIZE = 1e6  # --noise (N·m), --noise-q (rad), --strength (x the rigid-body RMS), --coulomb-smoothing (rad/s)
 MAX_SAMPLES = 10**8  # samples a simulate run may write: 28 h at 1 kHz, tens of GB of CSV
 
 # Hyper-parameter of the grid effects: spec key and default (each default lies on its effect's grid).
@@ -214,6 +215,8 @@ def validate_options(options: SimulationOptions) -> int:
                               (o.coulomb_smoothing, "--coulomb-smoothing", "rad/s")):
         if not (math.isfinite(value) and value >= 0):
             raise InputError(f"{flag} must be a number >= 0{' ' + unit if unit else ''}, got {value:g}")
+        if value > MAX_SIZE:  # 1e308 overflowed into samples of inf, written to the file
+            raise InputError(f"{flag} must be at most {MAX_SIZE:g}{' ' + unit if unit else ''}, got {value:g}")
     if not 0 <= o.margin < 0.5:
         raise InputError(f"margin must be in [0, 0.5), got {o.margin:g}")
     samples = int(round(o.duration * o.rate))
