@@ -11,6 +11,7 @@ from __future__ import annotations
 import gzip
 import json
 import os
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -229,4 +230,32 @@ def test_simulate_noise_and_strength_bounded(tmp_path):
     refused("simulate", ROBOT, "--duration", "2", "--effects", "coulomb", "--strength", "1e308", "-q", "-o", out,
             needle="--strength must be at most")
     refused("simulate", ROBOT, "--duration", "2", "--noise", "1e308", "-q", "-o", out, needle="--noise must be at most")
+    assert not out.exists()
+
+
+def test_simulate_trajectory_csv_with_bom(rec, tmp_path):
+    """A sampled --trajectory CSV saved with a byte-order mark was refused as missing its column t."""
+    bom = tmp_path / "bom.csv"
+    bom.write_bytes(b"\xef\xbb\xbf" + (rec / "sim.csv").read_bytes())
+    for src, out in ((rec / "sim.csv", tmp_path / "plain_out.csv"), (bom, tmp_path / "bom_out.csv")):
+        r = cli("simulate", ROBOT, "--trajectory", src, "-q", "-o", out)
+        assert r.exit_code == 0, r.output
+    assert (tmp_path / "bom_out.csv").read_bytes() == (tmp_path / "plain_out.csv").read_bytes()
+
+
+def test_simulate_trajectory_csv_without_rows(rec, tmp_path):
+    """A --trajectory CSV with its header only: numpy's 'input contained no data' UserWarning went to
+    stderr beside the error (three lines)."""
+    head = tmp_path / "head.csv"
+    head.write_text((rec / "sim.csv").read_text().splitlines()[0] + "\n")
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", UserWarning)  # in this process a warning is not printed: make it an error
+        refused("simulate", ROBOT, "--trajectory", head, "-q", "-o", tmp_path / "out.csv", needle="expected at least 2 rows")
+
+
+def test_excite_sample_count_and_starts_bounded(tmp_path):
+    """--rate 1e9, --base-frequency 1e-9 or --starts 1e9 ran out of memory (exit 1); refused before any work."""
+    out = tmp_path / "exc.csv"
+    refused("excite", ROBOT, "--rate", "1e9", "-q", "-o", out, needle="-sample limit")
+    refused("excite", ROBOT, "--starts", "1000000000", "-q", "-o", out, needle="--starts must be at most")
     assert not out.exists()
