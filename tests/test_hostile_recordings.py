@@ -172,7 +172,8 @@ def test_complex_npz_member_refused(rec, tmp_path):
 def test_api_dates_and_masks(rec):
     """In memory: a time array of datetime64 was read as nanoseconds (the error then blamed the
     velocities); a masked array's masked entries were used as data.  Masked entries are now missing
-    values (their rows dropped and counted, as a NaN's), and data=None is an InputError, not a TypeError."""
+    values (their rows dropped and counted, as a NaN's), and data=None (identify, evaluate) is an
+    InputError, not a TypeError."""
     import minparam
     from minparam_cli.errors import DataError, InputError
 
@@ -182,6 +183,8 @@ def test_api_dates_and_masks(rec):
         minparam.identify(ROBOT, {**arrays, "t": (arrays["t"] * 1e9).astype("datetime64[ns]")}, diagnose=False)
     with pytest.raises(InputError, match="got NoneType"):
         minparam.identify(ROBOT, None, diagnose=False)
+    with pytest.raises(InputError, match="got NoneType"):
+        minparam.evaluate(rec / "model.json", None)
     hidden = arrays["q"].copy()
     hidden[::50] = 1e3  # nonsense under the mask
     masked = minparam.identify(ROBOT, {**arrays, "q": np.ma.masked_array(hidden, mask=hidden == 1e3)}, diagnose=False)
