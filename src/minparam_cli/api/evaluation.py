@@ -61,11 +61,18 @@ def _identify_test(setup: EvaluationSetup):
 
 
 def check_data_file(p: Path) -> None:
-    """A data file must exist (a ROS bag may be a folder)."""
+    """A data file must exist and be a regular file (a ROS bag may be a folder); a FIFO, a device or
+    another folder is refused in the words of identify's readers (``safety.require_regular_file``)."""
     from minparam_cli.measured.rosbag import is_bag
+    from minparam_cli.safety import require_regular_file
 
-    if not p.is_file() and not (p.is_dir() and is_bag(p)):
+    if not p.exists() and not p.is_symlink():
         raise InputError(f"{p}: data file not found")
+    if p.is_dir():
+        if not is_bag(p):
+            raise InputError(f"{p}: is a folder, expected a data file (CSV, .npz, .parquet or a ROS bag)")
+        return
+    require_regular_file(p, InputError)
 
 
 def _band(m: SavedModel, kind: str, n: int, source: str, level: float):
@@ -132,9 +139,11 @@ def run_evaluate(model: Model | str | Path, data: Sequence[Any], opts: EvaluateO
         if is_in_memory(x):
             records.append(as_record(x, f"<data{k + 1}>"))
             names.append(f"<data{k + 1}>")
-        else:
+        elif isinstance(x, (str, Path)):
             check_data_file(Path(x))
             names.append(x if isinstance(x, Path) else str(x))
+        else:
+            raise InputError(f"data{k + 1}: expected a file path, a mapping of arrays or a pandas DataFrame, got {type(x).__name__}")
     setup = evaluation_setup(source, saved, robot_file, design, opts.which, opts.time_unit, opts.topic,
                              opts.columns)  # type: ignore[arg-type]  # a dict once the record is built
     band = _band(setup.saved, setup.kind, design.chain.dof, source, opts.band_level) if opts.band else None
@@ -159,5 +168,10 @@ def evaluate(model: Model | str | Path, data: Any, *, which: str | None = None, 
 
     opts = EvaluateOptions(which=which, robot=None if robot is None else Path(robot), time_unit=time_unit, topic=topic,
                            columns=columns)
-    items = [data] if isinstance(data, (str, Path)) or is_in_memory(data) else list(data)
+    if isinstance(data, (str, Path)) or is_in_memory(data):
+        items = [data]
+    elif isinstance(data, (list, tuple)):
+        items = list(data)
+    else:
+        raise InputError(f"data: expected a file path, a mapping of arrays, a pandas DataFrame or a list of them, got {type(data).__name__}")
     return run_evaluate(model, items, opts)

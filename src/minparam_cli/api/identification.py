@@ -33,8 +33,8 @@ def _sources(data: Any, validate: Any, tests: tuple[Any, ...]) -> tuple[Any, Any
 
     records = []
 
-    def one(x: Any, name: str) -> Any:
-        if x is None:
+    def one(x: Any, name: str, required: bool = False) -> Any:
+        if x is None and not required:
             return None
         if is_in_memory(x):
             records.append(as_record(x, name))
@@ -44,7 +44,7 @@ def _sources(data: Any, validate: Any, tests: tuple[Any, ...]) -> tuple[Any, Any
         raise InputError(f"{name.strip('<>')}: expected a file path, a mapping of arrays or a pandas DataFrame, "
                          f"got {type(x).__name__}")
 
-    return (one(data, "<data>"), one(validate, "<validate>"),
+    return (one(data, "<data>", required=True), one(validate, "<validate>"),
             tuple(one(t, f"<test{k + 1}>") for k, t in enumerate(tests)), records)
 
 

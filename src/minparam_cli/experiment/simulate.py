@@ -137,6 +137,16 @@ class Chunk:
     tau_effects: np.ndarray
 
 
+def _require_finite(t: np.ndarray, q: np.ndarray, tau: np.ndarray) -> None:
+    """Refuse to write a sample whose torque or position is not finite (an effect's amp= of 1e308, say):
+    the output file is then not written at all."""
+    bad = ~(np.isfinite(tau).all(axis=1) & np.isfinite(q).all(axis=1))
+    if bad.any():
+        i = int(np.argmax(bad))
+        raise InputError(f"the simulated sample at t = {t[i]:.6g} s is not finite: an effect's size (amp=, --strength) "
+                         "or the noise is too large")
+
+
 def child_generators(rng: np.random.Generator, count: int) -> list[np.random.Generator]:
     """``count`` independent generators seeded from ``rng`` (works on every numpy >= 1.17)."""
     seeds = rng.integers(0, np.iinfo(np.int64).max, size=count, dtype=np.int64)
@@ -245,8 +255,9 @@ def plan(chain: Chain, options: SimulationOptions, rng: np.random.Generator, pro
                 progress(e, 2 * samples)
 
     rms_rigid = np.sqrt(np.einsum("ij,ij->j", tau_rigid, tau_rigid) / samples)
-    injected = tuple(effect_coefficients(spec, spec_grams, samples, rms_rigid, options.strength, effect_rng)
-                     for spec, spec_grams in zip(options.effects, grams, strict=True))
+    with np.errstate(over="ignore", invalid="ignore"):  # a huge amp= overflows: the stream refuses its torques
+        injected = tuple(effect_coefficients(spec, spec_grams, samples, rms_rigid, options.strength, effect_rng)
+                         for spec, spec_grams in zip(options.effects, grams, strict=True))
     return Plan(
         chain=chain, options=options, samples=samples, trajectory=traj, ranges=tuple(ranges), phi=phi,
         inertia_source=source, inertia=inertia, effects=injected, tau_rigid=tau_rigid,
@@ -291,6 +302,7 @@ class Stream:
             if o.noise > 0:
                 tau = tau + p.noise_rng.normal(0.0, o.noise, size=tau.shape)
             q_measured = q + p.noise_q_rng.normal(0.0, o.noise_q, size=q.shape) if o.noise_q > 0 else q
+            _require_finite(t, q_measured, tau)
             np.maximum(self._max_tau, np.abs(tau).max(axis=0), out=self._max_tau)
             if self.progress:
                 self.progress(p.samples + e, 2 * p.samples)

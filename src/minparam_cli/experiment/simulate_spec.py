@@ -14,6 +14,9 @@ from minparam_cli.errors import InputError
 from minparam_cli.dynamics.effects import EFFECT_IDS, EFFECTS
 from minparam_cli.experiment.trajectory import LIMIT_MARGIN
 
+MAX_SIZE = 1e6  # --noise (N·m), --noise-q (rad), --strength (x the rigid-body RMS), --coulomb-smoothing (rad/s)
+MAX_SAMPLES = 10**8  # samples a simulate run may write: 28 h at 1 kHz, tens of GB of CSV
+
 # Hyper-parameter of the grid effects: spec key and default (each default lies on its effect's grid).
 HYPER_KEY: dict[str, str] = {"stribeck": "vs", "cogging": "k", "position_error": "k"}
 HYPER_DEFAULT: dict[str, float] = {"stribeck": 0.05, "cogging": 12.0, "position_error": 2.0}
@@ -212,10 +215,15 @@ def validate_options(options: SimulationOptions) -> int:
                               (o.coulomb_smoothing, "--coulomb-smoothing", "rad/s")):
         if not (math.isfinite(value) and value >= 0):
             raise InputError(f"{flag} must be a number >= 0{' ' + unit if unit else ''}, got {value:g}")
+        if value > MAX_SIZE:  # 1e308 overflowed into samples of inf, written to the file
+            raise InputError(f"{flag} must be at most {MAX_SIZE:g}{' ' + unit if unit else ''}, got {value:g}")
     if not 0 <= o.margin < 0.5:
         raise InputError(f"margin must be in [0, 0.5), got {o.margin:g}")
     samples = int(round(o.duration * o.rate))
     if samples < 2:
         raise InputError(f"--duration x --rate gives {samples} sample(s); need at least 2")
+    if samples > MAX_SAMPLES:  # --duration 1e9 ran out of memory (exit 1); 1e6 wrote for hours
+        raise InputError(f"--duration x --rate gives {samples:.3g} samples, more than the {MAX_SAMPLES:.0e}-sample limit "
+                         "(about 28 h at 1 kHz); simulate several shorter recordings")
     return samples
 

@@ -60,6 +60,8 @@ def as_record(data: Any, name: str) -> Record:
     the report show).  Values that are not numbers are refused in one line."""
     if is_dataframe(data):
         header = tuple(str(c) for c in data.columns)
+        for c, dtype in zip(header, data.dtypes, strict=True):
+            require_real(getattr(dtype, "kind", "O"), f"column '{c}'", name)
         try:
             table = np.asarray(data.to_numpy(dtype=float), dtype=float)
         except (TypeError, ValueError) as e:
@@ -69,7 +71,11 @@ def as_record(data: Any, name: str) -> Record:
         raise DataError(f"{name}: expected a file path, a mapping of arrays or a pandas DataFrame, got {type(data).__name__}")
     arrays: dict[str, np.ndarray] = {}
     for k, v in data.items():
+        if isinstance(v, np.ma.MaskedArray):  # a masked entry is a missing value: NaN, its row dropped and counted
+            v = np.ma.asarray(v, dtype=float).filled(np.nan)
         try:
+            raw = np.asarray(v)
+            require_real(raw.dtype.kind, f"array '{k}'", name)
             arrays[str(k)] = np.asarray(v, dtype=float)
         except (TypeError, ValueError) as e:
             raise DataError(f"{name}: array '{k}' is not numeric ({e})") from None
@@ -83,6 +89,15 @@ def as_record(data: Any, name: str) -> Record:
     header = tuple(arrays)
     table = np.column_stack([arrays[h] for h in header]) if header else np.empty((0, 0))
     return Record(name, "table", header=header, table=table)
+
+
+def require_real(kind: str, what_key: str, name: str) -> None:
+    """Refuse values numpy would turn into floats by losing their meaning: complex numbers (the
+    imaginary part dropped with a warning), dates and durations (nanoseconds read as seconds)."""
+    what = {"c": "complex numbers", "M": "dates", "m": "durations"}.get(kind)
+    if what is not None:
+        unit = " (times as numbers, in seconds or the time unit given)" if kind in "Mm" else ""
+        raise DataError(f"{name}: {what_key} holds {what}, expected real numbers{unit}")
 
 
 @contextlib.contextmanager

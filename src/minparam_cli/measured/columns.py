@@ -72,9 +72,22 @@ def require_named(present: dict, columns: dict[str, str], src: str) -> None:
         raise DataError(f"{src}: no array named by --columns {', '.join(missing)}")
 
 
+def header_names(header: list[str]) -> list[str]:
+    """A header's column names as matched: blanks around each name dropped, and a name in double
+    quotes unquoted (``"t","q1",...`` as Python's csv module with QUOTE_NONNUMERIC or R's write.csv
+    write it), a doubled quote inside it read as one."""
+    names = []
+    for h in header:
+        h = h.strip()
+        if len(h) >= 2 and h[0] == h[-1] == '"':
+            h = h[1:-1].replace('""', '"').strip()
+        names.append(h)
+    return names
+
+
 def looks_headerless(header: list[str]) -> bool:
     """Whether a CSV's first line is a row of numbers rather than column names."""
-    values = [h.strip() for h in header]
+    values = header_names(header)
     if not values or not all(values):
         return False
     try:
@@ -102,7 +115,7 @@ def headerless_error(src: str, width: int, n: int) -> DataError:
 
 def time_index(header: list[str], n: int, columns: dict[str, str], src: str) -> int:
     """Index of the time column, refusing a file without a header first."""
-    names = [h.strip() for h in header]
+    names = header_names(header)
     if not any(names):
         raise DataError(f"{src}: empty file (no header row, no data)")
     if looks_headerless(names):
@@ -126,11 +139,15 @@ def column_indices(header: list[str], n: int, columns: dict[str, str], src: str)
     A numbered key (prefix or pattern) must have exactly the joints 1..n or 0..n-1; a file whose
     joint columns go beyond n, or stop short of it, is refused, in joint terms.
     """
-    names = [h.strip() for h in header]
+    names = header_names(header)
     idx: dict[str, list[int] | None] = {"t": [time_index(names, n, columns, src)]}
     for key in KEYS[1:]:
         # q and tau always; dq and ddq when --columns names them (a named column that is missing is an error)
         idx[key] = key_indices(names, key, columns.get(key, key), n, src, required=key in ("q", "tau") or key in columns)
+    used = sorted({names[i] for ix in idx.values() if ix for i in ix})
+    twice = next((name for name in used if names.count(name) > 1), None)
+    if twice is not None:  # which of the two holds the signal cannot be told
+        raise DataError(f"{src}: column {twice!r} appears {names.count(twice)} times among the column names; name each column once")
     return idx
 
 

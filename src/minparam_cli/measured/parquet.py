@@ -54,9 +54,27 @@ def parquet_chunks(path: Path, n: int, opts) -> Iterator[tuple[np.ndarray, dict]
     used = [c for k in KEYS for c in (idx[k] or ())]
     wanted = sorted(set(used))
     where = {c: j for j, c in enumerate(wanted)}
-    for batch in f.iter_batches(batch_size=opts.chunk_rows, columns=[names[c] for c in wanted]):
+    for batch in _batches(f, src, batch_size=opts.chunk_rows, columns=[names[c] for c in wanted]):
         cols = [_floats(batch.column(j), names[c], src) for j, c in enumerate(wanted)]
         yield np.column_stack([cols[where[c]] for c in used]), layout
+
+
+def _batches(f, src: str, **kw) -> Iterator:
+    """``f.iter_batches(**kw)``, a damaged page (bad compressed data, a truncated column chunk) a
+    one-line DataError instead of pyarrow's exception."""
+    from minparam_cli.measured.tables import short_error
+
+    batches = f.iter_batches(**kw)
+    while True:
+        try:
+            batch = next(batches)
+        except StopIteration:
+            return
+        except MemoryError:
+            raise
+        except Exception as e:  # noqa: BLE001 - pyarrow raises OSError, ArrowInvalid and others for a damaged page
+            raise DataError(f"{src}: cannot read Parquet ({short_error(e)})") from None
+        yield batch
 
 
 def parquet_time_span(path: Path, name: str) -> tuple[float, float]:
@@ -64,8 +82,20 @@ def parquet_time_span(path: Path, name: str) -> tuple[float, float]:
     f = _open(path)
     if name not in f.schema_arrow.names:
         raise DataError(f"{path}: missing time column '{name}' (use --columns t=NAME)")
-    t = _floats(f.read(columns=[name]).column(0), name, str(path))
+    t = _floats(_read_column(f, name, str(path)), name, str(path))
     t = t[np.isfinite(t)]
     if len(t) < 2:
         raise DataError(f"{path}: fewer than two time stamps")
     return float(t[0]), float(t.max())
+
+
+def _read_column(f, name: str, src: str):
+    """Column ``name`` of the whole file, a damaged page a one-line DataError."""
+    from minparam_cli.measured.tables import short_error
+
+    try:
+        return f.read(columns=[name]).column(0)
+    except MemoryError:
+        raise
+    except Exception as e:  # noqa: BLE001 - pyarrow raises OSError, ArrowInvalid and others for a damaged page
+        raise DataError(f"{src}: cannot read Parquet ({short_error(e)})") from None

@@ -114,8 +114,8 @@ class Npz:
         require_data_file(path)
         with open_npz(path) as z:
             try:
-                found = {k: (np.asarray(z[opts.columns.get(k, k)], dtype=float) if opts.columns.get(k, k) in z.files else None) for k in KEYS}
-            except MemoryError:
+                found = {k: (_real(z[opts.columns.get(k, k)], opts.columns.get(k, k), path) if opts.columns.get(k, k) in z.files else None) for k in KEYS}
+            except (MemoryError, DataError):
                 raise
             except Exception as e:  # noqa: BLE001 - a damaged member: zlib, zipfile, format or dtype errors
                 raise DataError(f"{path}: cannot read .npz ({short_error(e)})") from None
@@ -127,8 +127,8 @@ class Npz:
         require_data_file(path)
         with open_npz(path) as z:
             try:
-                t = np.asarray(z[name], dtype=float)
-            except MemoryError:
+                t = _real(z[name], name, path)
+            except (MemoryError, DataError):
                 raise
             except Exception as e:  # noqa: BLE001 - a missing or damaged member
                 raise DataError(f"{path}: cannot read time array '{name}' ({short_error(e)})") from None
@@ -136,6 +136,12 @@ class Npz:
         if len(t) < 2:
             raise DataError(f"{path}: fewer than two time stamps")
         return _span_in_seconds((float(t.min()), float(t.max())), opts)
+
+
+def _real(a: np.ndarray, name: str, path: Path) -> np.ndarray:
+    """An .npz member as floats; complex numbers, dates and durations refused (``arrays.require_real``)."""
+    arrays.require_real(a.dtype.kind, f"array '{name}'", str(path))
+    return np.asarray(a, dtype=float)
 
 
 class Csv:

@@ -131,9 +131,9 @@ def read_description(path: Path) -> Recording:
 
 def _indices(header: list[str], part: Part, n: int, src: str) -> dict[str, list[int]]:
     """Column indices of each signal this file names."""
-    from minparam_cli.measured.columns import key_indices
+    from minparam_cli.measured.columns import header_names, key_indices
 
-    names = [h.strip() for h in header]
+    names = header_names(header)
     if looks_headerless(names):
         raise DataError(f"{src}: no header row (line 1 holds {len(names)} numbers); the description names columns")
     dup = next((h for i, h in enumerate(names) if h in names[:i]), None)

@@ -20,8 +20,8 @@ import numpy as np
 
 from minparam_cli.errors import ComputationError, DataError
 from minparam_cli.measured.records import KEYS, DataOptions
+from minparam_cli.measured.sniff import refuse_binary
 from minparam_cli.runtime import BACKGROUND_BYTES  # numpy's reader: a CSV above it is parsed by a second process
-
 
 
 def column_layout(present: dict[str, bool], n: int) -> dict[str, slice | int | None]:
@@ -48,8 +48,9 @@ def csv_tables(path: Path, rows: int) -> Generator[Any, None, None]:
     one-line errors of a bad header or a bad row (with its line) are raised from here."""
     src = str(path)
     require_data_file(path)
+    refuse_binary(path)
     try:
-        fh = open(path, encoding="utf-8", errors="strict")
+        fh = open(path, encoding="utf-8-sig", errors="strict")  # a byte-order mark (Excel's "CSV UTF-8") is not the header's
     except OSError as e:
         raise DataError(f"{src}: cannot read file ({e.strerror})") from e
     with fh:
@@ -58,7 +59,7 @@ def csv_tables(path: Path, rows: int) -> Generator[Any, None, None]:
             if len(header_line) == MAX_LINE_CHARS and not header_line.endswith("\n"):
                 raise DataError(f"{src}: line 1 (the header) is longer than {MAX_LINE_CHARS} characters")
         except UnicodeDecodeError as e:  # the decoder reads ahead: the bad byte may be in a data row
-            header_line = _header_bytes(path).decode("utf-8", "replace")
+            header_line = _header_bytes(path).decode("utf-8-sig", "replace")
             if "\ufffd" in header_line:
                 raise DataError(f"{src}: line 1 (the header) is not UTF-8 text") from e
             raise _bad_row(path, 2, header_line.strip().split(","), e) from e
@@ -149,7 +150,7 @@ def open_npz(path: Path):
     except OSError as e:
         raise DataError(f"{src}: cannot read file ({e.strerror})") from None
     if magic != b"PK\x03\x04":
-        what = "a single .npy array" if magic.startswith(b"\x93NUM") else "empty" if not magic else "no zip header"
+        what = "a single .npy array" if magic.startswith(b"\x93NUM") else "empty" if not magic else "no arrays" if magic == b"PK\x05\x06" else "no zip header"
         raise DataError(f"{src}: not an .npz archive ({what}); expected arrays t, q, tau, ... saved by numpy.savez")
     try:
         z = np.load(path, allow_pickle=False)
@@ -267,7 +268,7 @@ def _csv_chunks(path: Path, fh, header_line: str, width: int, rows: int) -> Gene
     pacsv = arrow_csv.csv_module()
     raw = _header_bytes(path) if pacsv is not None else b""
     try:
-        same = raw.endswith(b"\n") and raw.decode("utf-8").replace("\r\n", "\n") == header_line
+        same = raw.endswith(b"\n") and raw.decode("utf-8-sig").replace("\r\n", "\n") == header_line
     except UnicodeDecodeError:
         same = False
     if pacsv is None or not same:  # no pyarrow, or a header line that is not \n-terminated as the reader's

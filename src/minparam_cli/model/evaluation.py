@@ -158,6 +158,12 @@ def evaluate(design: Design, theta: np.ndarray, paths, data: DataOptions, which:
                 i = int(np.argmax(bad))
                 raise DataError(f"{path}: the sample at t = {b.t[i]:.6g} s gives a non-finite predicted torque "
                                 "(a value of q, dq, ddq there is too large to use)")
+            with np.errstate(over="ignore", invalid="ignore"):  # a torque of 1e200: its square overflows the sums
+                bad = ~np.isfinite((b.tau - pred) ** 2 + b.tau**2).all(axis=1)
+            if bad.any():
+                i = int(np.argmax(bad))
+                raise DataError(f"{path}: the sample at t = {b.t[i]:.6g} s has a measured torque too large to use "
+                                f"({float(np.abs(b.tau[i]).max()):.3g})")
             sums.add(b.tau, pred)
             if band is not None:
                 cnt.add(b.tau, pred, *band_block(design, band, b))

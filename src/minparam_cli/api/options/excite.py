@@ -89,7 +89,22 @@ class ExciteOptions:
                              starts=int(self.starts), max_iterations=int(self.max_iterations), margin=float(self.margin),
                              rest=bool(self.rest))
         validate(opts)
+        _bounded(opts)
         return opts
+
+
+MAX_STARTS = 10_000  # --starts: each is an optimisation
+MAX_SAMPLES = 10**7  # the CSV's samples (periods x rate / base frequency): 2.8 h at 1 kHz
+
+
+def _bounded(o) -> None:
+    """--starts and the CSV's sample count: 1e9 of either ran out of memory (exit 1)."""
+    if o.starts > MAX_STARTS:
+        raise InputError(f"--starts must be at most {MAX_STARTS}, got {o.starts}")
+    samples = o.periods * o.rate / o.base_frequency
+    if samples > MAX_SAMPLES:
+        raise InputError(f"--periods x --rate / --base-frequency gives {samples:.3g} samples, more than the "
+                         f"{MAX_SAMPLES:.0e}-sample limit of the CSV")
 
 
 def _clearance(value, collisions: bool) -> float:

@@ -29,6 +29,8 @@ GEOMETRIES = ("auto", "on", "none")  # auto: the links' ellipsoids when the fit 
 SIGMAS = ("hac", "bootstrap", "textbook")
 SIDES = ("joint", "motor")
 DEFAULT_SPLIT = (0.6, 0.2, 0.2)
+MAX_GRAVITY = 1e3  # m/s², 100 g: a larger --gravity is a unit mistake (mm/s²) or a typo
+MAX_DECIMATE = 2**31 - 1  # --decimate: one sample in K; a larger K keeps one sample of any recording (and overflows a slice)
 
 
 def _items(value: str | Iterable[str] | None) -> tuple[str, ...]:
@@ -180,8 +182,8 @@ class IdentifyOptions:
             raise OptionError("--cutoff", "must be positive")
         if self.rate is not None and not _finite_positive(self.rate):
             raise OptionError("--rate", "must be positive")
-        if self.decimate is not None and self.decimate < 1:
-            raise OptionError("--decimate", f"{self.decimate} is not in the range x>=1.")
+        if self.decimate is not None and not 1 <= self.decimate <= MAX_DECIMATE:  # numpy's slices take a C long
+            raise OptionError("--decimate", f"{self.decimate} is not in the range 1<=x<={MAX_DECIMATE}.")
         if self.trim_still is not None and not _finite_positive(self.trim_still):
             raise OptionError("--trim-still", "must be a positive number of seconds")
         if not _finite_positive(self.still_speed):
@@ -199,6 +201,8 @@ class IdentifyOptions:
         self._check_exports()
         if self.gravity is not None:
             put("gravity", float_option(self.gravity, 3, "--gravity"))
+            if math.hypot(*self.gravity) > MAX_GRAVITY:  # 1e308 made the design's columns overflow: an internal error
+                raise OptionError("--gravity", f"|g| above {MAX_GRAVITY:g} m/s² ({math.hypot(*self.gravity):.3g}); give it in m/s²")
         if self.seed < 0:
             raise OptionError("--seed", f"{self.seed} is not in the range x>=0.")
         put("time_unit", choice_option(self.time_unit, TIME_UNITS, "--time-unit"))
@@ -282,11 +286,11 @@ class IdentifyOptions:
     def check_report_path(self, output) -> None:
         """The report (-o) is not one of the files the exports write."""
         from minparam_cli.model.export_extra import side_path
-        from minparam_cli.output import is_stdout
+        from minparam_cli.output import is_stdout, output_target
 
         if output is None or is_stdout(output):
             return
-        report = Path(output).resolve()
+        report = output_target(Path(output))[0].resolve()  # a link loop refused, in one line, before resolve()
         for flag, path in (("--export-urdf", self.export_urdf), ("--export-yaml", self.export_yaml),
                            ("--export-mjcf", self.export_mjcf), ("--save-model", self.save_model)):
             if path is not None and report in (Path(path).resolve(), Path(side_path(path)).resolve()):

@@ -58,6 +58,9 @@ class UncertaintyOptions:
     seed: int = 0
 
 
+MAX_REPLICATES = 10_000  # --replicates: a bootstrap σ's own relative error is about 1/sqrt(2·B), 0.7 % here
+
+
 def block_length(cutoff_hz: float) -> float:
     """The documented rule: at least 1 s and at least five periods of the low-pass cut-off."""
     return max(MIN_BLOCK_S, CUTOFF_PERIODS / cutoff_hz)
@@ -71,6 +74,8 @@ def check_options(opts: UncertaintyOptions) -> None:
         raise InputError(f"--block-length {opts.block_s}: expected a positive number of seconds")
     if opts.replicates < 2:
         raise InputError(f"--replicates {opts.replicates}: a bootstrap needs at least 2 replicates")
+    if opts.replicates > MAX_REPLICATES:  # each is a refit: 1e9 of them never ends
+        raise InputError(f"--replicates {opts.replicates}: at most {MAX_REPLICATES} (each replicate is a refit)")
 
 
 def _packed_positions(w: int, cols: np.ndarray) -> tuple[np.ndarray, tuple[np.ndarray, np.ndarray]]:
