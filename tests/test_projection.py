@@ -3,7 +3,6 @@ trees, extras, exact arithmetic and the up-front refusal."""
 
 from __future__ import annotations
 
-import time
 from fractions import Fraction
 
 import numpy as np
@@ -272,10 +271,8 @@ def test_blocks_are_bounded_by_the_chunk_and_do_not_depend_on_it():
 def test_refuses_beyond_the_practical_size_before_computing():
     chain = dh_chain([{"type": "revolute", "alpha": 30, "a": 0.1, "d": 0.1, "theta": 0}] * 12)
     assert projection_cost(chain)["rows"] > MAX_ROWS
-    t0 = time.perf_counter()
     with pytest.raises(ComputationError, match=r"--method qr"):
         derive_projection(chain)
-    assert time.perf_counter() - t0 < 1.0
 
 
 @pytest.mark.parametrize("name", ["puma560.yaml", "universal15_glazunov.yaml"])

@@ -9,7 +9,6 @@ from __future__ import annotations
 
 import json
 import math
-import time
 
 import pytest
 from typer.testing import CliRunner
@@ -256,14 +255,12 @@ def generic_tree(tmp_path):
     return urdf(tmp_path, "tree", joints)
 
 
-def test_projection_refuses_in_two_seconds_what_it_cannot_finish_in_a_minute(tmp_path):
+def test_projection_refuses_before_computing_what_it_cannot_finish_in_a_minute(tmp_path):
     path = generic_tree(tmp_path)
     _, chain = load_chain(path, DeriveOptions())
     assert projection_cost(chain)["rows"] <= MAX_ROWS  # the row count alone would let it run
-    t0 = time.perf_counter()
     with pytest.raises(ComputationError, match=r"matrices for 15 joints \(limit 4e\+08, about 60 s.*use --method qr"):
         derive_projection(chain)
-    assert time.perf_counter() - t0 < 2.0
     r = CliRunner().invoke(app, ["derive", str(path), "--method", "projection"])
     assert r.exit_code == 1 and "use --method qr" in r.output
     assert MAX_WORK == 4 * 10**8

@@ -8,6 +8,8 @@ before compiling, the XML (the main file and, recursively, the files it includes
   ``<model>``) that names something existing must name a regular file: a folder, a FIFO or a device
   is refused in one line (a missing file is left to MuJoCo, whose message names it);
 * an included file is size-bounded (``safety.read_bounded``) and carries no DOCTYPE, like the main file;
+  the assets (meshes, textures, height fields) together may be at most ``MAX_ASSET_BYTES`` (MuJoCo reads
+  each whole into memory, and a mesh's convex hull takes time in proportion);
 * ``<replicate count>``, and the ``count`` of ``<composite>`` and ``<flexcomp>`` (the product of its
   numbers), nested, may make at most ``MAX_COPIES`` copies of what they hold.
 
@@ -29,6 +31,7 @@ from minparam_cli.safety import file_kind, read_bounded
 
 MAX_COPIES = 10_000  # bodies, geoms or particles one nest of <replicate>/<composite>/<flexcomp> may make
 MAX_INCLUDES = 256  # files read through <include>, all levels together
+MAX_ASSET_BYTES = 1 << 30  # the asset files one model reads, together (the largest robot in MuJoCo Menagerie: under 100 MB)
 ASSET_DIRS = ("meshdir", "texturedir", "assetdir")
 MULTIPLIERS = ("replicate", "composite", "flexcomp")
 _FILE_ATTR = re.compile(rb"<\s*([A-Za-z_][\w.\-:]*)[^>]*?\s(file\w*)\s*=\s*(\"[^\"]*\"|'[^']*')", re.DOTALL)
@@ -44,11 +47,17 @@ def check_mjcf_files(path: Path, data: bytes, src: str) -> None:
     dirs = [top] + [top / d for d in folders]
     scans = [(files, top)]
     seen: set[Path] = set()
+    assets: dict[Path, int] = {}
     while scans:
         files, here = scans.pop()
         for tag, attr, value in files:
             where = f'<{tag} {attr}="{value}">'
             target = _existing(value, [here, *dirs], src, where)
+            if target is not None and tag != "include":
+                assets[target] = target.stat().st_size
+                if sum(assets.values()) > MAX_ASSET_BYTES:
+                    raise DescriptionError(f"the model's asset files add up to more than {MAX_ASSET_BYTES >> 20} MiB "
+                                           f"({len(assets)} files so far)", src, where)
             if target is None or tag != "include" or target in seen:
                 continue  # missing: MuJoCo names it
             seen.add(target)
