@@ -40,17 +40,23 @@ def test_loop_cut_name_used_twice(tmp_path):
 
 def test_one_symbol_for_two_different_values_is_refused(tmp_path):
     """The symbol table is keyed by name: 'L' on a1 = 1 and a2 = 2 printed 'L = 2' for both, and a chosen
-    'd2' on a1 lost a1 to joint 2's d.  The same symbol on equal values stays one shared quantity."""
+    'd2' on a1 lost a1 to joint 2's d (now the loader's d2 takes a suffix).  The same symbol on equal values
+    stays one shared quantity."""
     joint = "  - {{type: revolute, alpha: 0, a: {a}, d: {d}, theta: 0}}\n"
     head = "convention: dh\njoints:\n"
     bad = tmp_path / "bad.yaml"
     bad.write_text(head + joint.format(a="{symbol: L, value: 1.0}", d=0) + joint.format(a="{symbol: L, value: 2.0}", d=0))
     with pytest.raises(DescriptionError, match=r"joints\[2\]\.a: symbol 'L' names two different values: joints\[1\]\.a = 1 and joints\[2\]\.a = 2"):
         load_description(bad)
-    auto = tmp_path / "auto.yaml"
+    auto = tmp_path / "auto.yaml"  # the file's d2 wins; the loader's own d2 (joint 2's d) takes a suffix
     auto.write_text(head + joint.format(a="{symbol: d2, value: 1.0}", d=0) + joint.format(a=0.5, d=0.3))
-    with pytest.raises(DescriptionError, match=r"symbol 'd2' names two different values"):
-        load_description(auto)
+    geometry = load_description(auto).geometry()
+    assert geometry["d2"].value == 1.0 and geometry["d2_2"].value == 0.3
+    craig = tmp_path / "craig.yaml"  # Craig's MDH numbering: a2 on row 3, the loader's a2 (0) on row 2
+    craig.write_text("convention: mdh\njoints:\n" + joint.format(a=0, d=0) + joint.format(a=0, d=0.2)
+                     + joint.format(a="{symbol: a2, value: 0.4318}", d=0))
+    desc = load_description(craig)
+    assert desc.geometry()["a2"].value == 0.4318 and desc.joints[1].dh["a"].symbol == "a2_2"
     shared = tmp_path / "shared.yaml"
     shared.write_text(head + joint.format(a="{symbol: L, value: 1.0}", d=0) + joint.format(a="{symbol: L, value: 1.0}", d=0))
     assert load_description(shared).geometry()["L"].value == 1.0
@@ -72,6 +78,18 @@ def test_urdf_joint_names_that_map_to_one_symbol_get_distinct_symbols(tmp_path):
     assert geometry[first["z"].symbol].value == 0.1 and geometry[second["z"].symbol].value == 0.3
 
 
+def test_platform_home_with_legs_at_their_stroke_end_is_accepted(tmp_path):
+    """A parked pose, every leg fully retracted: its length is the limit to rounding (119.99999999999999 mm)."""
+    from minparam_cli.chain import build_chain
+
+    doc = yaml.safe_load((FOURBAR.parent / "platforms" / "hexapod_6_6.yaml").read_text())
+    doc["dynamics"]["home"] = [0, 0, 99.96265961561714, 0, 0, 0]  # every leg 120 mm, the lower limit
+    p = tmp_path / "parked.yaml"
+    p.write_text(yaml.safe_dump(doc, sort_keys=False))
+    shipped = build_chain(load_description(FOURBAR.parent / "platforms" / "hexapod_6_6.yaml"))
+    assert build_chain(load_description(p)).dof == shipped.dof == 21  # the tree joints of the six legs, as at the shipped home
+
+
 def test_platform_home_that_no_leg_can_reach(tmp_path):
     """dynamics.home 100 m above the dodekapod (legs 150..300 mm): derive closed the loops from there for minutes."""
     doc = yaml.safe_load((FOURBAR.parent / "dodekapod_dang2013.yaml").read_text())
@@ -80,4 +98,4 @@ def test_platform_home_that_no_leg_can_reach(tmp_path):
     p.write_text(yaml.safe_dump(doc, sort_keys=False))
     r = CliRunner().invoke(app, ["derive", str(p)])
     assert r.exit_code == 2 and len(r.stderr.strip().splitlines()) == 1, r.output
-    assert "dynamics.home: leg l12 is 100000 mm long at the home pose, outside its limits [150, 300]" in r.stderr
+    assert "dynamics.home: leg l12 is 100000.0369 mm long at the home pose, outside its limits [150, 300]" in r.stderr

@@ -70,10 +70,12 @@ def platform_closed_chain(doc: dict, src: str) -> RobotDescription:
         B, P = base[leg.base], top[leg.platform]
         u = P - B
         length = float(np.linalg.norm(u))
-        if length < 1e-9 or (leg.limits is not None and not leg.limits[0] <= length / k <= leg.limits[1]):
-            # the loops are closed from here: a home no leg can reach kept the sampler busy for minutes
+        # the loops are closed from here: a home no leg can reach kept the sampler busy for minutes; a leg
+        # at its stroke's end (a parked pose) is within, to rounding (1e-9 of the limit)
+        slack = 0.0 if leg.limits is None else 1e-9 * max(abs(leg.limits[0]), abs(leg.limits[1]), 1.0)
+        if length < 1e-9 or (leg.limits is not None and not leg.limits[0] - slack <= length / k <= leg.limits[1] + slack):
             span = "" if leg.limits is None else f", outside its limits [{leg.limits[0]:g}, {leg.limits[1]:g}]"
-            raise DescriptionError(f"leg {leg.name} is {length / k:g} {plat.length_unit} long at the home pose{span}", src, "dynamics.home")
+            raise DescriptionError(f"leg {leg.name} is {length / k:.10g} {plat.length_unit} long at the home pose{span}", src, "dynamics.home")
         theta, phi = math.acos(max(-1.0, min(1.0, u[2] / length))), math.atan2(u[1], u[0])
         first = len(joints)
         joints.append(_joint(f"{leg.name}_u1", "revolute", -1, B, (0.0, theta, phi), (1.0, 0.0, 0.0), zero))
