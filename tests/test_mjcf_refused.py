@@ -212,6 +212,30 @@ def test_asset_files_too_large_together(tmp_path):
         _load(p)
 
 
+def test_an_attached_model_s_assets_are_checked_too(tmp_path):
+    """<model file> names XML MuJoCo reads as well: a FIFO mesh inside the attached model hung the compiler."""
+    import os
+
+    (tmp_path / "parts").mkdir()
+    os.mkfifo(tmp_path / "parts" / "pipe.stl")
+    (tmp_path / "parts" / "sub.xml").write_text(
+        '<mujoco model="sub"><asset><mesh name="m" file="pipe.stl"/></asset><worldbody><body name="b"><joint name="j"/>'
+        '<geom type="mesh" mesh="m"/></body></worldbody></mujoco>')
+    p = _model(tmp_path, ARM.format(inner='<attach model="sub" body="b" prefix="s_"/>'), '<asset><model name="sub" file="parts/sub.xml"/></asset>')
+    with pytest.raises(DescriptionError, match=r'<mesh file="pipe.stl">: .*parts/pipe.stl is a named pipe \(FIFO\)'):
+        _load(p)
+
+
+def test_sibling_replicates_after_a_comment_with_dashes_are_not_multiplied(tmp_path):
+    """lxml refuses "--" inside a comment, MuJoCo does not: the pattern fallback took three sibling counts of
+    30 as nested (27,000 copies) and refused a legal file."""
+    reps = "".join(f'<replicate count="30" offset="0.05 0 0"><geom size="0.01" pos="1 {i} 0"/></replicate>' for i in range(3))
+    p = tmp_path / "reps.xml"
+    p.write_text(f'<!-- ---------- section ---------- -->\n<mujoco model="t"><worldbody>{_two_links()}{reps}</worldbody></mujoco>')
+    _, chain = _load(p)
+    assert chain.dof == 2
+
+
 def test_replication_bomb_is_refused_before_compiling(tmp_path):
     """Nested <replicate> counts multiply: 1000 x 1000 bodies kept MuJoCo's compiler busy for minutes."""
     bomb = ('<replicate count="1000" offset="0 0 0.01"><replicate count="1000" offset="0.01 0 0">'

@@ -5,7 +5,8 @@ pipe, a device) or a model it is asked to multiply a million times would hang th
 before compiling, the XML (the main file and, recursively, the files it includes) is scanned here:
 
 * every ``file*`` attribute (``<include>``, ``<mesh>``, ``<texture>``, ``<hfield>``, ``<skin>``,
-  ``<model>``) that names something existing must name a regular file: a folder, a FIFO or a device
+  ``<model>``) that names something existing must name a regular file, in the included files and the
+  attached models (``<model file>``, with their own asset folders) too: a folder, a FIFO or a device
   is refused in one line (a missing file is left to MuJoCo, whose message names it);
 * an included file is size-bounded (``safety.read_bounded``) and carries no DOCTYPE, like the main file;
   the assets (meshes, textures, height fields) together may be at most ``MAX_ASSET_BYTES`` (MuJoCo reads
@@ -36,6 +37,7 @@ ASSET_DIRS = ("meshdir", "texturedir", "assetdir")
 MULTIPLIERS = ("replicate", "composite", "flexcomp")
 _FILE_ATTR = re.compile(rb"<\s*([A-Za-z_][\w.\-:]*)[^>]*?\s(file\w*)\s*=\s*(\"[^\"]*\"|'[^']*')", re.DOTALL)
 _COUNT = re.compile(rb"<\s*(replicate|composite|flexcomp)\b[^>]*?\scount\s*=\s*(\"[^\"]*\"|'[^']*')", re.DOTALL)
+_COMMENT = re.compile(rb"<!--.*?-->", re.DOTALL)
 _DIRS = re.compile(rb"\s(meshdir|texturedir|assetdir)\s*=\s*(\"[^\"]*\"|'[^']*')")
 
 
@@ -44,21 +46,21 @@ def check_mjcf_files(path: Path, data: bytes, src: str) -> None:
     replication would make more than MAX_COPIES copies (module docstring)."""
     top = Path(path).parent
     files, folders = _scan(data, src)
-    dirs = [top] + [top / d for d in folders]
-    scans = [(files, top)]
+    scans = [(files, top, [top] + [top / d for d in folders])]  # (file attributes, their folder, asset folders)
     seen: set[Path] = set()
     assets: dict[Path, int] = {}
     while scans:
-        files, here = scans.pop()
+        files, here, dirs = scans.pop()
         for tag, attr, value in files:
             where = f'<{tag} {attr}="{value}">'
             target = _existing(value, [here, *dirs], src, where)
-            if target is not None and tag != "include":
+            followed = tag in ("include", "model")  # XML MuJoCo reads too: an <include>, or a model to <attach>
+            if target is not None and not followed:
                 assets[target] = target.stat().st_size
                 if sum(assets.values()) > MAX_ASSET_BYTES:
                     raise DescriptionError(f"the model's asset files add up to more than {MAX_ASSET_BYTES >> 20} MiB "
                                            f"({len(assets)} files so far)", src, where)
-            if target is None or tag != "include" or target in seen:
+            if target is None or not followed or target in seen:
                 continue  # missing: MuJoCo names it
             seen.add(target)
             if len(seen) > MAX_INCLUDES:
@@ -66,7 +68,10 @@ def check_mjcf_files(path: Path, data: bytes, src: str) -> None:
             sub = read_bounded(target)
             if re.search(rb"<!\s*(DOCTYPE|ENTITY)", sub, re.IGNORECASE):
                 raise DescriptionError(f"the included file {target.name} has a DOCTYPE or entity declaration, which an MJCF file may not have", src, where)
-            scans.append((_scan(sub, src)[0], target.parent))
+            sub_files, sub_folders = _scan(sub, src)
+            # an included file shares the including model's asset folders; an attached model has its own
+            sub_dirs = dirs if tag == "include" else [target.parent] + [target.parent / d for d in sub_folders]
+            scans.append((sub_files, target.parent, sub_dirs))
 
 
 def _scan(data: bytes, src: str) -> tuple[list[tuple[str, str, str]], list[str]]:
@@ -74,6 +79,7 @@ def _scan(data: bytes, src: str) -> tuple[list[tuple[str, str, str]], list[str]]
     from lxml import etree
 
     parser = etree.XMLParser(resolve_entities=False, no_network=True, load_dtd=False, huge_tree=True, remove_comments=True)
+    data = _COMMENT.sub(b"", data)  # MuJoCo accepts "--" inside a comment, lxml does not: without them both read the file
     try:
         root = etree.fromstring(data, parser=parser)
     except (etree.XMLSyntaxError, ValueError):
