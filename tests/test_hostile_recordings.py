@@ -119,6 +119,23 @@ def test_compressed_file_named_csv(rec, tmp_path):
     refused("evaluate", rec / "model.json", packed, needle="not CSV text but a gzip-compressed file")
 
 
+def test_parquet_under_a_csv_name_is_told_by_both_ends(tmp_path):
+    """Parquet starts and ends with PAR1; a CSV whose first column is named PAR1... is still CSV text."""
+    from minparam_cli.errors import DataError
+    from minparam_cli.measured.sniff import refuse_binary
+
+    pa = pytest.importorskip("pyarrow")
+    import pyarrow.parquet as pq
+
+    real = tmp_path / "run.csv"
+    pq.write_table(pa.table({"t": [0.0, 0.001], "q1": [0.0, 0.1]}), real)
+    with pytest.raises(DataError, match="not CSV text but a Parquet file"):
+        refuse_binary(real)
+    text = tmp_path / "par.csv"
+    text.write_text("PAR1_t,q1,tau1\n0,0,0\n")
+    refuse_binary(text)  # no error: text
+
+
 def test_damaged_parquet_page(rec, tmp_path):
     """Bytes overwritten inside a column chunk (its footer intact): pyarrow's OSError while decoding
     the page was an internal error, exit 1."""
@@ -192,6 +209,17 @@ def test_api_dates_and_masks(rec):
     nan[::50] = np.nan
     dropped = minparam.identify(ROBOT, {**arrays, "q": nan}, diagnose=False)
     assert np.array_equal(masked.theta, dropped.theta)
+
+
+def test_evaluate_takes_any_iterable_of_data_files(rec):
+    """A generator of paths (Path.glob) was refused as a 'generator' after the API's data check was added:
+    any iterable of files (not a mapping, not bytes) is read as a list of them."""
+    import minparam
+
+    listed = minparam.evaluate(rec / "model.json", [rec / "sim.csv"])
+    globbed = minparam.evaluate(rec / "model.json", rec.glob("sim.csv"))
+    assert globbed.to_dict()["files"] == listed.to_dict()["files"] and globbed.to_dict()["pooled"] == listed.to_dict()["pooled"]
+    assert len(listed.to_dict()["files"]) == 1
 
 
 def test_decimate_beyond_a_slice(rec):

@@ -125,3 +125,15 @@ def test_symbolic_refuses_seven_joints():
 
     with pytest.raises(UnsupportedError, match="at most 6 joints"):
         symbolic_conditions(chain("panda.yaml"))
+
+
+def test_a_grid_too_large_for_a_machine_integer_is_refused(tmp_path):
+    """numpy's product of the axes' sizes wrapped around past 2^63 (24 values on 33 joints gave 0): the
+    node limit let the scan start, which then ran out of memory."""
+    rows = "\n".join(f"  - {{type: revolute, a: 0.1, alpha: {(-90, 0, 0, 90)[j % 4]}, d: 0.05, theta: 0}}" for j in range(36))
+    f = tmp_path / "arm36.yaml"
+    f.write_text(f"name: arm36\nconvention: dh\nunits: {{length: m, angle: deg}}\njoints:\n{rows}\n")
+    arm = build_chain(load_description(f))
+    assert len(swept_joints(arm)) >= 33
+    with pytest.raises(InputError, match=r"the grid has \d{40,} nodes"):
+        scan(arm, np.zeros(36), step=D(15))

@@ -411,7 +411,21 @@ def test_dependent_groups_are_the_minimal_rank_deficient_sets(tmp_path):
     assert counts[0] >= 3  # the right angles: several groups, of several sizes, for the minimality rule to act on
 
 
-def test_too_long_a_chain_for_the_group_search_is_refused_at_once(tmp_path):
-    arm = _long_arm(tmp_path, 35)
-    with pytest.raises(InputError, match="2,007,327 sets.*at most 34 joints"):
-        analyse(arm, np.zeros(35))
+def test_a_chain_too_long_for_the_whole_group_search_searches_smaller_groups_and_says_so(tmp_path, monkeypatch):
+    """Past MAX_GROUP_SETS sets (35 joints and more at the real bound; 9 joints at a bound of 300 here)
+    the search stops at the largest group size that fits, and the report's notes say which."""
+    from minparam_cli.kinematics.serial import screws
+    from minparam_cli.kinematics.serial.plucker import plucker_matrices
+
+    assert screws.group_search_size(34) == 6 and screws.group_search_size(35) == 5
+    arm = _long_arm(tmp_path, 9)
+    q = np.pi / 2 * np.array([-1, -1, 1, 2, -1, 2, -1, 2, 2])  # groups of 4, 5 and 6 joints
+    monkeypatch.setattr(screws, "MAX_GROUP_SETS", 300)  # 9 joints: 255 sets up to size 4, 381 up to 5
+    r = analyse(arm, q)
+    assert any("groups of more than 4 joints not searched: 9 joints have 465 sets of up to 6" in note for note in r.notes)
+    J0, c = plucker_matrices(arm, q[None])
+    Jn = normalised_matrices(arm, J0[0], c[0], float(arm.length_scale))
+    monkeypatch.undo()
+    whole = screws.dependent_groups(Jn, DEFAULT_EPSILON * np.linalg.svd(Jn, compute_uv=False)[0])
+    assert any(len(g) > 4 for g in whole)  # the bound left some out here
+    assert r.groups == tuple(g for g in whole if len(g) <= 4) != ()

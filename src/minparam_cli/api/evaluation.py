@@ -168,10 +168,13 @@ def evaluate(model: Model | str | Path, data: Any, *, which: str | None = None, 
 
     opts = EvaluateOptions(which=which, robot=None if robot is None else Path(robot), time_unit=time_unit, topic=topic,
                            columns=columns)
-    if isinstance(data, (str, Path)) or is_in_memory(data):
-        items = [data]
-    elif isinstance(data, (list, tuple)):
-        items = list(data)
+    import os
+    from collections.abc import Iterable, Mapping
+
+    if isinstance(data, (str, os.PathLike)) or is_in_memory(data):
+        items = [Path(data) if isinstance(data, os.PathLike) else data]
+    elif isinstance(data, Iterable) and not isinstance(data, (bytes, Mapping)):  # a list, a tuple, a generator (Path.glob)
+        items = [Path(d) if isinstance(d, os.PathLike) else d for d in data]
     else:
         raise InputError(f"data: expected a file path, a mapping of arrays, a pandas DataFrame or a list of them, got {type(data).__name__}")
     return run_evaluate(model, items, opts)

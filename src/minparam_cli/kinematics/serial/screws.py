@@ -137,7 +137,7 @@ def _sigma_k(M: np.ndarray, k: int) -> float:
     return float(s[k - 1]) if 0 < k <= s.size else 0.0
 
 
-MAX_GROUP_SETS = 2_000_000  # sets of up to 6 joints dependent_groups tests (34 joints: 1.7 M sets, 12 s)
+MAX_GROUP_SETS = 2_000_000  # sets dependent_groups tests at most (34 joints, sizes up to 6: 1.7 M sets, 12 s)
 SVD_BATCH = 50_000  # sets whose singular values one numpy call computes (50,000 x 6 x 6: 14 MB)
 
 
@@ -146,19 +146,22 @@ def group_sets(n: int, max_size: int = 6) -> int:
     return sum(comb(n, k) for k in range(1, min(max_size, n) + 1))
 
 
+def group_search_size(n: int, max_size: int = 6) -> int:
+    """The largest group size up to ``max_size`` whose search over n joints stays within MAX_GROUP_SETS sets."""
+    return max([k for k in range(1, max_size + 1) if group_sets(n, k) <= MAX_GROUP_SETS] or [1])
+
+
 def dependent_groups(Jn: np.ndarray, cut: float, max_size: int = 6) -> tuple[tuple[int, ...], ...]:
     """Minimal sets of k ≤ max_size columns with rank k - 1 (the paper's k screws in a (k-1)-system).
 
     Every set of k columns is tested (σ_k ≤ cut), in batches of SVD_BATCH sets a numpy call, and a
     dependent set is kept when none of its proper subsets was kept before (looked up by bit mask, all
-    the dependent sets of one size at once).  A chain with more than MAX_GROUP_SETS such sets (35
-    joints and more) is refused: the sets grow as n^6 (an 18-joint arm at a configuration with many small
-    groups took 29 s when each set was compared with every group found)."""
+    the dependent sets of one size at once).  The sets grow as n^6: on chains with more than
+    MAX_GROUP_SETS of them (35 joints and more) the search stops at ``group_search_size`` (the caller
+    says so); an 18-joint arm at a configuration with many small groups took 29 s when each set was
+    compared with every group found, 0.6 s now."""
     n = Jn.shape[1]
-    if group_sets(n, max_size) > MAX_GROUP_SETS:
-        raise InputError(f"the screw analysis tests every set of up to {max_size} of the {n} joints for dependence: "
-                         f"{group_sets(n, max_size):,} sets, more than {MAX_GROUP_SETS:,}; analyse a sub-chain of at most "
-                         f"{max(m for m in range(n) if group_sets(m, max_size) <= MAX_GROUP_SETS)} joints")
+    max_size = min(max_size, group_search_size(n, max_size))
     found: list[tuple[int, ...]] = []
     masks = np.zeros(0, dtype=np.int64)  # bit masks of the groups found (n ≤ 36 joints: they fit)
     sizes: list[int] = []  # the sizes of those groups
@@ -304,6 +307,9 @@ def analyse(
     notes: list[str] = []
 
     groups = dependent_groups(Jn, cut)
+    if group_search_size(n) < min(6, n):
+        notes.append(f"groups of more than {group_search_size(n)} joints not searched: {n} joints have "
+                     f"{group_sets(n):,} sets of up to 6 (at most {MAX_GROUP_SETS:,} are tested)")
     ranks, deleted = deletion_test(Jn, cut, rank)
     if n <= 6:
         dependent = deleted

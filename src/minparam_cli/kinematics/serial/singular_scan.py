@@ -21,6 +21,8 @@ on a fine grid over two joints, for a plot).
 
 from __future__ import annotations
 
+import math
+
 from dataclasses import dataclass
 from typing import Callable
 
@@ -102,7 +104,7 @@ def scan(
     for ax in axes:
         values[ax.joint] = ax.values
     shape = tuple(ax.values.size for ax in axes)
-    nodes = int(np.prod(shape)) if shape else 1
+    nodes = math.prod(shape)  # Python integers: numpy's product wraps around past 2^63 (24 values on 33 joints gave 0)
     if nodes > MAX_NODES:
         raise InputError(f"the grid has {nodes} nodes (limit {MAX_NODES}); use a larger step")
     if not swept:
