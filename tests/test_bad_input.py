@@ -236,3 +236,5 @@ def test_yaml_joint_name_used_twice(tmp_path):
     URDF reader refuses ("joint 'shoulder' is defined twice")."""
     p = write(tmp_path, "r.yaml", yaml_robot(GOOD_JOINT.replace("{type", "{name: shoulder, type") * 2))
     assert_cli_rejects(p, "joints[2].name", "joint name 'shoulder' is used twice")
+    named_like_a_default = write(tmp_path, "d.yaml", yaml_robot(GOOD_JOINT.replace("{type", "{name: joint2, type") + GOOD_JOINT))
+    assert_cli_rejects(named_like_a_default, "joints[2].name", "joint name 'joint2' is used twice (joint 2's default name)")

@@ -127,7 +127,8 @@ def description_from_mapping(doc: Any, src: str) -> RobotDescription:
         inertial = _inertial(jd.get("inertial"), scale, src, f"{where}.inertial")
         joint_name = _text(jd.get("name"), src, f"{where}.name") or f"joint{j}"
         if any(jr.name == joint_name for jr in joints):  # as URDF, MJCF and closed chains: an export names joints by it
-            raise DescriptionError(f"joint name {short_repr(joint_name)} is used twice", src, f"{where}.name")
+            default = "" if jd.get("name") else f" (joint {j}'s default name)"
+            raise DescriptionError(f"joint name {short_repr(joint_name)} is used twice{default}", src, f"{where}.name")
         joints.append(
             JointRecord(
                 name=joint_name,
