@@ -86,6 +86,15 @@ def cli(*args):
     return CliRunner().invoke(app, [str(a) for a in args])
 
 
+def refused(*args, needle: str) -> str:
+    """``cli`` that must refuse: exit 2 with one line (no usage text, no traceback) containing ``needle``."""
+    r = cli(*args)
+    lines = [ln for ln in r.output.strip().splitlines() if ln.strip()]
+    assert r.exit_code == 2 and len(lines) == 1 and "Traceback" not in r.output, r.output
+    assert needle in lines[0], lines[0]
+    return lines[0]
+
+
 def cli_ok(*args):
     """``cli`` that must succeed (exit 0), its output shown otherwise."""
     r = cli(*args)

@@ -20,7 +20,7 @@ import sys
 import numpy as np
 import pytest
 import reference_dynamics as ref
-from conftest import ROOT
+from conftest import ROOT, refused
 from typer.testing import CliRunner
 
 from minparam_cli.cli.app import app
@@ -36,15 +36,6 @@ SEED = 20261125  # the random states and parameters of every test below
 
 def cli(*args):
     return CliRunner().invoke(app, [str(a) for a in args])
-
-
-def refused(*args, needle: str) -> str:
-    """Exit 2 with one line (no usage text, no traceback) containing ``needle``."""
-    r = cli(*args)
-    lines = [ln for ln in r.output.strip().splitlines() if ln.strip()]
-    assert r.exit_code == 2 and len(lines) == 1 and "Traceback" not in r.output, r.output
-    assert needle in lines[0], lines[0]
-    return lines[0]
 
 
 def branched_urdf(path):

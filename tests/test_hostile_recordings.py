@@ -16,7 +16,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from conftest import cli
+from conftest import cli, refused
 
 ROBOT = Path(__file__).resolve().parents[1] / "robots" / "planar2r.yaml"
 
@@ -37,15 +37,6 @@ def parameters(*args) -> list:
     r = cli("identify", ROBOT, *args, "--no-diagnose", "-q", "-f", "json")
     assert r.exit_code == 0, r.output
     return json.loads(r.stdout)["parameters"]
-
-
-def refused(*args, needle: str) -> str:
-    """Exit 2 with one line (no traceback) holding ``needle``."""
-    r = cli(*args)
-    lines = [ln for ln in r.output.strip().splitlines() if ln.strip()]
-    assert r.exit_code == 2 and len(lines) == 1 and "Traceback" not in r.output, r.output
-    assert needle in lines[0], lines[0]
-    return lines[0]
 
 
 @pytest.mark.parametrize("reader", ["arrow", "numpy"])
