@@ -98,7 +98,10 @@ def test_a_parsing_process_that_dies_mid_message_is_an_error_not_a_hang(tmp_path
 
 
 ORPHAN_PROBE = """
-import os, sys, time
+import os, signal, sys, time
+# Ctrl-C as in a terminal: a job started in the background by a non-interactive shell (`cmd &`, as CI
+# may run the suite) inherits SIGINT ignored, and Python then leaves it so
+signal.signal(signal.SIGINT, signal.default_int_handler)
 import numpy as np
 from minparam_cli.measured import tables
 from minparam_cli.measured.records import DataOptions
