@@ -429,3 +429,18 @@ def test_a_chain_too_long_for_the_whole_group_search_searches_smaller_groups_and
     whole = screws.dependent_groups(Jn, DEFAULT_EPSILON * np.linalg.svd(Jn, compute_uv=False)[0])
     assert any(len(g) > 4 for g in whole)  # the bound left some out here
     assert r.groups == tuple(g for g in whole if len(g) <= 4) != ()
+
+
+def test_groups_of_joints_beyond_the_63rd_are_told_apart(monkeypatch):
+    """Past 63 joints a bit mask of joint indices no longer fits a machine integer: two groups among
+    joints 64..70 must still be found, each once, and minimal (synthetic screws; the search bounded
+    to three joints so that the 70-column case stays small)."""
+    from minparam_cli.kinematics.serial import screws
+
+    rng = np.random.default_rng(5)
+    Jn = rng.standard_normal((6, 70))
+    Jn[:, 65] = Jn[:, 64]  # a pair: one axis twice
+    Jn[:, 68] = Jn[:, 66] + Jn[:, 67]  # a triple in a 2-system, no pair of it dependent
+    monkeypatch.setattr(screws, "MAX_GROUP_SETS", 60_000)  # 70 joints: 57,225 sets of up to 3
+    groups = screws.dependent_groups(Jn, 1e-9)
+    assert groups == ((64, 65), (66, 67, 68))

@@ -151,11 +151,16 @@ def group_search_size(n: int, max_size: int = 6) -> int:
     return max([k for k in range(1, max_size + 1) if group_sets(n, k) <= MAX_GROUP_SETS] or [1])
 
 
+def _set_codes(sets: np.ndarray, n: int) -> np.ndarray:
+    """One number per row of sorted joint indices (rows of one length): Σ S[i]·n^i."""
+    return sets @ (n ** np.arange(sets.shape[1], dtype=np.int64))
+
+
 def dependent_groups(Jn: np.ndarray, cut: float, max_size: int = 6) -> tuple[tuple[int, ...], ...]:
     """Minimal sets of k ≤ max_size columns with rank k - 1 (the paper's k screws in a (k-1)-system).
 
     Every set of k columns is tested (σ_k ≤ cut), in batches of SVD_BATCH sets a numpy call, and a
-    dependent set is kept when none of its proper subsets was kept before (looked up by bit mask, all
+    dependent set is kept when none of its proper subsets was kept before (looked up by number, all
     the dependent sets of one size at once).  The sets grow as n^6: on chains with more than
     MAX_GROUP_SETS of them (35 joints and more) the search stops at ``group_search_size`` (the caller
     says so); an 18-joint arm at a configuration with many small groups took 29 s when each set was
@@ -163,8 +168,7 @@ def dependent_groups(Jn: np.ndarray, cut: float, max_size: int = 6) -> tuple[tup
     n = Jn.shape[1]
     max_size = min(max_size, group_search_size(n, max_size))
     found: list[tuple[int, ...]] = []
-    masks = np.zeros(0, dtype=np.int64)  # bit masks of the groups found (n ≤ 36 joints: they fit)
-    sizes: list[int] = []  # the sizes of those groups
+    codes: dict[int, np.ndarray] = {}  # per size, the groups found as numbers Σ S[i]·n^i (< n^6: int64 up to 1,500 joints)
     for k in range(1, min(max_size, n) + 1):
         count = comb(n, k)
         sets = np.fromiter(concatenated.from_iterable(combinations(range(n), k)), dtype=np.int64, count=count * k).reshape(count, k)
@@ -175,14 +179,13 @@ def dependent_groups(Jn: np.ndarray, cut: float, max_size: int = 6) -> tuple[tup
             hit.append(b0 + np.flatnonzero(s[:, k - 1] <= cut))
         dependent = sets[np.concatenate(hit)]
         known = np.zeros(len(dependent), dtype=bool)  # holds a smaller group already found: not minimal
-        for size in sizes:
+        for size, groups in codes.items():
             for part in combinations(range(k), size):
-                known |= np.isin(np.sum(np.left_shift(1, dependent[:, part]), axis=1), masks)
+                known |= np.isin(_set_codes(dependent[:, part], n), groups)
         new = dependent[~known]
         if len(new):
             found += [tuple(int(j) for j in S) for S in new]
-            masks = np.concatenate([masks, np.sum(np.left_shift(1, new), axis=1)])
-            sizes.append(k)
+            codes[k] = _set_codes(new, n)
     return tuple(found)
 
 
@@ -307,8 +310,9 @@ def analyse(
     notes: list[str] = []
 
     groups = dependent_groups(Jn, cut)
-    if group_search_size(n) < min(6, n):
-        notes.append(f"groups of more than {group_search_size(n)} joints not searched: {n} joints have "
+    searched = group_search_size(n)
+    if searched < min(6, n):
+        notes.append(f"groups of more than {searched} joints not searched: {n} joints have "
                      f"{group_sets(n):,} sets of up to 6 (at most {MAX_GROUP_SETS:,} are tested)")
     ranks, deleted = deletion_test(Jn, cut, rank)
     if n <= 6:
