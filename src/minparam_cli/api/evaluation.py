@@ -3,9 +3,10 @@
 
 from __future__ import annotations
 
+import os
 from dataclasses import dataclass, replace
 from pathlib import Path
-from typing import TYPE_CHECKING, Any, Mapping, Sequence
+from typing import TYPE_CHECKING, Any, Iterable, Mapping, Sequence
 
 from minparam_cli.api.identified import Evaluation, Model
 from minparam_cli.api.options.evaluate import EvaluateOptions
@@ -168,9 +169,6 @@ def evaluate(model: Model | str | Path, data: Any, *, which: str | None = None, 
 
     opts = EvaluateOptions(which=which, robot=None if robot is None else Path(robot), time_unit=time_unit, topic=topic,
                            columns=columns)
-    import os
-    from collections.abc import Iterable, Mapping
-
     if isinstance(data, (str, os.PathLike)) or is_in_memory(data):
         items = [Path(data) if isinstance(data, os.PathLike) else data]
     elif isinstance(data, Iterable) and not isinstance(data, (bytes, Mapping)):  # a list, a tuple, a generator (Path.glob)

@@ -40,6 +40,7 @@ from pathlib import Path
 
 from minparam_cli.describe.mjcf_tree import (EQ_CONNECT, EQ_JOINT, EQ_TENDON, EQ_WELD, JNT_BALL, JNT_FREE,
                                               JNT_HINGE, JNT_SLIDE, build_description)
+from minparam_cli.describe.mjcf_files import DECLARATION, check_mjcf_files
 from minparam_cli.describe.records import MIMIC_MODES, RobotDescription
 from minparam_cli.errors import DescriptionError, MinparamWarning, NotARobotError, UnsupportedError
 from minparam_cli.safety import read_bounded
@@ -47,7 +48,6 @@ from minparam_cli.safety import read_bounded
 EQ_WORDS = {EQ_TENDON: "a tendon equality (a tendon coupling)"}
 
 _WARNING_LOCK = threading.Lock()
-_DECL = re.compile(rb"<!\s*(DOCTYPE|ENTITY)", re.IGNORECASE)
 _ROOT = re.compile(rb"<([A-Za-z_][\w.\-:]*)")
 
 
@@ -76,7 +76,7 @@ def root_tag(data: bytes) -> str | None:
 def check_mjcf_text(data: bytes, src: str) -> None:
     """Refuse what must not reach MuJoCo's parser: a DOCTYPE or an entity declaration (TinyXML2 does
     not expand entities, but a robot file never needs them), and a root other than <mujoco>."""
-    if _DECL.search(data):
+    if DECLARATION.search(data):
         raise DescriptionError("DOCTYPE and entity declarations are not allowed in an MJCF file", src)
     tag = root_tag(data)
     if tag != "mujoco":
@@ -129,8 +129,6 @@ def load_mjcf(path: Path, snap_angles: float | None = None, mimic: str = "couple
     src = str(path)
     data = read_bounded(path)
     check_mjcf_text(data, src)
-    from minparam_cli.describe.mjcf_files import check_mjcf_files
-
     check_mjcf_files(path, data, src)
     m = compile_model(path, src)
     names = _Names(m)

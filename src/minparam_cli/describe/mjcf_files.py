@@ -37,6 +37,7 @@ ASSET_DIRS = ("meshdir", "texturedir", "assetdir")
 MULTIPLIERS = ("replicate", "composite", "flexcomp")
 _FILE_ATTR = re.compile(rb"<\s*([A-Za-z_][\w.\-:]*)[^>]*?\s(file\w*)\s*=\s*(\"[^\"]*\"|'[^']*')", re.DOTALL)
 _COUNT = re.compile(rb"<\s*(replicate|composite|flexcomp)\b[^>]*?\scount\s*=\s*(\"[^\"]*\"|'[^']*')", re.DOTALL)
+DECLARATION = re.compile(rb"<!\s*(DOCTYPE|ENTITY)", re.IGNORECASE)  # refused in the main file (mjcf.check_mjcf_text) and the included ones
 _COMMENT = re.compile(rb"<!--.*?-->", re.DOTALL)
 _DIRS = re.compile(rb"\s(meshdir|texturedir|assetdir)\s*=\s*(\"[^\"]*\"|'[^']*')")
 
@@ -66,7 +67,7 @@ def check_mjcf_files(path: Path, data: bytes, src: str) -> None:
             if len(seen) > MAX_INCLUDES:
                 raise DescriptionError(f"more than {MAX_INCLUDES} included files", src, where)
             sub = read_bounded(target)
-            if re.search(rb"<!\s*(DOCTYPE|ENTITY)", sub, re.IGNORECASE):
+            if DECLARATION.search(sub):
                 raise DescriptionError(f"the included file {target.name} has a DOCTYPE or entity declaration, which an MJCF file may not have", src, where)
             sub_files, sub_folders = _scan(sub, src)
             # an included file shares the including model's asset folders; an attached model has its own

@@ -23,7 +23,12 @@ from minparam_cli.errors import DescriptionError
 
 def distinct_symbols(desc: RobotDescription) -> RobotDescription:
     """``desc`` with every geometry symbol naming one value (module docstring)."""
-    chosen = {gv.symbol for jr in desc.joints for table in (jr.dh, jr.origin) if table for gv in table.values() if gv.named}
+    chosen: dict[str, float] = {}  # symbol the file chose -> its value (the first place)
+    for jr in desc.joints:
+        for table in (jr.dh, jr.origin):
+            for gv in (table or {}).values():
+                if gv.named:
+                    chosen.setdefault(gv.symbol, gv.value)
     seen: dict[str, tuple[GeomValue, str]] = {}  # symbol -> (value, where)
     joints = list(desc.joints)
     for k, jr in enumerate(joints):
@@ -37,7 +42,7 @@ def distinct_symbols(desc: RobotDescription) -> RobotDescription:
                 prior = seen.get(gv.symbol)
                 clash = prior is not None and not gv.named and not prior[0].named
                 # a made-up symbol the file chose for another value (Craig's a2 on row 3, the loader's a2 on row 2)
-                clash = clash or (not gv.named and gv.symbol in chosen and _value_of(desc, gv.symbol) != gv.value)
+                clash = clash or (not gv.named and gv.symbol in chosen and chosen[gv.symbol] != gv.value)
                 if clash:
                     n = 2
                     while f"{gv.symbol}_{n}" in seen or f"{gv.symbol}_{n}" in chosen:
@@ -54,8 +59,3 @@ def distinct_symbols(desc: RobotDescription) -> RobotDescription:
                 joints[k] = jr
     return desc if joints == list(desc.joints) else replace(desc, joints=tuple(joints))
 
-
-def _value_of(desc: RobotDescription, symbol: str) -> float:
-    """The value the file chose for ``symbol`` (its first place)."""
-    return next(gv.value for jr in desc.joints for table in (jr.dh, jr.origin) if table for gv in table.values()
-                if gv.named and gv.symbol == symbol)

@@ -66,13 +66,11 @@ def parse_trajectory_csv(text: str, n: int, source: str) -> SampledMotion:
         raise DataError(f"{source}: missing column(s) {', '.join(missing[:4])}{'…' if len(missing) > 4 else ''} "
                         f"for a robot with {n} joints")
     rows = sum(1 for line in lines[1:] if line.strip() and not line.lstrip().startswith("#"))
+    if rows < 2:  # before loadtxt, which would warn on stderr about a file without data
+        raise DataError(f"{source}: expected at least 2 rows of {len(header)} numbers")
     try:
-        if rows < 2:  # and loadtxt would warn on stderr about a file without data
-            raise ValueError("fewer than 2 rows")
         table = np.loadtxt(io.StringIO(text), delimiter=",", skiprows=1, ndmin=2)
     except ValueError as e:
-        if rows < 2:
-            raise DataError(f"{source}: expected at least 2 rows of {len(header)} numbers") from None
         raise DataError(f"{source}: {str(e).splitlines()[0]}") from None
     if table.shape[0] < 2 or table.shape[1] != len(header):
         raise DataError(f"{source}: expected at least 2 rows of {len(header)} numbers")

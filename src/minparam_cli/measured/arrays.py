@@ -76,7 +76,7 @@ def as_record(data: Any, name: str) -> Record:
         try:
             raw = np.asarray(v)
             require_real(raw.dtype.kind, f"array '{k}'", name)
-            arrays[str(k)] = np.asarray(v, dtype=float)
+            arrays[str(k)] = np.asarray(raw, dtype=float)
         except (TypeError, ValueError) as e:
             raise DataError(f"{name}: array '{k}' is not numeric ({e})") from None
     if "q" in arrays or "tau" in arrays or any(a.ndim >= 2 for a in arrays.values()):

@@ -60,20 +60,9 @@ def parquet_chunks(path: Path, n: int, opts) -> Iterator[tuple[np.ndarray, dict]
 
 
 def _batches(f, src: str, **kw) -> Iterator:
-    """``f.iter_batches(**kw)``, a damaged page (bad compressed data, a truncated column chunk) a
-    one-line DataError instead of pyarrow's exception."""
-    from minparam_cli.measured.tables import short_error
-
+    """``f.iter_batches(**kw)``, a damaged page a one-line DataError (``_guarded``)."""
     batches = f.iter_batches(**kw)
-    while True:
-        try:
-            batch = next(batches)
-        except StopIteration:
-            return
-        except MemoryError:
-            raise
-        except Exception as e:  # noqa: BLE001 - pyarrow raises OSError, ArrowInvalid and others for a damaged page
-            raise DataError(f"{src}: cannot read Parquet ({short_error(e)})") from None
+    while (batch := _guarded(lambda: next(batches, None), src)) is not None:
         yield batch
 
 
@@ -90,11 +79,17 @@ def parquet_time_span(path: Path, name: str) -> tuple[float, float]:
 
 
 def _read_column(f, name: str, src: str):
-    """Column ``name`` of the whole file, a damaged page a one-line DataError."""
+    """Column ``name`` of the whole file, a damaged page a one-line DataError (``_guarded``)."""
+    return _guarded(lambda: f.read(columns=[name]).column(0), src)
+
+
+def _guarded(read, src: str):
+    """``read()``, pyarrow's error for a damaged page (bad compressed data, a truncated column chunk) as a
+    one-line DataError."""
     from minparam_cli.measured.tables import short_error
 
     try:
-        return f.read(columns=[name]).column(0)
+        return read()
     except MemoryError:
         raise
     except Exception as e:  # noqa: BLE001 - pyarrow raises OSError, ArrowInvalid and others for a damaged page

@@ -22,7 +22,6 @@ on a fine grid over two joints, for a plot).
 from __future__ import annotations
 
 import math
-
 from dataclasses import dataclass
 from typing import Callable
 
