@@ -65,6 +65,7 @@ def _factor(design: Design, b: Block, cat: Catalogue) -> list[np.ndarray]:
     joint's sequence of factorisations is the same as on one, so the factors are too."""
     from concurrent.futures import ThreadPoolExecutor
 
+    from minparam_cli.identify.estimate.nogil_lapack import qr_r
     from minparam_cli.identify.passes.slots import all_joints
     from minparam_cli.runtime import workers
 
@@ -76,7 +77,7 @@ def _factor(design: Design, b: Block, cat: Catalogue) -> list[np.ndarray]:
             X = design.base_columns(sub)
             sig = design.signals(sub, X)
             A = np.concatenate([X] + [all_joints(e, sig, n, h) for e, h in cat.sources] + [sub.tau[:, :, None]], axis=2)
-            T = list(pool.map(lambda j, T=T, A=A: np.linalg.qr(np.vstack([T[j], A[:, j]]), mode="r"), range(n)))  # type: ignore[arg-type,return-value]  # numpy stubs: qr() gives QRResult for every mode; mode="r" returns R
+            T = list(pool.map(lambda j, T=T, A=A: qr_r(T[j], A[:, j]), range(n)))
     return [np.hstack([Tj, np.zeros((Tj.shape[0], 1))]) for Tj in T]
 
 

@@ -38,7 +38,9 @@ LIMIT = 16.0  # largest squared column norm of A P⁻¹ the fast update takes
 
 
 def _householder(R: np.ndarray, A: np.ndarray) -> np.ndarray:
-    return np.linalg.qr(np.vstack([R, A]), mode="r")  # type: ignore[return-value]  # numpy stubs: qr() gives QRResult for every mode; mode="r" returns R
+    from minparam_cli.identify.estimate.nogil_lapack import qr_r
+
+    return qr_r(R, A)
 
 
 class NonFiniteRows(ArithmeticError):
@@ -54,7 +56,7 @@ def _segment_grams(A: np.ndarray, segments) -> list[np.ndarray]:
 
 
 def _fast(R: np.ndarray, A: np.ndarray, segments=None):
-    from scipy.linalg.blas import dtrsm  # here: small files never get this far (scipy.linalg takes 0.3 s to import)
+    from minparam_cli.identify.estimate.nogil_lapack import solve_right_upper
 
     norms = np.sqrt(np.einsum("ij,ij->j", R, R))
     if not np.all(norms > 0):
@@ -65,7 +67,7 @@ def _fast(R: np.ndarray, A: np.ndarray, segments=None):
     if len(low):
         P = R.copy()
         P[low, low] = np.where(d[low] < 0, -FLOOR, FLOOR) * norms[low]
-    B = dtrsm(1.0, P, A, side=1, lower=0)  # A P⁻¹ (A Fortran-ordered: no copy in the wrapper)
+    B = solve_right_upper(P, A)  # A P⁻¹
     parts = None
     if segments is None:
         M = B.T @ B
@@ -75,7 +77,7 @@ def _fast(R: np.ndarray, A: np.ndarray, segments=None):
         for G in parts:
             M += G
     if len(low):
-        S = dtrsm(1.0, P, R, side=1, lower=0)  # R P⁻¹
+        S = solve_right_upper(P, R)  # R P⁻¹
         M += S.T @ S
     else:
         M[np.diag_indices_from(M)] += 1.0

@@ -1,0 +1,94 @@
+"""Two LAPACK/BLAS routines called without holding Python's GIL: the triangular solve of the factor
+update, and the R of a QR factorisation.
+
+scipy's ``scipy.linalg.blas.dtrsm`` (an f2py wrapper) and numpy's ``linalg.qr`` keep the GIL for
+the whole computation, so identify's other threads (the CSV reader, the regressor kernel, the
+diagnosis's second factorisation) stop whenever one of them runs.  Here the same routines, from the
+BLAS and LAPACK scipy ships, are taken from ``scipy.linalg.cython_blas`` / ``cython_lapack`` (the
+tables of function pointers scipy exports for compiled callers; numba finds its BLAS the same way)
+and called through ctypes, which releases the GIL for a foreign call.  Where a pointer cannot be
+had, scipy's and numpy's wrappers are used instead (the same results, with the GIL held).
+"""
+
+from __future__ import annotations
+
+import ctypes
+from functools import lru_cache
+
+import numpy as np
+
+_INT = ctypes.POINTER(ctypes.c_int)
+_DBL = ctypes.POINTER(ctypes.c_double)
+_CHR = ctypes.c_char_p
+
+
+@lru_cache(maxsize=None)
+def _routine(module: str, name: str):
+    """``name`` from scipy.linalg.<module>'s table of pointers as a ctypes function, or None."""
+    try:
+        import importlib
+
+        capsule = importlib.import_module(f"scipy.linalg.{module}").__pyx_capi__[name]
+        api = ctypes.pythonapi
+        api.PyCapsule_GetName.restype = ctypes.c_char_p
+        api.PyCapsule_GetName.argtypes = [ctypes.py_object]
+        api.PyCapsule_GetPointer.restype = ctypes.c_void_p
+        api.PyCapsule_GetPointer.argtypes = [ctypes.py_object, ctypes.c_char_p]
+        address = api.PyCapsule_GetPointer(capsule, api.PyCapsule_GetName(capsule))
+    except (ImportError, AttributeError, KeyError, ValueError, TypeError):
+        return None
+    if not address:
+        return None
+    args = {"dtrsm": (_CHR, _CHR, _CHR, _CHR, _INT, _INT, _DBL, _DBL, _INT, _DBL, _INT),
+            "dgeqrf": (_INT, _INT, _DBL, _INT, _DBL, _DBL, _INT, _INT)}[name]
+    return ctypes.CFUNCTYPE(None, *args)(address)
+
+
+def _int(v: int):
+    return ctypes.byref(ctypes.c_int(v))
+
+
+def _ptr(a: np.ndarray):
+    return a.ctypes.data_as(_DBL)
+
+
+def solve_right_upper(P: np.ndarray, A: np.ndarray) -> np.ndarray:
+    """A P⁻¹ for an upper triangular P (c x c) and A (N x c): a new Fortran-ordered array."""
+    f = _routine("cython_blas", "dtrsm")
+    N, c = A.shape
+    if P.shape != (c, c):
+        raise ValueError(f"solve_right_upper: P is {P.shape}, A has {c} columns")
+    if f is None:
+        from scipy.linalg.blas import dtrsm
+
+        return dtrsm(1.0, P, A, side=1, lower=0)
+    B = np.array(A, dtype=np.float64, order="F")  # the solve overwrites it
+    if N and c:
+        Pf = np.asfortranarray(P, dtype=np.float64)
+        f(b"R", b"U", b"N", b"N", _int(N), _int(c), ctypes.byref(ctypes.c_double(1.0)), _ptr(Pf), _int(c), _ptr(B), _int(N))
+    return B
+
+
+def qr_r(*blocks: np.ndarray) -> np.ndarray:
+    """R (min(m, c) x c, upper triangular) of the QR factorisation of the blocks stacked (m rows, c
+    columns), as ``numpy.linalg.qr(numpy.vstack(blocks), mode="r")``."""
+    f = _routine("cython_lapack", "dgeqrf")
+    c = blocks[0].shape[1]
+    m = sum(len(b) for b in blocks)
+    if f is None or not m or not c:
+        return np.linalg.qr(np.vstack(blocks), mode="r")  # type: ignore[return-value]  # numpy stubs: qr() gives QRResult for every mode; mode="r" returns R
+    M = np.empty((m, c), order="F")
+    r = 0
+    for b in blocks:
+        M[r : r + len(b)] = b
+        r += len(b)
+    k = min(m, c)
+    tau = np.empty(k)
+    info = ctypes.c_int(0)
+    query = np.empty(1)
+    f(_int(m), _int(c), _ptr(M), _int(m), _ptr(tau), _ptr(query), _int(-1), ctypes.byref(info))
+    work = np.empty(max(1, int(query[0])))
+    f(_int(m), _int(c), _ptr(M), _int(m), _ptr(tau), _ptr(work), _int(len(work)), ctypes.byref(info))
+    if info.value != 0:  # an argument LAPACK refused: never with the shapes built here
+        raise ValueError(f"dgeqrf: argument {-info.value} refused")
+    return np.triu(M[:k])
