@@ -66,7 +66,7 @@ def _factor(design: Design, b: Block, cat: Catalogue) -> list[np.ndarray]:
     from concurrent.futures import ThreadPoolExecutor
 
     from minparam_cli.identify.estimate.nogil_lapack import qr_r
-    from minparam_cli.identify.passes.slots import all_joints
+    from minparam_cli.identify.passes.slots import sources_columns
     from minparam_cli.runtime import workers
 
     n = design.chain.dof
@@ -76,7 +76,7 @@ def _factor(design: Design, b: Block, cat: Catalogue) -> list[np.ndarray]:
             sub = b.take(slice(s0, s0 + DIAGNOSIS_QR_ROWS))
             X = design.base_columns(sub)
             sig = design.signals(sub, X)
-            A = np.concatenate([X] + [all_joints(e, sig, n, h) for e, h in cat.sources] + [sub.tau[:, :, None]], axis=2)
+            A = np.concatenate([X] + sources_columns(cat.sources, sig, n) + [sub.tau[:, :, None]], axis=2)
             T = list(pool.map(lambda j, T=T, A=A: qr_r(T[j], A[:, j]), range(n)))
     return [np.hstack([Tj, np.zeros((Tj.shape[0], 1))]) for Tj in T]
 

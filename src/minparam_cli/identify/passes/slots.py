@@ -43,7 +43,29 @@ def slot_sources(effects: tuple[str, ...]) -> tuple[tuple[str, float | None], ..
 def all_joints(effect: str, s: Signals, n: int, hyper: float | None = None) -> np.ndarray:
     """(N, n, m): the effect's columns for every joint at once (the builders index joints as
     ``s.q[:, j]``, so a slice takes them all; a column that does not depend on the joint is repeated)."""
-    out = np.asarray(EFFECTS[effect].build(s, slice(None), hyper), dtype=float)
+    return _joint_major(np.asarray(EFFECTS[effect].build(s, slice(None), hyper), dtype=float), n)
+
+
+def sources_columns(sources, s: Signals, n: int) -> list[np.ndarray]:
+    """``all_joints`` of every (effect, grid value) of ``sources``, in order; a run of one effect's
+    grid values in one sweep where the effect has one (cogging's 59 orders)."""
+    out: list[np.ndarray] = []
+    i = 0
+    while i < len(sources):
+        e = sources[i][0]
+        k = i
+        while k < len(sources) and sources[k][0] == e:
+            k += 1
+        sweep = EFFECTS[e].sweep
+        if sweep is not None and k - i > 1:
+            out += [_joint_major(np.asarray(c, dtype=float), n) for c in sweep(s, slice(None), [h for _, h in sources[i:k]])]
+        else:
+            out += [all_joints(e, s, n, h) for _, h in sources[i:k]]
+        i = k
+    return out
+
+
+def _joint_major(out: np.ndarray, n: int) -> np.ndarray:
     if out.ndim == 1:
         return np.broadcast_to(out[:, None, None], (len(out), n, 1))
     return out[:, :, None] if out.ndim == 2 else out.transpose(0, 2, 1)
@@ -73,9 +95,9 @@ def fill_slots(design: Design, sources, b: Block, out: np.ndarray) -> None:
     n = design.chain.dof
     s = design.signals(b, tau_model=design.model_torque(out, len(b)))
     c = design.p
-    for e, h in sources:
-        m = len(EFFECTS[e].column_names)
-        out[:, c : c + m] = all_joints(e, s, n, h).transpose(1, 2, 0)
+    for cols in sources_columns(sources, s, n):
+        m = cols.shape[2]
+        out[:, c : c + m] = cols.transpose(1, 2, 0)
         c += m
 
 
