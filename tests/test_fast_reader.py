@@ -108,6 +108,23 @@ def test_the_reader_draws_on_the_chosen_memory_pool(tmp_path, monkeypatch):
     assert pool.total_bytes_allocated() - before > 2000 * 9 * 8  # at least the floats themselves went through it
 
 
+@pytest.mark.parametrize("stop", [None, 1])
+def test_the_pool_gives_its_pages_back_when_the_file_ends_or_is_left(tmp_path, monkeypatch, stop):
+    from minparam_cli.measured import arrow_csv
+
+    given = []
+    monkeypatch.setattr(arrow_csv, "give_back", lambda pool: given.append(pool.backend_name))
+    rows = [[f"{i / 100:.2f}"] + ["1.5"] * 8 for i in range(2000)]
+    path = write(tmp_path / "d.csv", rows)
+    reader = arrow_csv.tables(__import__("pyarrow.csv").csv, path, len(HEADER) + 1, 500, 9)
+    for i, _ in enumerate(reader):
+        assert not given
+        if i == stop:
+            reader.close()
+            break
+    assert given == [arrow_csv.memory_pool().backend_name]
+
+
 @pytest.mark.parametrize("case", ["comment lines", "blank lines", "quoted values", "carriage returns only", "no final newline",
                                   "every row too wide", "an empty cell", "nan and inf", "a null word", "header only",
                                   "a late bad row", "not utf-8"])

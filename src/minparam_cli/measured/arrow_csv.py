@@ -53,6 +53,13 @@ def memory_pool():
         return pa.system_memory_pool()
 
 
+def give_back(pool) -> None:
+    """Return the pool's freed pages to the system once a file is read: jemalloc keeps them for
+    reuse, and identify's diagnosis, which allocates after the pass, then stacked its 40 MB on top
+    (the 1 M-sample Panda run peaked at 296-306 MB, against 267-272 MB with this)."""
+    pool.release_unused()
+
+
 def _options(pacsv, width: int):
     """pyarrow's options for a table of ``width`` numbers a line: no quotes, no nulls, no empty
     lines (each of those is an error here, so that numpy's reader decides)."""
@@ -76,11 +83,12 @@ def tables(pacsv, path, offset: int, rows: int, width: int) -> Iterator[tuple[in
     import pyarrow as pa
 
     f = pa.OSFile(str(path), "r")
+    pool = memory_pool()
     done = 0  # lines in the tables yielded
     try:
         f.seek(offset)
         try:
-            reader = pacsv.open_csv(f, **_options(pacsv, width), memory_pool=memory_pool())
+            reader = pacsv.open_csv(f, **_options(pacsv, width), memory_pool=pool)
         except (pa.ArrowException, ValueError):
             yield offset, None
             return
@@ -111,6 +119,7 @@ def tables(pacsv, path, offset: int, rows: int, width: int) -> Iterator[tuple[in
         yield -1, out[:filled]
     finally:
         f.close()
+        give_back(pool)
 
 
 def float_values(column) -> np.ndarray:
