@@ -44,6 +44,7 @@ ROOT = Path(__file__).resolve().parents[1]
 SHARED = ROOT.parent / "shared"
 MARK = "[…]"
 NOT_RUN = re.compile(r"<!--\s*not run:\s*(.*?)\s*-->\s*\n\s*$")
+TOLERANCE = re.compile(r"<!--\s*tolerance:\s*([0-9.eE+-]+)\b.*?-->\s*\n\s*$", re.S)
 FENCE = re.compile(r"^```console[ \t]*\n(.*?)^```[ \t]*$", re.S | re.M)
 HEREDOC = re.compile(r"<<-?\s*['\"]?(\w+)['\"]?")
 NEEDS_SHARED = "needs ../shared/data"
@@ -72,6 +73,7 @@ class Block:
     body: str
     skip: str | None
     steps: list[Step] = field(default_factory=list)
+    rel_tol: float | None = None  # `<!-- tolerance: REL reason -->` before the block: its numbers to REL relative
 
 
 def parse_steps(body: str) -> list[Step]:
@@ -110,8 +112,9 @@ def page_blocks(page: Path) -> list[Block]:
     out = []
     for k, m in enumerate(FENCE.finditer(text)):
         before = NOT_RUN.search(text[: m.start()])
+        tol = TOLERANCE.search(text[: m.start()])
         block = Block(page, k + 1, text.count("\n", 0, m.start()) + 1, m.start(1), m.group(1),
-                      before.group(1) if before else None)
+                      before.group(1) if before else None, rel_tol=float(tol.group(1)) if tol else None)
         try:
             block.steps = parse_steps(m.group(1))
         except ValueError as exc:
@@ -125,21 +128,64 @@ def _line_regex(line: str) -> str:
     return ".*".join(re.escape(part) for part in line.split(MARK))
 
 
-def matches(expected: list[str], actual: list[str]) -> bool:
-    """Whether the actual output lines fit the pasted ones, `[…]` read as described above."""
-    parts = []
+# a decimal number written with a point or an exponent (integers are compared as text), not part of
+# a word or of a dotted version or address
+FLOAT = r"(?<![\w.])[-+]?(?:\d+\.\d*|\.\d+|\d+(?=[eE]))(?:[eE][-+]?\d+)?(?![\w.])"
+ABS_TOL = 1e-12  # below this a value is rounding (a residual, the smallest singular value of a singular matrix)
+REL_TOL = 1e-9
+
+
+def _tolerant_regex(line: str, floats: list[str]) -> str:
+    """The line's regex with each decimal number a group (its text appended to ``floats``)."""
+    out = []
+    for part in line.split(MARK):
+        pos, pieces = 0, []
+        for m in re.finditer(FLOAT, part):
+            pieces += [_text_regex(part[pos:m.start()]), f"({FLOAT})"]
+            floats.append(m.group())
+            pos = m.end()
+        out.append("".join(pieces) + _text_regex(part[pos:]))
+    return ".*".join(out)
+
+
+def _text_regex(text: str) -> str:
+    """``text`` literally, but a run of spaces as any run of spaces: a table's columns move when a
+    number in them is printed one character wider (a minus sign, one more digit)."""
+    return "[ \t]+".join(re.escape(piece) for piece in re.split(r"[ \t]+", text))
+
+
+def close(page: str, run: str, rel_tol: float = REL_TOL) -> bool:
+    """Whether a number printed by a run is the page's to within one unit of its last printed digit,
+    ``rel_tol`` relative or ABS_TOL: BLAS and LAPACK round differently on different processors, so the
+    last digits of a 17-digit float or a rounding-level residual are not the page's to keep (a block
+    whose numbers come from an iterative solver's tolerance says so: ``TOLERANCE``)."""
+    if page == run:
+        return True
+    x, y = float(page), float(run)
+    mantissa, _, exponent = page.lower().partition("e")
+    decimals = len(mantissa.split(".")[1]) if "." in mantissa else 0
+    unit = 10.0 ** (int(exponent or 0) - decimals)
+    return abs(x - y) <= max(unit * (1 + 1e-9), rel_tol * max(abs(x), abs(y)), ABS_TOL)
+
+
+def matches(expected: list[str], actual: list[str], rel_tol: float = REL_TOL) -> bool:
+    """Whether the actual output lines fit the pasted ones, `[…]` read as described above, and each
+    decimal number (``FLOAT``) ``close`` to the page's."""
+    text = "".join(a + "\n" for a in actual)
+    parts, floats = [], []
     for line in expected:
         if line.strip() == MARK:
             parts.append(r"(?:[^\n]*\n)*?")
         else:
-            parts.append(_line_regex(line.rstrip()) + r"\n")
-    return re.fullmatch("".join(parts), "".join(a + "\n" for a in actual)) is not None
+            parts.append(_tolerant_regex(line.rstrip(), floats) + r"\n")
+    m = re.fullmatch("".join(parts), text)
+    return m is not None and all(close(e, a, rel_tol) for e, a in zip(floats, m.groups(), strict=True))
 
 
-def merged(expected: list[str], actual: list[str]) -> list[str]:
+def merged(expected: list[str], actual: list[str], rel_tol: float = REL_TOL) -> list[str]:
     """The lines --update writes: the actual output, with the page's marker lines kept where they fit
     and times and temporary paths marked."""
-    if matches(expected, actual):
+    if matches(expected, actual, rel_tol):
         return expected
     actual = [_mark_variable(a) for a in actual]
     segments: list[list[str]] = [[]]
@@ -166,7 +212,7 @@ def merged(expected: list[str], actual: list[str]) -> list[str]:
             take = actual[best:] if k == len(segments) - 1 else actual[best:best + len(seg)]
             out.append(MARK)
             pos = best
-        out.extend(merged(seg, take) if seg and len(take) == len(seg) else take)
+        out.extend(merged(seg, take, rel_tol) if seg and len(take) == len(seg) else take)
         pos += len(take)
     return out
 
@@ -265,11 +311,11 @@ def run_page(page: Path, update: bool = False) -> Report:
             body: list[str] = []
             for step in block.steps:
                 actual = run_step(step, work, env)
-                if not matches(step.expected, actual):
+                if not matches(step.expected, actual, block.rel_tol or REL_TOL):
                     ok = False
                     diffs.append(f"$ {step.command}\n" + "\n".join(difflib.unified_diff(
                         step.expected, actual, "page", "run", lineterm="", n=2)))
-                body.extend([f"$ {step.command}", *merged(step.expected, actual)])
+                body.extend([f"$ {step.command}", *merged(step.expected, actual, block.rel_tol or REL_TOL)])
             if ok:
                 report.matched += 1
             else:

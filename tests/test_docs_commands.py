@@ -48,6 +48,30 @@ def test_marker_matches_within_a_line_and_across_lines(tmp_path):
     assert not docs_run.matches(["a […] s", "d"], ["a 1 s", "b", "d"])  # an inline marker stays on its line
 
 
+@pytest.mark.parametrize("page,run,same", [
+    ("first dropped 7.34e-16 (relative)", "first dropped 5.71e-16 (relative)", True),  # rounding-level
+    ("phi 0.18000002772167104,", "phi 0.1800000277216757,", True),  # a 17-digit float, 2.6e-14 apart
+    ("a 0.123457 b", "a 0.123456 b", True),  # one unit of the last printed digit (a rounding flip)
+    ("last kept 0.0273", "last kept 0.0275", False),  # two units
+    ("theta 3.2191708031693556", "theta 3.21917", False),  # 2.5e-7 relative is not rounding
+    ("5 of 6", "4 of 6", False),  # integers are text
+    ("v 0.1.0", "v 0.1.1", False),  # so are versions
+    ("MX1 2.0", "MX2 2.0", False),
+    ("  1    6.865  2.84e-18   8.67e-07 x", "  1    6.865  -3.14e-18  8.67e-07 x", True),  # a column one wider
+    ("ab 1.5", "a b 1.5", False),  # spaces only where the page has some
+])
+def test_numbers_are_compared_to_rounding_and_text_exactly(page, run, same):
+    assert docs_run.matches([page], [run]) is same
+
+
+def test_a_block_may_declare_a_solver_tolerance(tmp_path):
+    page = tmp_path / "page.md"
+    body = "```console\n$ echo 'mass 1.00012'\nmass 1.00009\n```\n"
+    page.write_text(body + "<!-- tolerance: 1e-3 (an iterative solver's result) -->\n" + body)
+    report = docs_run.run_page(page)
+    assert (report.ran, report.matched) == (2, 1) and "block 1 " in report.failures[0]
+
+
 def test_blocks_share_a_scratch_folder_laid_out_as_the_pages_assume(tmp_path):
     page = tmp_path / "page.md"
     page.write_text("```console\n$ cat > x.txt <<'EOF'\nhello\nEOF\n$ ls robots/puma560.yaml examples/*.py | head -1\n"
