@@ -67,7 +67,7 @@ def test_the_checker_sees_a_lazy_import_pair(tmp_path, monkeypatch):
 # of its own layer and the layers below, never a layer above.  A room is a top-level module or
 # package of minparam_cli, or a subpackage of identify/.
 LAYERS = (
-    ("minparam_cli", "errors", "params", "safety", "optional", "runtime", "output"),
+    ("minparam_cli", "errors", "params", "safety", "optional", "runtime", "output", "factoring"),
     ("describe",),
     ("joint_matrices", "chain", "robot"),
     ("dynamics",),

@@ -18,6 +18,8 @@ from __future__ import annotations
 import heapq
 from fractions import Fraction
 
+from minparam_cli.factoring import factor_list
+
 
 class ExactContext:
     def __init__(self, names: list[str], angle_pairs: list[tuple[str, str]]):
@@ -150,7 +152,7 @@ class Frac:
         d = dict(self.d)
         if o.n.is_ground:
             return Frac(ctx, n * ctx.QQ(1) / o.n.LC, d)
-        coeff, facs = o.n.factor_list()
+        coeff, facs = factor_list(o.n)
         n = n * ctx.QQ(1) / ctx.QQ(coeff)
         for f, e in facs:
             if f.LC < 0:

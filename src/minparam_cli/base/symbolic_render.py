@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import re
 
+from minparam_cli.factoring import factor_list
 from minparam_cli.base.report import Symbolic
 from minparam_cli.base.symbolic_poly import exact_quotient
 
@@ -173,7 +174,7 @@ def _factored(n, syms):
     where = {syms[i]: i for i in present}
     order = [where[g] for g in _sort_gens([syms[i] for i in present])]
     Rs = ring(",".join(f"_g{k}" for k in range(len(order))), n.ring.domain)[0]
-    coeff, facs = Rs.from_dict({tuple(m[i] for i in order): c for m, c in n.items()}).factor_list()
+    coeff, facs = factor_list(Rs.from_dict({tuple(m[i] for i in order): c for m, c in n.items()}))
     gens = [syms[i] for i in order]
     return _keep_coeff(sp.Rational(coeff.numerator, coeff.denominator), sp.Mul(*[f.as_expr(*gens) ** k for f, k in facs]))
 
@@ -206,7 +207,7 @@ def _collected(n, fl, R, circle, syms, lengths):
     den = den.rem(circle) if circle else den
     key = (R, tuple(sorted(den.items())))
     if key not in _FACTORS:
-        _FACTORS[key] = den.factor_list()
+        _FACTORS[key] = factor_list(den)
     c, fl = _FACTORS[key]
     out = []
     for key, terms in groups.items():

@@ -32,6 +32,7 @@ from typing import Any
 import numpy as np
 
 from minparam_cli.chain import REVOLUTE, Chain
+from minparam_cli.factoring import factor_list
 from minparam_cli.errors import UnsupportedError
 from minparam_cli.kinematics.serial.plucker import require_serial
 
@@ -184,7 +185,7 @@ class _HalfAngle:
 
     def conditions(self, poly, formal: dict) -> list[Condition]:
         """Factor a t-polynomial into conditions written in cos/sin (with roots at 180° when degree is missing)."""
-        _, factors = poly.factor_list()
+        _, factors = factor_list(poly)
         copies = []
         for f, mult in factors:
             if all(f.degree(self.t[j]) == 0 for j in self.rev) and f.total_degree() == 0:
