@@ -64,6 +64,23 @@ def test_without_scipys_pointers_the_wrappers_give_the_same(monkeypatch):
     assert all(np.array_equal(x, y) for x, y in zip(fast, slow, strict=True))
 
 
+def test_an_unexpected_signature_falls_back_to_the_wrappers(monkeypatch):
+    """A scipy whose exported routines have other C types (say 64-bit integers) is not called through
+    prototypes written for these: the wrappers are used, with the same results."""
+    rng = np.random.default_rng(5)
+    P, A, B = _triangular(rng, 6), rng.standard_normal((30, 6)), rng.standard_normal((20, 6))
+    monkeypatch.setitem(nogil_lapack.SIGNATURES, "dtrsm", nogil_lapack.SIGNATURES["dtrsm"].replace("int *", "long *"))
+    monkeypatch.setitem(nogil_lapack.SIGNATURES, "dgeqrf", "void (void)")
+    nogil_lapack._routine.cache_clear()
+    try:
+        assert nogil_lapack._routine("cython_blas", "dtrsm") is None
+        assert nogil_lapack._routine("cython_lapack", "dgeqrf") is None
+        assert np.array_equal(solve_right_upper(P, A), dtrsm(1.0, P, A, side=1, lower=0))
+        assert np.array_equal(qr_r(B), np.linalg.qr(B, mode="r"))
+    finally:
+        nogil_lapack._routine.cache_clear()
+
+
 def test_shape_mismatch_is_refused():
     with pytest.raises(ValueError, match="columns"):
         solve_right_upper(np.eye(3), np.ones((4, 2)))

@@ -20,6 +20,15 @@ import numpy as np
 _INT = ctypes.POINTER(ctypes.c_int)
 _DBL = ctypes.POINTER(ctypes.c_double)
 _CHR = ctypes.c_char_p
+# the C signatures the ctypes prototypes below assume (scipy's capsule names them, its double typedef
+# read as double): another signature (a future scipy, a 64-bit integer build) falls back to the wrappers
+SIGNATURES = {
+    "dtrsm": "void (char *, char *, char *, char *, int *, int *, double *, double *, int *, double *, int *)",
+    "dgeqrf": "void (int *, int *, double *, int *, double *, double *, int *, int *)",
+}
+_ARGS = {"dtrsm": (_CHR, _CHR, _CHR, _CHR, _INT, _INT, _DBL, _DBL, _INT, _DBL, _INT),
+         "dgeqrf": (_INT, _INT, _DBL, _INT, _DBL, _DBL, _INT, _INT)}
+INT_MAX = 2**31 - 1
 
 
 @lru_cache(maxsize=None)
@@ -29,19 +38,24 @@ def _routine(module: str, name: str):
         import importlib
 
         capsule = importlib.import_module(f"scipy.linalg.{module}").__pyx_capi__[name]
-        api = ctypes.pythonapi
-        api.PyCapsule_GetName.restype = ctypes.c_char_p
-        api.PyCapsule_GetName.argtypes = [ctypes.py_object]
-        api.PyCapsule_GetPointer.restype = ctypes.c_void_p
-        api.PyCapsule_GetPointer.argtypes = [ctypes.py_object, ctypes.c_char_p]
-        address = api.PyCapsule_GetPointer(capsule, api.PyCapsule_GetName(capsule))
+        # prototypes of our own: setting restype on ctypes.pythonapi's would change them for the process
+        get_name = ctypes.PYFUNCTYPE(ctypes.c_char_p, ctypes.py_object)(("PyCapsule_GetName", ctypes.pythonapi))
+        get_pointer = ctypes.PYFUNCTYPE(ctypes.c_void_p, ctypes.py_object, ctypes.c_char_p)(
+            ("PyCapsule_GetPointer", ctypes.pythonapi))
+        signature = get_name(capsule)
+        address = get_pointer(capsule, signature)
     except (ImportError, AttributeError, KeyError, ValueError, TypeError):
         return None
-    if not address:
+    if not address or _plain(signature.decode("ascii", "replace")) != SIGNATURES[name]:
         return None
-    args = {"dtrsm": (_CHR, _CHR, _CHR, _CHR, _INT, _INT, _DBL, _DBL, _INT, _DBL, _INT),
-            "dgeqrf": (_INT, _INT, _DBL, _INT, _DBL, _DBL, _INT, _INT)}[name]
-    return ctypes.CFUNCTYPE(None, *args)(address)
+    return ctypes.CFUNCTYPE(None, *_ARGS[name])(address)
+
+
+def _plain(signature: str) -> str:
+    """A capsule's signature with Cython's typedef of double (``__pyx_t_5scipy_6linalg_11cython_blas_d``) as double."""
+    import re
+
+    return re.sub(r"__pyx_t_\w+?_d\b", "double", signature)
 
 
 def _int(v: int):
@@ -58,7 +72,7 @@ def solve_right_upper(P: np.ndarray, A: np.ndarray) -> np.ndarray:
     N, c = A.shape
     if P.shape != (c, c):
         raise ValueError(f"solve_right_upper: P is {P.shape}, A has {c} columns")
-    if f is None:
+    if f is None or N > INT_MAX:
         from scipy.linalg.blas import dtrsm
 
         return dtrsm(1.0, P, A, side=1, lower=0)
@@ -75,7 +89,7 @@ def qr_r(*blocks: np.ndarray) -> np.ndarray:
     f = _routine("cython_lapack", "dgeqrf")
     c = blocks[0].shape[1]
     m = sum(len(b) for b in blocks)
-    if f is None or not m or not c:
+    if f is None or not m or not c or m > INT_MAX:
         return np.linalg.qr(np.vstack(blocks), mode="r")  # type: ignore[return-value]  # numpy stubs: qr() gives QRResult for every mode; mode="r" returns R
     M = np.empty((m, c), order="F")
     r = 0
