@@ -44,7 +44,7 @@ ROOT = Path(__file__).resolve().parents[1]
 SHARED = ROOT.parent / "shared"
 MARK = "[…]"
 NOT_RUN = re.compile(r"<!--\s*not run:\s*(.*?)\s*-->\s*\n\s*$")
-TOLERANCE = re.compile(r"<!--\s*tolerance:\s*([0-9.eE+-]+)\b.*?-->\s*\n\s*$", re.S)
+TOLERANCE = re.compile(r"<!--\s*tolerance:\s*([0-9.eE+-]+)\b[^>]*?-->\s*\n\s*$")  # the comment right before the block
 FENCE = re.compile(r"^```console[ \t]*\n(.*?)^```[ \t]*$", re.S | re.M)
 HEREDOC = re.compile(r"<<-?\s*['\"]?(\w+)['\"]?")
 NEEDS_SHARED = "needs ../shared/data"
@@ -165,7 +165,9 @@ def close(page: str, run: str, rel_tol: float = REL_TOL) -> bool:
     mantissa, _, exponent = page.lower().partition("e")
     decimals = len(mantissa.split(".")[1]) if "." in mantissa else 0
     unit = 10.0 ** (int(exponent or 0) - decimals)
-    return abs(x - y) <= max(unit * (1 + 1e-9), rel_tol * max(abs(x), abs(y)), ABS_TOL)
+    digits = len(mantissa.replace("-", "").replace("+", "").replace(".", "").lstrip("0"))
+    slack = unit if digits >= 2 else unit / 2  # a one-digit figure (0.1) may not move by a whole unit
+    return abs(x - y) <= max(slack * (1 + 1e-9), rel_tol * max(abs(x), abs(y)), ABS_TOL)
 
 
 def matches(expected: list[str], actual: list[str], rel_tol: float = REL_TOL) -> bool:
@@ -311,11 +313,12 @@ def run_page(page: Path, update: bool = False) -> Report:
             body: list[str] = []
             for step in block.steps:
                 actual = run_step(step, work, env)
-                if not matches(step.expected, actual, block.rel_tol or REL_TOL):
+                tol = REL_TOL if block.rel_tol is None else block.rel_tol
+                if not matches(step.expected, actual, tol):
                     ok = False
                     diffs.append(f"$ {step.command}\n" + "\n".join(difflib.unified_diff(
                         step.expected, actual, "page", "run", lineterm="", n=2)))
-                body.extend([f"$ {step.command}", *merged(step.expected, actual, block.rel_tol or REL_TOL)])
+                body.extend([f"$ {step.command}", *merged(step.expected, actual, tol)])
             if ok:
                 report.matched += 1
             else:

@@ -59,6 +59,8 @@ def test_marker_matches_within_a_line_and_across_lines(tmp_path):
     ("MX1 2.0", "MX2 2.0", False),
     ("  1    6.865  2.84e-18   8.67e-07 x", "  1    6.865  -3.14e-18  8.67e-07 x", True),  # a column one wider
     ("ab 1.5", "a b 1.5", False),  # spaces only where the page has some
+    ("mass 0.5", "mass 0.6", False),  # a one-digit figure may not move by a unit
+    ("res 7e-16", "res 9e-13", True),  # below 1e-12 every value is rounding (ABS_TOL)
 ])
 def test_numbers_are_compared_to_rounding_and_text_exactly(page, run, same):
     assert docs_run.matches([page], [run]) is same
@@ -67,9 +69,11 @@ def test_numbers_are_compared_to_rounding_and_text_exactly(page, run, same):
 def test_a_block_may_declare_a_solver_tolerance(tmp_path):
     page = tmp_path / "page.md"
     body = "```console\n$ echo 'mass 1.00012'\nmass 1.00009\n```\n"
-    page.write_text(body + "<!-- tolerance: 1e-3 (an iterative solver's result) -->\n" + body)
+    page.write_text(body + "<!-- tolerance: 1e-3 (an iterative solver's result) -->\n" + body
+                    + "<!-- not run: a note -->\n```console\n$ true\n```\n" + body)
     report = docs_run.run_page(page)
-    assert (report.ran, report.matched) == (2, 1) and "block 1 " in report.failures[0]
+    # the declaration holds for its own block only, not for a later one behind another comment
+    assert (report.ran, report.matched) == (3, 1) and "block 1 " in report.failures[0] and "block 4 " in report.failures[1]
 
 
 def test_blocks_share_a_scratch_folder_laid_out_as_the_pages_assume(tmp_path):

@@ -19,7 +19,8 @@ def _signals(N=400, n=4, seed=0, span=3.2):
 def test_a_sweep_gives_the_columns_one_value_at_a_time_gives():
     s, n = _signals(), 4
     sources = ([("viscous", None)] + [("cogging", h) for h in COGGING_GRID] + [("stribeck", h) for h in STRIBECK_GRID]
-               + [("position_error", h) for h in (3.0, 7.0, 2.5, 60.0)] + [("drift", None)])
+               + [("position_error", h) for h in (3.0, 7.0, 2.5, 60.0)] + [("drift", None)]
+               + [("cogging", h) for h in (60.0, 2.0, 3.0, 2.5, 64.0, 1.0, 65.0, -3.0, 0.0)])  # restarts, off-grid
     swept = sources_columns(sources, s, n)
     assert len(swept) == len(sources)
     for (e, h), cols in zip(sources, swept, strict=True):

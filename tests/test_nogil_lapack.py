@@ -84,3 +84,8 @@ def test_an_unexpected_signature_falls_back_to_the_wrappers(monkeypatch):
 def test_shape_mismatch_is_refused():
     with pytest.raises(ValueError, match="columns"):
         solve_right_upper(np.eye(3), np.ones((4, 2)))
+
+
+def test_blocks_of_other_widths_are_refused_as_numpy_does():
+    with pytest.raises(ValueError, match="do not stack"):
+        qr_r(np.zeros((0, 4)), np.ones((6, 1)))

@@ -77,7 +77,8 @@ def _ripples(s: Signals, j, orders) -> list[np.ndarray]:
     """[sin kq, cos kq] of joint(s) j (stacked on axis 1) for each k of ``orders``.  Integer orders
     come from successive products of e^{iq}, one complex product an order instead of a sine and a
     cosine (eight times faster for the diagnosis's 59 orders; the rounding grows like k·eps, as the
-    phase k·q's own does); the same numbers whether the orders are asked one at a time or together."""
+    phase k·q's own does); the same numbers whether the orders are asked one at a time or together
+    (one order k alone costs k − 1 products: at k = 60 about 1.7x a sine and a cosine)."""
     q = s.q[:, j]
     z1 = z = np.exp(1j * q)
     at = 1

@@ -85,9 +85,13 @@ def solve_right_upper(P: np.ndarray, A: np.ndarray) -> np.ndarray:
 
 def qr_r(*blocks: np.ndarray) -> np.ndarray:
     """R (min(m, c) x c, upper triangular) of the QR factorisation of the blocks stacked (m rows, c
-    columns), as ``numpy.linalg.qr(numpy.vstack(blocks), mode="r")``."""
+    columns), as ``numpy.linalg.qr(numpy.vstack(blocks), mode="r")``: the same bits with one BLAS
+    thread (the command line's setting; numpy and scipy ship their own OpenBLAS builds, whose
+    threaded blocking may round differently in the last bit)."""
     f = _routine("cython_lapack", "dgeqrf")
     c = blocks[0].shape[1]
+    if any(b.ndim != 2 or b.shape[1] != c for b in blocks):
+        raise ValueError(f"qr_r: blocks of {[b.shape for b in blocks]} columns do not stack")
     m = sum(len(b) for b in blocks)
     if f is None or not m or not c or m > INT_MAX:
         return np.linalg.qr(np.vstack(blocks), mode="r")  # type: ignore[return-value]  # numpy stubs: qr() gives QRResult for every mode; mode="r" returns R
