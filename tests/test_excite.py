@@ -374,3 +374,36 @@ def test_a_floor_that_is_not_a_finite_height_is_one_line(tmp_path, app, floor):
     value = floor if floor == "abc" else float(floor)
     with pytest.raises(InputError, match="--floor: expected a"):
         ExciteOptions(floor=value)
+
+
+@pytest.mark.parametrize("end", ["lower", "upper"])
+def test_a_mean_position_a_rounding_past_the_range_end_counts_as_on_it(end):
+    """SLSQP's bounds hold to rounding: the Stanford arm's seed-0 design put joint 3's mean 1e-17 m below
+    its shrunk range, and the repair refused it ("mean position 0.40132 outside the range [0.40132, …]")."""
+    nan = np.full(2, np.nan)
+    limits = cons.Limits(np.array([-1.0, 0.3048]), np.array([1.0, 1.27]), nan, nan, nan, margin=0.1)
+    lo, hi = limits.shrunk_range()
+    edge = lo[1] if end == "lower" else hi[1]
+    past = np.nextafter(np.nextafter(edge, -np.inf if end == "lower" else np.inf), -np.inf if end == "lower" else np.inf)
+    a = np.array([[0.2, 0.0], [0.01, 0.0]])  # joint 2 moves both ways about its mean
+    traj = FourierTrajectory(0.1, np.array([0.0, past]), a, np.zeros_like(a))
+    s = cons.rigorous_scale(traj, limits)
+    assert s[1] == 0.0 and 0.0 < s[0] <= 1.0  # it stays on the end; the other joint keeps its motion
+    far = FourierTrajectory(0.1, np.array([0.0, edge + (-1e-6 if end == "lower" else 1e-6)]), a, np.zeros_like(a))
+    with pytest.raises(Exception, match="mean position .* outside the range"):
+        cons.rigorous_scale(far, limits)
+
+
+def test_a_joint_the_repair_leaves_still_is_named_in_a_note():
+    from types import SimpleNamespace
+
+    from minparam_cli.api.excitation import after_notes
+
+    inf = np.full(3, np.inf)
+    limits = cons.Limits(-np.ones(3), np.ones(3), np.array([1.0, np.nan, np.nan]), inf, inf, margin=0.1)
+    prep = SimpleNamespace(robot="arm.yaml", limits=limits)
+    moving = SimpleNamespace(design=SimpleNamespace(repair_scale=(1.0, 0.5, 0.98)))
+    still = SimpleNamespace(design=SimpleNamespace(repair_scale=(1.0, 0.0, 0.98)))
+    assert after_notes(prep, moving) == []  # type: ignore[arg-type]
+    (note,) = after_notes(prep, still)  # type: ignore[arg-type]
+    assert note.startswith("joint(s) 2 do not move in this design")

@@ -118,15 +118,22 @@ def run_excite(prep: Prepared, progress: Any = None) -> Excitation:
                       seed=prep.seed, effects=effects, design=result)
 
 
-def after_notes(prep: Prepared) -> list[str]:
-    """The note shown after the summary: no rate limits at all."""
+def after_notes(prep: Prepared, result: Excitation | None = None) -> list[str]:
+    """The notes shown after the summary: joints the design leaves still, no rate limits at all."""
     import numpy as np
 
+    out = []
+    if result is not None:
+        still = [j + 1 for j, s in enumerate(result.design.repair_scale) if s == 0.0]
+        if still:
+            out.append(f"joint(s) {', '.join(map(str, still))} do not move in this design: the optimiser's best end put "
+                       "the mean position on the end of the allowed range, and keeping every instant inside it left no "
+                       "motion (another --seed, more --starts or a smaller --margin may move them)")
     lim = prep.limits
-    if np.isfinite(lim.velocity).any() or np.isfinite(lim.acceleration).any():
-        return []
-    return [f"{prep.robot} gives no velocity or acceleration limits; only the position ranges and the period "
-            "bound the speeds (add velocity: and acceleration: to the joints, or lower --base-frequency)"]
+    if not (np.isfinite(lim.velocity).any() or np.isfinite(lim.acceleration).any()):
+        out.append(f"{prep.robot} gives no velocity or acceleration limits; only the position ranges and the period "
+                   "bound the speeds (add velocity: and acceleration: to the joints, or lower --base-frequency)")
+    return out
 
 
 def excite(robot: Robot | str | Path, *, harmonics: int = 5, base_frequency: float = 0.1, rate: float = 200.0,
@@ -161,5 +168,5 @@ def excite(robot: Robot | str | Path, *, harmonics: int = 5, base_frequency: flo
         result = run_excite(prep, bar)
     finally:
         close(bar)
-    warn(after_notes(prep))
+    warn(after_notes(prep, result))
     return result

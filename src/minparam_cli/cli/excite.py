@@ -122,7 +122,7 @@ def _excite(robot, output, json_path, plot, harmonics, base_frequency, rate, per
         save_png(render_trajectory(result.design, prep.chain.coordinate_types), Path(plot))
     if not quiet:
         sys.stderr.write(result.summary())
-        for note in after_notes(prep):
+        for note in after_notes(prep, result):
             print(f"minparam: note: {note}", file=sys.stderr)
 
 

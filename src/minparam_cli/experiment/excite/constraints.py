@@ -45,6 +45,7 @@ from minparam_cli.experiment.trajectory import FourierTrajectory
 DENSE_POINTS_PER_HARMONIC = 256
 BOUND_POINTS_PER_HARMONIC = 1024  # grid of the all-instant bounds
 REPAIR_FACTOR = 0.97
+ON_BOUND = 1e-12  # relative to a joint's range: a mean position this far past the range's end is on it (rounding)
 REPAIR_STEPS = 30
 BOX_Q_STEP = 1e-6  # rad or m: central-difference step for ∂p/∂q
 
@@ -201,10 +202,15 @@ def rigorous_scale(traj: FourierTrajectory, limits: Limits) -> np.ndarray:
     x_lo, x_hi, speed, accel = all_time_bounds(traj)
     q0 = traj.q0
     s = np.ones(limits.n)
+    # SLSQP's bounds hold to rounding: a mean position on the range's end may lie a few ulps outside it
+    # (the Stanford arm's prismatic joint, seed 0: 1e-17 below); there it counts as on the end
+    tol = ON_BOUND * np.maximum(np.abs(hi - lo), 1.0)
+    room_hi = np.where((hi - q0 < 0) & (hi - q0 >= -tol), 0.0, hi - q0)
+    room_lo = np.where((lo - q0 > 0) & (lo - q0 <= tol), 0.0, lo - q0)
     with np.errstate(divide="ignore", invalid="ignore"):
         ratios = [
-            np.where(x_hi > 0, (hi - q0) / x_hi, np.inf),
-            np.where(x_lo < 0, (lo - q0) / x_lo, np.inf),
+            np.where(x_hi > 0, room_hi / x_hi, np.inf),
+            np.where(x_lo < 0, room_lo / x_lo, np.inf),
             np.where(np.isfinite(limits.velocity) & (speed > 0), limits.shrunk(limits.velocity) / speed, np.inf),
             np.where(np.isfinite(limits.acceleration) & (accel > 0), limits.shrunk(limits.acceleration) / accel, np.inf),
         ]
@@ -213,7 +219,7 @@ def rigorous_scale(traj: FourierTrajectory, limits: Limits) -> np.ndarray:
     if np.any(s < 0):  # q0 outside the shrunk range: no scale helps
         j = int(np.argmin(s))
         raise ComputationError(f"joint {j + 1}: mean position {q0[j]:g} outside the range [{lo[j]:g}, {hi[j]:g}]")
-    return s
+    return s + 0.0  # no -0.0 (0 / a negative bound) in the reports
 
 
 def scaled(traj: FourierTrajectory, s) -> FourierTrajectory:
