@@ -182,3 +182,48 @@ def test_a_run_that_ends_before_a_stage_leaves_the_race_to_the_others(own_limit)
     at8 = [uninterrupted_values(x0, STAGE)[-1] for x0 in x0s]
     assert finalists[1:] == [i in set(np.argsort(at8)[:2]) for i in range(3)]
     assert [r.stopped for r in runs] == [not f for f in finalists[1:]]
+
+
+class TrialPointError(ComputationError):
+    """Stands for LoopsNotClosed: the function fails at a trial point out of its domain."""
+
+
+def _failing_after(calls_ok: int):
+    def failing(callback):
+        def fun(x):
+            if fun.calls >= calls_ok:
+                raise TrialPointError("the loops cannot be closed")
+            fun.calls += 1
+            return rosen(x), rosen_der(x)
+
+        fun.calls = 0
+        return minimize(fun, np.full(4, 0.3), jac=True, method="SLSQP", callback=callback, options={"maxiter": 60})
+
+    return failing
+
+
+def test_a_recoverable_error_ends_its_start_at_the_last_iterate_and_the_others_go_on():
+    _, runs = starts(2, 60)
+    seen = []
+    plain = race.Start(_failing_after(10**9))  # the same run without the error, for its iterates
+    own = plain._callback
+
+    def spy(intermediate_result):  # scipy passes the OptimizeResult to a callback with this parameter name
+        seen.append(np.copy(intermediate_result.x))
+        own(intermediate_result)
+
+    plain._callback = spy
+    plain.advance(float("inf"))
+    failing = race.Start(_failing_after(6), recoverable=(TrialPointError,))
+    race.race([*runs, failing], 60)
+    res = failing.result
+    assert res.message.startswith("ended at a trial point: the loops cannot be closed") and not res.success
+    assert 0 < failing.iterations == res.nit and np.array_equal(res.x, seen[failing.iterations - 1])
+    assert all(r.ended for r in runs)
+
+
+def test_a_recoverable_error_before_any_iterate_or_an_other_error_still_ends_the_design():
+    with pytest.raises(TrialPointError):
+        race.Start(_failing_after(0), recoverable=(TrialPointError,)).advance(STAGE)
+    with pytest.raises(TrialPointError):
+        race.Start(_failing_after(6), recoverable=(KeyError,)).advance(float("inf"))

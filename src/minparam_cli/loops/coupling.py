@@ -17,6 +17,10 @@ from minparam_cli.loops.model import CLOSE_RTOL, ClosedModel, closed_model
 from minparam_cli.loops.sample import manifold_states
 
 
+class LoopsNotClosed(ComputationError):
+    """States at which the loops cannot be closed (outside the workspace or past a singularity)."""
+
+
 @dataclass(frozen=True, eq=False)
 class ClosedCoupling(Coupling):
     """The loops of ``model`` as a coupling: ``coordinates`` the actuated joints, ``G`` the tangent map
@@ -32,7 +36,7 @@ class ClosedCoupling(Coupling):
         qt, err = model.close_from_reference(q)
         bad = np.flatnonzero(~(err < CLOSE_RTOL * model.chain.length_scale * 1e3))
         if bad.size:
-            raise ComputationError(f"{model.chain.source}: the loops cannot be closed at {bad.size} of {len(q)} states "
+            raise LoopsNotClosed(f"{model.chain.source}: the loops cannot be closed at {bad.size} of {len(q)} states "
                                    f"(first: actuated joints at {np.round(q[bad[0]], 4).tolist()}): outside the workspace "
                                    "or past a singularity of the loops")
         G, _ = model.tangent(qt)

@@ -34,6 +34,7 @@ from minparam_cli.experiment.excite import constraints as cons
 from minparam_cli.experiment.excite import race, rounds, starts
 from minparam_cli.experiment.excite.criterion import CRITERIA, condition_number, criterion_value, sensitivities
 from minparam_cli.experiment.trajectory import FourierTrajectory, basis, rest_rows
+from minparam_cli.loops.coupling import LoopsNotClosed
 
 GRID_POINTS_PER_HARMONIC = 16
 BOX_GRID_POINTS_PER_HARMONIC = 64  # the box constraint is cheap (forward kinematics): a finer grid
@@ -282,7 +283,8 @@ def design(chain: Chain, base: BaseSet, options: ExciteOptions, limits: cons.Lim
         solvers.append(solver(x0))
     # the starts race (race.py), except with --collisions: the rounds (rounds.py) run several SLSQP calls,
     # which the race cannot pause and stop as one run
-    runs, _ = race.run_starts(solvers, options.max_iterations, progress, raced=limits.collisions is None)
+    runs, _ = race.run_starts(solvers, options.max_iterations, progress, raced=limits.collisions is None,
+                              recoverable=(LoopsNotClosed,))
     records, ends = [], []
     for i, ((x0, f0), run) in enumerate(zip(firsts, runs, strict=True)):
         res = run.result

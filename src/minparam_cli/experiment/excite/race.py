@@ -31,9 +31,14 @@ class Start:
     runs the optimiser with ``callback(intermediate_result)`` called after each iteration and returns
     its result."""
 
-    def __init__(self, solve: Callable[[Callable], Any], step: Callable[[], None] | None = None):
+    def __init__(self, solve: Callable[[Callable], Any], step: Callable[[], None] | None = None,
+                 recoverable: tuple[type[BaseException], ...] = ()):
         self._solve = solve
         self._step_hook = step
+        # errors of the optimiser's function at a trial point (a step out of a closed chain's workspace) that end
+        # the run at its last iterate instead of the design: its result is then that iterate, with the error's text
+        self._recoverable = recoverable
+        self._last: Any = None
         self.iterations = 0
         # the criterion at the last iteration (inf before the first): SLSQP's value at the point its last
         # iteration reached, and once the run has ended by itself, its result's
@@ -52,7 +57,15 @@ class Start:
 
     def _run(self) -> None:
         try:
-            self.result = self._solve(self._callback)
+            try:
+                self.result = self._solve(self._callback)
+            except self._recoverable as e:
+                if self._last is None:  # not one iterate to fall back on
+                    raise
+                from scipy.optimize import OptimizeResult
+
+                self.result = OptimizeResult(x=self._last.x, fun=self._last.fun, nit=self.iterations, success=False,
+                                             status=-1, message=f"ended at a trial point: {e}")
             if not self.stopped and self.result is not None and getattr(self.result, "fun", None) is not None:
                 self.value = float(self.result.fun)
         except BaseException as e:  # noqa: BLE001  # handed to the caller's thread by advance
@@ -62,6 +75,7 @@ class Start:
 
     def _callback(self, intermediate_result) -> None:
         self.iterations += 1
+        self._last = intermediate_result
         self.value = float(intermediate_result.fun)
         if self._step_hook is not None:
             self._step_hook()
@@ -140,9 +154,9 @@ def race(runs: list[Start], max_iterations: int, raced: bool = True) -> list[boo
 
 
 def run_starts(solvers: list[Callable[[Callable], Any]], max_iterations: int, progress=None,
-               raced: bool = True) -> tuple[list[Start], list[bool]]:
+               raced: bool = True, recoverable: tuple[type[BaseException], ...] = ()) -> tuple[list[Start], list[bool]]:
     """One ``Start`` per solver, raced (``race``; ``raced=False``: each to its end); ``progress(done, total)``
-    after every iteration."""
+    after every iteration; ``recoverable``: as ``Start``'s."""
     total = planned_iterations(len(solvers), max_iterations, raced)
     done = [0]
 
@@ -151,7 +165,7 @@ def run_starts(solvers: list[Callable[[Callable], Any]], max_iterations: int, pr
         if progress:
             progress(done[0], total)
 
-    runs = [Start(solve, step) for solve in solvers]
+    runs = [Start(solve, step, recoverable) for solve in solvers]
     went_on = race(runs, max_iterations, raced)
     if progress:
         progress(total, total)
