@@ -33,14 +33,10 @@ from __future__ import annotations
 
 import numpy as np
 
+from minparam_cli.identify.estimate.nogil_lapack import qr_r, solve_right_upper
+
 FLOOR = 1e-10  # relative floor of the preconditioner's diagonal
 LIMIT = 16.0  # largest squared column norm of A P⁻¹ the fast update takes
-
-
-def _householder(R: np.ndarray, A: np.ndarray) -> np.ndarray:
-    from minparam_cli.identify.estimate.nogil_lapack import qr_r
-
-    return qr_r(R, A)
 
 
 class NonFiniteRows(ArithmeticError):
@@ -56,8 +52,6 @@ def _segment_grams(A: np.ndarray, segments) -> list[np.ndarray]:
 
 
 def _fast(R: np.ndarray, A: np.ndarray, segments=None):
-    from minparam_cli.identify.estimate.nogil_lapack import solve_right_upper
-
     norms = np.sqrt(np.einsum("ij,ij->j", R, R))
     if not np.all(norms > 0):
         return None
@@ -100,7 +94,7 @@ def update(R: np.ndarray, A: np.ndarray, segments=None):
         out = _fast(R, A, segments)
         if out is not None:
             return out
-    return _householder(R, A), None if segments is None else _segment_grams(A, segments)
+    return qr_r(R, A), None if segments is None else _segment_grams(A, segments)
 
 
 def _lines(cols: np.ndarray, idx: np.ndarray) -> np.ndarray:

@@ -57,7 +57,7 @@ def sources_columns(sources, s: Signals, n: int) -> list[np.ndarray]:
         while k < len(sources) and sources[k][0] == e:
             k += 1
         sweep = EFFECTS[e].sweep
-        if sweep is not None and k - i > 1:
+        if sweep is not None:
             out += [_joint_major(np.asarray(c, dtype=float), n) for c in sweep(s, slice(None), [h for _, h in sources[i:k]])]
         else:
             out += [all_joints(e, s, n, h) for _, h in sources[i:k]]
