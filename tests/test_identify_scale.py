@@ -157,7 +157,7 @@ def panda_setup(tmp_path_factory):
 def test_final_fit_from_the_slots_equals_a_second_pass(panda_setup):
     design, acc, _, sources, slots, opts = panda_setup
     final = design
-    for term in (Term("asymmetric_coulomb", (0, 1, 2, 3, 4, 5, 6)), Term("coulomb", (1,)), Term("stribeck", (2,), 0.05),
+    for term in (Term("asymmetric_coulomb", (0, 1, 2, 3, 4, 5, 6)), Term("coulomb", (1,)),
                  Term("spring", (1,)), Term("gain", (0, 1, 2, 3, 4, 5, 6)), Term("drift", (3,)), Term("viscous", (4,))):
         final = final.with_term(term)
     maps = final_maps(final, slots)
@@ -168,7 +168,8 @@ def test_final_fit_from_the_slots_equals_a_second_pass(panda_setup):
         b = solve(again[part], final.names)
         assert a.columns == b.columns
         assert np.allclose(a.theta, b.theta, rtol=1e-8, atol=1e-10 * np.max(np.abs(b.theta)))
-    assert final_maps(final.with_term(Term("cogging", (1,), 5.0)), slots) is None  # no slot: a second pass
+    for extra in (Term("cogging", (1,), 5.0), Term("stribeck", (2,), 0.05), Term("load_coulomb", (0,))):
+        assert final_maps(final.with_term(extra), slots) is None  # no slot: a second pass
 
 
 def test_compressed_scores_equal_direct_least_squares(panda_setup):

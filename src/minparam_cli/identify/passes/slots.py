@@ -8,13 +8,17 @@ function (the same on every joint: slot k of joint j is that function of joint
 j's signals), and the final design's factor follows from it by a linear map of
 the columns (``Accumulator.transform``), without reading the file again:
 
-* asymmetric Coulomb, viscous, offset, rotor inertia, spring, gravity error, drift
-  and every Stribeck grid value have slots of their own;
+* asymmetric Coulomb, viscous, offset, rotor inertia, spring, gravity error and drift
+  have slots of their own;
 * Coulomb is the sum of the two asymmetric Coulomb slots (sign q̇ = [q̇>0] − [q̇<0]);
 * gain is the model torque X_j·θ_model, a combination of the base columns.
 
-Cogging and position error (59 orders each) and load-dependent Coulomb (|τ_model| is not linear in the
-columns) have no slot: a final design with one of them streams the file again.
+Cogging and position error (59 orders each), Stribeck friction (7 grid values) and load-dependent
+Coulomb (|τ_model| is not linear in the columns) have no slot: a final design with one of them
+streams the file again.  Stribeck's seven columns on every joint cost about a sixth of the pass
+(the factor update's work grows with the square of a joint's columns) to spare a second pass
+only when the diagnosis names Stribeck friction, which neither real recording of the project did
+(docs/methods/streaming.md, "What was tried").
 """
 
 from __future__ import annotations
@@ -25,7 +29,7 @@ from minparam_cli.measured.records import Block
 from minparam_cli.identify.passes.design import Design, Term
 from minparam_cli.dynamics.effects import EFFECTS, Signals, source_columns
 
-SLOTTED = ("asymmetric_coulomb", "viscous", "offset", "rotor_inertia", "spring", "gravity_error", "drift", "stribeck")
+SLOTTED = ("asymmetric_coulomb", "viscous", "offset", "rotor_inertia", "spring", "gravity_error", "drift")
 DERIVED = {"coulomb": "asymmetric_coulomb"}  # effect -> the slotted effect it is a combination of
 FROM_MODEL = ("gain",)
 
