@@ -154,11 +154,43 @@ def panda_setup(tmp_path_factory):
     return replace(design, theta_model=theta), acc, thin, sources, slots, opts
 
 
+# a term of every slotted effect (and of coulomb and gain, combinations of slots and base columns)
+_SLOTTED_TERMS = (Term("asymmetric_coulomb", (0, 2, 3, 5, 6)), Term("coulomb", (1,)), Term("spring", (1,)),
+                  Term("offset", (4,)), Term("gain", (0, 1, 2, 3, 4, 5, 6)), Term("drift", (3,)), Term("viscous", (4,)),
+                  Term("rotor_inertia", (6,)), Term("gravity_error", (5,)))
+
+
+@pytest.mark.parametrize("smoothing", [0.0, 0.05])
+def test_slot_rows_map_to_the_final_designs_rows(panda_setup, smoothing):
+    """Row by row, [X_j | S_j | τ_j] M_j = [final design's columns on joint j | τ_j], with samples standing
+    exactly still (q̇ = 0, where sign q̇ = 0) on some joints, with and without a smooth Coulomb law."""
+    from minparam_cli.identify.passes.slots import block_rows
+    from minparam_cli.measured.records import Block
+
+    design, _, thin, _, slots, _ = panda_setup
+    design = replace(design, chain=replace(design.chain, coulomb_smoothing=smoothing))
+    b = thin["fit"].block().take(slice(0, 600))
+    dq = b.dq.copy()
+    dq[100:160, 4] = 0.0
+    dq[300:420, 1] = 0.0
+    dq[::7, 0] = 0.0
+    b = Block(b.t, b.q, dq, b.ddq, b.tau)
+    final = design
+    for term in _SLOTTED_TERMS:
+        final = final.with_term(term)
+    maps = final_maps(final, slots)
+    assert maps is not None
+    rows = block_rows(design, slots, b)
+    want = block_rows(final, (), b)
+    for j, M in enumerate(maps):
+        got = rows[j].T @ M
+        assert np.allclose(got, want[j].T, rtol=1e-13, atol=1e-13 * np.abs(want[j]).max()), j
+
+
 def test_final_fit_from_the_slots_equals_a_second_pass(panda_setup):
     design, acc, _, sources, slots, opts = panda_setup
     final = design
-    for term in (Term("asymmetric_coulomb", (0, 1, 2, 3, 4, 5, 6)), Term("coulomb", (1,)),
-                 Term("spring", (1,)), Term("gain", (0, 1, 2, 3, 4, 5, 6)), Term("drift", (3,)), Term("viscous", (4,))):
+    for term in _SLOTTED_TERMS:
         final = final.with_term(term)
     maps = final_maps(final, slots)
     assert maps is not None
