@@ -41,3 +41,43 @@ def test_tuned_allocator_reuses_freed_blocks():
         pytest.skip("not glibc: mallopt unavailable, tuning reported as not applied")
     assert before >= 20 * 50  # the regressor blocks are mapped and faulted in afresh on every call
     assert after <= before // 10
+
+
+def test_await_preload_returns_once_the_preloaded_modules_are_imported(tmp_path, monkeypatch):
+    """identify's pass imports scipy on a thread of its own (``runtime.preload``); every other scipy import of
+    the pass waits for it (two threads importing scipy's submodules at once can meet one partly initialised)."""
+    import time
+
+    from minparam_cli import runtime
+
+    (tmp_path / "minparam_slow_module.py").write_text("import time\ntime.sleep(0.3)\nDONE = True\n")
+    monkeypatch.syspath_prepend(str(tmp_path))
+    monkeypatch.delitem(sys.modules, "minparam_slow_module", raising=False)
+    t0 = time.perf_counter()
+    runtime.preload("minparam_slow_module", "minparam_no_such_module")  # a missing one is the caller's to report
+    assert time.perf_counter() - t0 < 0.25  # the import runs on its own thread
+    runtime.await_preload()
+    assert sys.modules["minparam_slow_module"].DONE and not runtime._PRELOADS
+
+
+def test_the_pass_waits_for_the_preload_before_its_own_scipy_imports(monkeypatch):
+    """The factor update's LAPACK pointers and the filter's design import scipy only after the preload."""
+    from minparam_cli.identify.estimate import nogil_lapack
+    from minparam_cli.measured import filtering
+
+    calls = []
+    for mod in (nogil_lapack, filtering):
+        monkeypatch.setattr(mod, "await_preload", lambda mod=mod: calls.append(mod.__name__))
+    nogil_lapack._routine.cache_clear()
+    try:
+        nogil_lapack._routine("cython_blas", "dtrsm")
+    finally:
+        nogil_lapack._routine.cache_clear()
+    import inspect
+
+    assert calls == ["minparam_cli.identify.estimate.nogil_lapack"]
+    src = inspect.getsource(filtering)  # every scipy import of the filter comes after a wait
+    lines = src.splitlines()
+    for i, line in enumerate(lines):
+        if "from scipy" in line:
+            assert "await_preload()" in lines[i - 1], line

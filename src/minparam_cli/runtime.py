@@ -122,6 +122,40 @@ def freeze_before_exit() -> None:
     gc.freeze()
 
 
+# scipy's modules identify's pass needs, imported on a thread of their own while the pass reads its
+# first rows (``preload``); every other import of scipy in the pass waits for that thread first
+# (``await_preload``): two threads importing scipy's submodules at once can meet one partly initialised
+# (scipy's package imports itself in a circle; seen once in six runs of examples/identify_arrays.py:
+# "cannot import name 'PytestTester' from partially initialized module 'scipy._lib._testutils'")
+_PRELOADS: list = []
+
+
+def preload(*modules: str) -> None:
+    """Import ``modules`` on a daemon thread (see ``await_preload``)."""
+    import importlib
+    import threading
+
+    def run() -> None:
+        for m in modules:
+            try:
+                importlib.import_module(m)
+            except ImportError:  # the caller's own import says what is missing
+                pass
+
+    t = threading.Thread(target=run, name="minparam-import", daemon=True)
+    _PRELOADS.append(t)
+    t.start()
+
+
+def await_preload() -> None:
+    """Wait for the imports ``preload`` started (none: returns at once); call before importing scipy on
+    any thread while a pass may run."""
+    for t in list(_PRELOADS):
+        t.join()
+        if not t.is_alive() and t in _PRELOADS:
+            _PRELOADS.remove(t)
+
+
 def workers(cap: int) -> int:
     """Threads for a pool of ``cap`` tasks at most: the CPUs this process may run on (``os.cpu_count()``
     where the platform cannot say), at least 1.  No result depends on it: every pool combines its

@@ -33,6 +33,7 @@ import math
 import numpy as np
 
 from minparam_cli.errors import DataError
+from minparam_cli.runtime import await_preload
 from minparam_cli.measured.records import FILTER_ORDER, GAP_STEPS, IRREGULAR_TOL, KEYS, Block, DataOptions, DataReport, sampling_step
 
 RATE_TOL = 1e-3
@@ -77,6 +78,7 @@ class Processor:
                     f"{report.path}: the sampling rate ({fs:.4g} Hz) is more than {MAX_RATE_RATIO:.0e} times the "
                     f"{opts.cutoff_hz:g} Hz cut-off: are the time stamps in seconds? (else --rate or --cutoff)"
                 )
+            await_preload()  # scipy imported on one thread at a time (runtime.preload)
             from scipy.signal import butter
 
             try:
@@ -222,6 +224,7 @@ class Processor:
         data = np.vstack(self.buffer)
         if len(data) < 16:
             raise DataError(f"{self.report.path}: too few samples to filter ({len(data)})")
+        await_preload()  # scipy imported on one thread at a time (runtime.preload)
         from scipy.signal import sosfiltfilt
 
         n = (data.shape[1] - 1) // (3 if self.has_dq else 2)

@@ -17,6 +17,8 @@ from functools import lru_cache
 
 import numpy as np
 
+from minparam_cli.runtime import await_preload
+
 _INT = ctypes.POINTER(ctypes.c_int)
 _DBL = ctypes.POINTER(ctypes.c_double)
 _CHR = ctypes.c_char_p
@@ -34,6 +36,7 @@ INT_MAX = 2**31 - 1
 @lru_cache(maxsize=None)
 def _routine(module: str, name: str):
     """``name`` from scipy.linalg.<module>'s table of pointers as a ctypes function, or None."""
+    await_preload()  # scipy imported on one thread at a time (runtime.preload)
     try:
         import importlib
 

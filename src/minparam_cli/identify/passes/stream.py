@@ -4,7 +4,6 @@ the chunk size, not the file (see docs/methods/streaming.md)."""
 
 from __future__ import annotations
 
-import threading
 from dataclasses import replace
 from pathlib import Path
 
@@ -20,7 +19,7 @@ from minparam_cli.identify.passes.kept import Motion, _Thinned
 from minparam_cli.identify.passes.roles import FIT, SELECTION, Source, parts
 from minparam_cli.identify.passes.slots import block_rows
 from minparam_cli.measured.records import Block, DataOptions, DataReport
-from minparam_cli.runtime import READ_AHEAD, REGRESSOR_ROWS, ROWS_AHEAD
+from minparam_cli.runtime import READ_AHEAD, REGRESSOR_ROWS, ROWS_AHEAD, await_preload, preload
 
 
 def stream(design: Design, sources: list[Source], n: int, data: DataOptions, diagnosis_cap: int, keep: bool, slots=(),
@@ -42,9 +41,10 @@ def stream(design: Design, sources: list[Source], n: int, data: DataOptions, dia
     reports: list[DataReport] = []
     state = {"design": design}
     spare = _Spare()
-    # the factor update's first call imports scipy.linalg (about 0.2 s), the diagnosis scipy.special:
-    # done beside the readers' start, while this thread would only wait for the first rows
-    threading.Thread(target=_import_blas, name="minparam-import", daemon=True).start()
+    # the factor update's first call needs scipy.linalg (about 0.12 s to import), the diagnosis scipy.special:
+    # imported beside the readers' start, while this thread would only wait for the first rows (every
+    # other scipy import of the pass waits for them: runtime.preload)
+    preload("scipy.linalg.blas", "scipy.linalg.cython_blas", "scipy.linalg.cython_lapack", "scipy.special")
     for piece, sub, rows in ahead(_rows(state, sources, n, data, slots, reports, spare), depth=ROWS_AHEAD):
         if rows is not None:  # sub: (the samples of the rows, their design, the file)
             sub, _, path = sub
@@ -65,12 +65,8 @@ def stream(design: Design, sources: list[Source], n: int, data: DataOptions, dia
             if keep and piece.part in thin:
                 thin[piece.part].add(sub)
         sub = rows = None  # not alive while the next rows are folded in
+    await_preload()  # (a pass that folded no rows) the diagnosis imports scipy after it
     return acc, thin, motion, reports, state["design"]
-
-
-def _import_blas() -> None:
-    import scipy.linalg.blas  # noqa: F401
-    import scipy.special  # noqa: F401  (the diagnosis's F test, after the stream)
 
 
 class _Spare:
