@@ -7,14 +7,28 @@ manifold, so ``derive_qr``, ``simulate``, ``identify`` and ``excite`` work on th
 from __future__ import annotations
 
 import random
+import threading
+import weakref
 from dataclasses import dataclass, field, replace
 
 import numpy as np
 
 from minparam_cli.chain import Chain, Coupling
 from minparam_cli.errors import ComputationError
-from minparam_cli.loops.model import CLOSE_RTOL, ClosedModel, closed_model
+from minparam_cli.loops.model import CLOSED_RTOL, ClosedModel, closed_model
 from minparam_cli.loops.sample import manifold_states
+
+
+RECENT = 4  # closures a ClosedCoupling keeps per thread
+# a state this close to a recent one's (rad, or fraction of the robot's size) closes from it: Newton from
+# the recent closure moved along its tangent.  Only excite's finite differences (steps of 1e-6) are that
+# close: they stay on the branch of the state they differ from, and any other state closes from the
+# reference, as on its first call, so that a state's closure does not depend on what came before
+WARM_STEP = 1e-4
+# per thread, per coupling, its last RECENT closures (actuated q, tree q, error): excite's finite differences
+# ask for the same states again and again, and for states a step of 1e-6 away (``ClosedCoupling._close``);
+# outside the (pickled, frozen) coupling itself
+_RECENT = threading.local()
 
 
 class LoopsNotClosed(ComputationError):
@@ -28,20 +42,47 @@ class ClosedCoupling(Coupling):
 
     model: ClosedModel | None = field(default=None, repr=False)
 
+    def _close(self, q: np.ndarray):
+        """``model.close_from_reference(q)`` and, where every state closed, ``model.tangent_map`` there (else
+        None), or a recent call's: the same where q is the same, else Newton from it (moved along its
+        tangent) where every state moved by at most WARM_STEP of the robot's size or a radian, when that
+        closes every state (the same assembly mode, closed to the same tolerance)."""
+        model = self.model
+        assert model is not None
+        table = getattr(_RECENT, "table", None)
+        if table is None:
+            table = _RECENT.table = weakref.WeakKeyDictionary()
+        recent = table.setdefault(self, [])
+        for q0, qt0, err0, maps in recent:
+            if q0.shape == q.shape and np.array_equal(q0, q):
+                return qt0.copy(), err0.copy(), maps
+        for q0, qt0, _, maps0 in recent:
+            if maps0 is not None and q0.shape == q.shape and np.max(np.abs(q - q0)) <= WARM_STEP * max(1.0, model.chain.length_scale):
+                # predictor (the tangent at the recent closure) and Newton's corrector
+                qt, err = model.close(q, qt0 + np.einsum("snf,sf->sn", maps0[0], q - q0))
+                if np.all(err < CLOSED_RTOL * model.chain.length_scale):
+                    break
+        else:
+            qt, err = model.close_from_reference(q)
+        maps = model.tangent_map(qt) if np.all(err < CLOSED_RTOL * model.chain.length_scale) else None
+        recent.insert(0, (q.copy(), qt.copy(), err.copy(), maps))
+        del recent[RECENT:]
+        return qt, err, maps
+
     def tree_states(self, q, qd, qdd):
         """(q, q̇, q̈) of every tree joint (N, n) and G (N, n, f) from the actuated ones (N, f)."""
         model = self.model
         assert model is not None
         q, qd, qdd = (np.atleast_2d(np.asarray(x, dtype=float)) for x in (q, qd, qdd))
-        qt, err = model.close_from_reference(q)
-        bad = np.flatnonzero(~(err < CLOSE_RTOL * model.chain.length_scale * 1e3))
+        qt, err, maps = self._close(q)
+        bad = np.flatnonzero(~(err < CLOSED_RTOL * model.chain.length_scale))
         if bad.size:
             raise LoopsNotClosed(f"{model.chain.source}: the loops cannot be closed at {bad.size} of {len(q)} states "
                                    f"(first: actuated joints at {np.round(q[bad[0]], 4).tolist()}): outside the workspace "
                                    "or past a singularity of the loops")
-        G, _ = model.tangent(qt)
+        G, pinv = maps
         qdt = np.einsum("snf,sf->sn", G, qd)
-        _, g = model.tangent(qt, qdt)
+        g = model.drift(qt, qdt, pinv)
         return qt, qdt, np.einsum("snf,sf->sn", G, qdd) + g, G
 
     def joint_states(self, q, qd, qdd):
@@ -63,13 +104,13 @@ class ClosedCoupling(Coupling):
         positions ``q`` (N, f), and their derivatives (N, 2k, f) (rows of G)."""
         model = self.model
         assert model is not None
-        qt, err = model.close_from_reference(np.atleast_2d(q))
+        qt, err, maps = self._close(np.atleast_2d(np.asarray(q, dtype=float)))
         joints = _limited(model)
         lo = np.array([model.chain.limits[j][0] for j in joints])  # type: ignore[index]  # _limited: not None
         hi = np.array([model.chain.limits[j][1] for j in joints])  # type: ignore[index]
-        G, _ = model.tangent(qt)
+        G = maps[0] if maps is not None else model.tangent(qt)[0]
         values = np.concatenate([qt[:, joints] - lo, hi - qt[:, joints]], axis=1)
-        values[~(err < CLOSE_RTOL * model.chain.length_scale * 1e3)] = -1.0  # not closed: as bad as a broken limit
+        values[~(err < CLOSED_RTOL * model.chain.length_scale)] = -1.0  # not closed: as bad as a broken limit
         return values, np.concatenate([G[:, joints, :], -G[:, joints, :]], axis=1)
 
     def random_states(self, samples: int, rng):

@@ -30,6 +30,9 @@ RANK_RTOL = 1e-8
 NEWTON_STEPS = 60
 # steps of the continuation from the reference to the wanted actuated coordinates (``close_from_reference``)
 CONTINUATION_STEPS = 8
+# a configuration whose loops close within this fraction of the robot's size counts as closed (the
+# commands' test; Newton itself aims at CLOSE_RTOL)
+CLOSED_RTOL = CLOSE_RTOL * 1e3
 
 
 @dataclass(frozen=True, eq=False)
@@ -94,6 +97,11 @@ class ClosedModel:
 
     def tangent(self, q: np.ndarray, qd: np.ndarray | None = None):
         """G (N, n, f) with q̇ = G q̇_a; with ``qd`` (N, n) also g (N, n): q̈ = G q̈_a + g."""
+        G, pinv = self.tangent_map(q)
+        return G, None if qd is None else self.drift(q, qd, pinv)
+
+    def tangent_map(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """G (N, n, f) and the least-squares inverse of the passive columns of J (N, p, 3m) it came from."""
         J, _ = self.jacobian(q)
         a, p = list(self.actuated), list(self.passive)
         pinv = np.linalg.pinv(J[:, :, p], rcond=RANK_RTOL)
@@ -101,11 +109,13 @@ class ClosedModel:
         G = np.zeros((N, n, f))
         G[:, a, :] = np.eye(f)
         G[:, p, :] = -pinv @ J[:, :, a]
-        if qd is None:
-            return G, None
-        g = np.zeros((N, n))
-        g[:, p] = -np.einsum("spr,sr->sp", pinv, self.bias(q, qd))
-        return G, g
+        return G, pinv
+
+    def drift(self, q: np.ndarray, qd: np.ndarray, pinv: np.ndarray) -> np.ndarray:
+        """g (N, n) with q̈ = G q̈_a + g at the rates ``qd`` (N, n), from ``tangent_map``'s ``pinv`` at q."""
+        g = np.zeros((len(q), self.chain.n))
+        g[:, list(self.passive)] = -np.einsum("spr,sr->sp", pinv, self.bias(q, qd))
+        return g
 
     # ---------------------------------------------------------------- closure
     def close(self, q_a: np.ndarray, start: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -113,26 +123,57 @@ class ClosedModel:
         the configurations (N, n) and each one's largest point mismatch (m)."""
         q = np.array(start, dtype=float)
         q[:, list(self.actuated)] = q_a
-        p = list(self.passive)
+        p = np.array(self.passive, dtype=int)
+        # only the states not closed yet take further steps, and each one more after it first meets
+        # the tolerance (Newton's next step takes it to rounding: the rank decisions of derive read them)
+        active = np.arange(len(q))
+        met = np.zeros(len(q), dtype=bool)
         for _ in range(NEWTON_STEPS):
-            J, h = self.jacobian(q)
-            err = np.abs(h).max(axis=1)
-            if np.all(err < CLOSE_RTOL * self.chain.length_scale):
+            J, h = self.jacobian(q[active])
+            close = np.abs(h).max(axis=1) < CLOSE_RTOL * self.chain.length_scale
+            still = ~(close & met[active])
+            met[active[close]] = True
+            if not still.any():
                 break
-            step = np.linalg.lstsq(J[0][:, p], h[0], rcond=None)[0] if len(q) == 1 else _batched_lstsq(J[:, :, p], h)
-            q[:, p] -= step
+            active, J, h = active[still], J[still], h[still]
+            step = np.linalg.lstsq(J[0][:, p], h[0], rcond=None)[0][None, :] if len(active) == 1 else _batched_lstsq(J[:, :, p], h)
+            q[np.ix_(active, p)] -= step
         return q, np.abs(self.residual(q)).max(axis=1)
 
 
     def close_from_reference(self, q_a: np.ndarray, steps: int = CONTINUATION_STEPS) -> tuple[np.ndarray, np.ndarray]:
         """``close`` by continuation: the actuated joints moved from the reference to ``q_a`` (N, f) in
         ``steps`` equal steps, Newton from the previous solution at each, so the loops stay in the
-        reference's assembly mode (a four-bar does not jump from parallelogram to antiparallelogram)."""
-        q = np.repeat(self.reference[None, :], len(q_a), axis=0)
-        ref_a = self.reference[list(self.actuated)]
-        err = np.zeros(len(q_a))
+        reference's assembly mode (a four-bar does not jump from parallelogram to antiparallelogram).
+
+        A state whose straight path from the reference passes a singularity of the loops (the path,
+        not the state: a planar 3-RRR's reference may lie far from where it moves) is continued instead
+        from the nearest state of the same call that closed, in the same mode, again while that closes
+        more of them: the samples of a motion then close from their neighbours."""
+        a = list(self.actuated)
+        q_a = np.asarray(q_a, dtype=float)
+        q, err = self.continue_from(np.repeat(self.reference[None, :], len(q_a), axis=0), q_a, steps)
+        bad = ~(err < CLOSED_RTOL * self.chain.length_scale)
+        while bad.any() and not bad.all():
+            from scipy.spatial import cKDTree
+
+            good, idx = np.flatnonzero(~bad), np.flatnonzero(bad)
+            near = good[cKDTree(q_a[good]).query(q_a[idx])[1]]
+            q_new, err_new = self.continue_from(q[near], q_a[idx], steps)
+            fixed = err_new < CLOSED_RTOL * self.chain.length_scale
+            if not fixed.any():
+                break
+            q[idx[fixed]], err[idx[fixed]] = q_new[fixed], err_new[fixed]
+            bad[idx[fixed]] = False
+        q[:, a] = q_a
+        return q, err
+
+    def continue_from(self, start: np.ndarray, q_a: np.ndarray, steps: int) -> tuple[np.ndarray, np.ndarray]:
+        """``close`` along the straight path of the actuated joints from ``start`` (N, n) to ``q_a`` (N, f)."""
+        s_a = start[:, list(self.actuated)]
+        q, err = start, np.zeros(len(q_a))
         for k in range(1, steps + 1):
-            q, err = self.close(ref_a + (q_a - ref_a) * (k / steps), q)
+            q, err = self.close(s_a + (q_a - s_a) * (k / steps), q)
         return q, err
 
 
@@ -218,7 +259,7 @@ def closed_model(desc: RobotDescription, chain: Chain) -> ClosedModel:
     model = ClosedModel(chain, np.array(ba), np.array(bb), np.array(pa, dtype=float), np.array(pb, dtype=float),
                         tuple(names), actuated, passive, ref[0], 0)
     q, err = model.close(ref[:, list(actuated)], ref)
-    if not err[0] < CLOSE_RTOL * L * 1e3:
+    if not err[0] < CLOSED_RTOL * L:
         worst = names[int(np.argmax(np.abs(model.residual(q)).reshape(-1, 3).max(axis=1)))]
         raise DescriptionError(f"the loops cannot be assembled at the reference configuration: cut {worst!r} stays "
                                f"{err[0]:.3g} m apart after Newton on the passive joints (check the cut points and the "

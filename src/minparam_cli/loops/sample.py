@@ -7,7 +7,7 @@ import numpy as np
 
 from minparam_cli.chain import REVOLUTE
 from minparam_cli.errors import ComputationError
-from minparam_cli.loops.model import CLOSE_RTOL, ClosedModel
+from minparam_cli.loops.model import CLOSED_RTOL, ClosedModel
 
 # the actuated coordinates are drawn within this much of the reference (rad; prismatic: of the robot's size)
 SPREAD_REVOLUTE = 0.6
@@ -46,7 +46,7 @@ def assemble(model: ClosedModel, q_a: np.ndarray) -> tuple[np.ndarray, np.ndarra
     """Configurations (N, n) with the actuated joints at ``q_a`` and the loops closed in the reference's
     assembly mode (continuation), and whether each one closed, within the limits and away from a singularity."""
     q, err = model.close_from_reference(q_a)
-    ok = (err < CLOSE_RTOL * model.chain.length_scale * 1e3) & within_limits(model, q)
+    ok = (err < CLOSED_RTOL * model.chain.length_scale) & within_limits(model, q)
     if ok.any():
         J, _ = model.jacobian(q)
         sv = np.linalg.svd(J[:, :, list(model.passive)], compute_uv=False)

@@ -266,3 +266,19 @@ def nonlinear_violations(chain: Chain, traj: FourierTrajectory, limits: Limits, 
     if limits.collisions is not None:
         out += limits.collisions.violations(chain, q, t, strict=shrunk)
     return out
+
+
+def grid_feasible(x, A, b, constraints, slack, rtol: float = 1e-6) -> bool:
+    """Every constraint holds on the grid: the linear ones and the rest conditions up to rtol of their
+    bound's size, the torque and box ones up to their ``slack`` (the limits themselves, not the
+    optimiser's tighter targets)."""
+    scale = max(1.0, float(np.abs(b).max()))
+    if np.any(A @ x - b > rtol * scale):
+        return False
+    for c, sl in zip(constraints[1:], slack[1:], strict=True):
+        v = c["fun"](x)
+        if c["type"] == "eq" and np.any(np.abs(v) > rtol * scale):
+            return False
+        if c["type"] == "ineq" and np.any(v + sl < -rtol * max(1.0, float(np.abs(v).max()))):
+            return False
+    return True

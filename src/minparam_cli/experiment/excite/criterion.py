@@ -135,6 +135,20 @@ def _extra_derivatives(chain: Chain, qd: np.ndarray):
     return out
 
 
+def _coupling_tangent(chain: Chain, q, qd, qdd):
+    """(T, q̇ of every joint): T (N, joints, coordinates) the coupling's Jacobian at each state (None
+    without a coupling: the joints are the coordinates, and q̇ is theirs)."""
+    coupling = chain.coupling
+    if coupling is None:
+        return None, qd
+    tree_states = getattr(coupling, "tree_states", None)  # a closed chain's: T depends on the state
+    if tree_states is not None:
+        _, qd_joints, _, T = tree_states(q, qd, qdd)
+        return T, qd_joints
+    G = np.asarray(coupling.G, dtype=float)
+    return np.broadcast_to(G, (len(q),) + G.shape), qd @ G.T
+
+
 def sensitivities(chain: Chain, kept, q, qd, qdd, kind: str, phi=None, scaled: bool = True) -> Sensitivities:
     """The criterion of the base regressor at the samples (q, q̇, q̈) (N, n) and its derivatives with
     respect to every sample's joint states; with ``phi`` (standard inertial parameters) also the
@@ -152,20 +166,29 @@ def sensitivities(chain: Chain, kept, q, qd, qdd, kind: str, phi=None, scaled: b
     out = {w: np.zeros((N, n)) for w in "qva"}
     dtau = {w: np.zeros((N, n, n)) for w in "qva"} if with_tau else None
     Y0 = Y[:, :, :ni]
+    # a coupled chain's extra columns (friction, rotor inertia of joint k) reach the coordinates through
+    # the coupling's T (N, joints, coordinates); a closed chain's T moves with q, so their q-derivative
+    # comes with the inertial columns' difference
+    T, qd_joints = _coupling_tangent(chain, q, qd, qdd)
+    Yq0, Gq = (Y0, Gi) if T is None else (Y, G)
     for k in range(n):
         e = np.zeros(n)
         e[k] = 1.0
         # q: forward difference (first order, step Q_STEP); q̇: central (exact, Y is quadratic in q̇);
         # q̈: forward with a unit step (exact, Y is linear in q̈)
-        dYq = (regressor(chain, q + Q_STEP * e, qd, qdd, include_extras=False) - Y0) / Q_STEP
+        dYq = (regressor(chain, q + Q_STEP * e, qd, qdd, include_extras=T is not None) - Yq0) / Q_STEP
         dYv = (regressor(chain, q, qd + e, qdd, include_extras=False) - regressor(chain, q, qd - e, qdd, include_extras=False)) / 2.0
         dYa = regressor(chain, q, qd, qdd + e, include_extras=False) - Y0
         for which, dY in (("q", dYq), ("v", dYv), ("a", dYa)):
-            out[which][:, k] = np.einsum("sic,sic->s", Gi, dY)
+            out[which][:, k] = np.einsum("sic,sic->s", Gq if which == "q" else Gi, dY)
             if dtau is not None:
-                dtau[which][:, :, k] = dY @ phi
-    for col, k, which, values in _extra_derivatives(chain, qd):
-        out[which][:, k] += G[:, k, col] * values
+                dtau[which][:, :, k] = dY[:, :, :ni] @ phi
+    for col, k, which, values in _extra_derivatives(chain, qd_joints):
+        if T is None:
+            out[which][:, k] += G[:, k, col] * values
+        else:  # Y[s, f, col] = T[s, k, f]·x_k(s) with x_k's rate or acceleration = Σ_f' T[s, k, f']·(that of f')
+            w = np.einsum("sf,sf->s", G[:, :, col], T[:, k, :]) * values
+            out[which] += w[:, None] * T[:, k, :]
     if dtau is None:
         return Sensitivities(f, out["q"], out["v"], out["a"])
     tau = Y[:, :, :ni] @ phi

@@ -180,6 +180,8 @@ def design(chain: Chain, base: BaseSet, options: ExciteOptions, limits: cons.Lim
     kept = list(base.kept)
     centre = starts.feasible_centre(chain, limits, phi if use_tau else None) if (use_tau or limits.box is not None
                                                                                   or limits.collisions is not None) else None
+    loops = starts.loops_of(chain)  # a closed chain: every start inside the loops' workspace
+    loop_centre: list = [centre]
 
     cache: dict = {}
 
@@ -262,38 +264,45 @@ def design(chain: Chain, base: BaseSet, options: ExciteOptions, limits: cons.Lim
 
     solvers, firsts = [], []
 
+    # SLSQP in rounds (rounds.py) with --collisions, and for a closed chain whose starts had to be moved into
+    # its workspace (a parallel platform: SLSQP's first steps would leave it)
+    in_rounds = limits.collisions is not None
+
     def solver(x0: np.ndarray):
         def solve(callback):
-            if limits.collisions is None:
+            if not in_rounds:
                 return minimize(fun, x0, jac=True, method="SLSQP", constraints=constraints, callback=callback,
                                 options={"maxiter": options.max_iterations, "ftol": 1e-7})
-            lo, hi = limits.shrunk_range()  # SLSQP with a step bound (rounds.py): the distances are far from linear
-            return rounds.minimize_in_rounds(fun, x0, constraints, lambda x: _grid_feasible(x, A, b, constraints, slack),
+            lo, hi = limits.shrunk_range()  # SLSQP with a step bound (rounds.py): distances far from linear, loops
+            return rounds.minimize_in_rounds(fun, x0, constraints, lambda x: cons.grid_feasible(x, A, b, constraints, slack),
                                              rounds.step_bound(hi - lo, H, options.base_frequency), options.max_iterations,
-                                             callback)
+                                             callback, (LoopsNotClosed,))
 
         return solve
 
     for child in _children(rng, options.starts):
         start = starts.random_start(limits, options, child)
+        if loops is not None and not starts.on_loops(loops, start.evaluate(tg)[0], starts.START_CONDITION).all():
+            if loop_centre[0] is None:
+                loop_centre[0] = starts.loop_centre(loops, limits)
+            start, in_rounds = starts.closing_start(loops, start, limits, loop_centre[0], tg), True
         if centre is not None:
             start = starts.feasible_start(chain, start, limits, phi if use_tau else None, centre, tg)
         x0 = start.matrix().ravel()
         firsts.append((x0, fun(x0)[0]))
         solvers.append(solver(x0))
-    # the starts race (race.py), except with --collisions: the rounds (rounds.py) run several SLSQP calls,
-    # which the race cannot pause and stop as one run
-    runs, _ = race.run_starts(solvers, options.max_iterations, progress, raced=limits.collisions is None,
-                              recoverable=(LoopsNotClosed,))
+    # the starts race (race.py), except in rounds, whose several SLSQP calls the race cannot pause and stop as one run
+    runs, _ = race.run_starts(solvers, options.max_iterations, progress, raced=not in_rounds,
+                              recoverable=(LoopsNotClosed,), starts=firsts)
     records, ends = [], []
     for i, ((x0, f0), run) in enumerate(zip(firsts, runs, strict=True)):
         res = run.result
         x = np.asarray(res.x)
-        feasible = _grid_feasible(x, A, b, constraints, slack)
+        feasible = cons.grid_feasible(x, A, b, constraints, slack)
         f = fun(x)[0] if feasible else np.inf
         if not feasible:  # SLSQP stopped outside the limits: keep the start's (feasible) value
             x = x0
-            f = f0 if _grid_feasible(x0, A, b, constraints, slack) else np.inf
+            f = f0 if cons.grid_feasible(x0, A, b, constraints, slack) else np.inf
         # a start the race ended says so; one that ended by itself before a stage keeps SLSQP's message
         message = f"stopped after {res.nit} iterations (not among the best half)" if run.stopped else str(res.message)
         records.append(StartRecord(_report_value(f0, kind), _report_value(f, kind), int(res.nit), message))
@@ -312,6 +321,8 @@ def design(chain: Chain, base: BaseSet, options: ExciteOptions, limits: cons.Lim
             low = margins(traj.evaluate(cons.dense_times(traj, t))[0])[0].min(axis=0)
             names = chain.coupling.limited_passive  # type: ignore[union-attr]  # margins: a closed chain's coupling
             broken += [f"passive joint {names[k % len(names)]} leaves its limits" for k in np.flatnonzero(low < 0)]
+        if loops is not None and not starts.on_loops(loops, traj.evaluate(cons.dense_times(traj, t))[0]).all():
+            broken.append("the loops do not close everywhere (a state past the workspace or near a singularity of the loops)")
         if not broken:
             break
         failures.append(broken)
@@ -373,22 +384,6 @@ def _checked(chain, traj: FourierTrajectory, limits: cons.Limits, phi, t):
         traj = cons.scaled(traj, cons.REPAIR_FACTOR)
         scale = scale * cons.REPAIR_FACTOR
     return traj, scale, broken
-
-
-def _grid_feasible(x, A, b, constraints, slack, rtol: float = 1e-6) -> bool:
-    """Every constraint holds on the grid: the linear ones and the rest conditions up to rtol of their
-    bound's size, the torque and box ones up to their ``slack`` (the limits themselves, not the
-    optimiser's tighter targets)."""
-    scale = max(1.0, float(np.abs(b).max()))
-    if np.any(A @ x - b > rtol * scale):
-        return False
-    for c, sl in zip(constraints[1:], slack[1:], strict=True):
-        v = c["fun"](x)
-        if c["type"] == "eq" and np.any(np.abs(v) > rtol * scale):
-            return False
-        if c["type"] == "ineq" and np.any(v + sl < -rtol * max(1.0, float(np.abs(v).max()))):
-            return False
-    return True
 
 
 def _children(rng: np.random.Generator, count: int) -> list[np.random.Generator]:

@@ -32,12 +32,14 @@ class Start:
     its result."""
 
     def __init__(self, solve: Callable[[Callable], Any], step: Callable[[], None] | None = None,
-                 recoverable: tuple[type[BaseException], ...] = ()):
+                 recoverable: tuple[type[BaseException], ...] = (), start: tuple[Any, float] | None = None):
         self._solve = solve
         self._step_hook = step
         # errors of the optimiser's function at a trial point (a step out of a closed chain's workspace) that end
         # the run at its last iterate instead of the design: its result is then that iterate, with the error's text
+        # (before the first iterate: ``start``, the (x, value) the run started from, when given)
         self._recoverable = recoverable
+        self._start = start
         self._last: Any = None
         self.iterations = 0
         # the criterion at the last iteration (inf before the first): SLSQP's value at the point its last
@@ -60,12 +62,13 @@ class Start:
             try:
                 self.result = self._solve(self._callback)
             except self._recoverable as e:
-                if self._last is None:  # not one iterate to fall back on
+                if self._last is None and self._start is None:  # not one point to fall back on
                     raise
                 from scipy.optimize import OptimizeResult
 
-                self.result = OptimizeResult(x=self._last.x, fun=self._last.fun, nit=self.iterations, success=False,
-                                             status=-1, message=f"ended at a trial point: {e}")
+                x, fun = (self._last.x, self._last.fun) if self._last is not None else self._start  # type: ignore[misc]  # one is set
+                self.result = OptimizeResult(x=x, fun=fun, nit=self.iterations, success=False, status=-1,
+                                             message=f"ended at a trial point: {e}")
             if not self.stopped and self.result is not None and getattr(self.result, "fun", None) is not None:
                 self.value = float(self.result.fun)
         except BaseException as e:  # noqa: BLE001  # handed to the caller's thread by advance
@@ -154,9 +157,10 @@ def race(runs: list[Start], max_iterations: int, raced: bool = True) -> list[boo
 
 
 def run_starts(solvers: list[Callable[[Callable], Any]], max_iterations: int, progress=None,
-               raced: bool = True, recoverable: tuple[type[BaseException], ...] = ()) -> tuple[list[Start], list[bool]]:
+               raced: bool = True, recoverable: tuple[type[BaseException], ...] = (),
+               starts: list[tuple[Any, float]] | None = None) -> tuple[list[Start], list[bool]]:
     """One ``Start`` per solver, raced (``race``; ``raced=False``: each to its end); ``progress(done, total)``
-    after every iteration; ``recoverable``: as ``Start``'s."""
+    after every iteration; ``recoverable`` and ``starts`` (each solver's (x, value) at its start): as ``Start``'s."""
     total = planned_iterations(len(solvers), max_iterations, raced)
     done = [0]
 
@@ -165,7 +169,7 @@ def run_starts(solvers: list[Callable[[Callable], Any]], max_iterations: int, pr
         if progress:
             progress(done[0], total)
 
-    runs = [Start(solve, step, recoverable) for solve in solvers]
+    runs = [Start(solve, step, recoverable, None if starts is None else starts[i]) for i, solve in enumerate(solvers)]
     went_on = race(runs, max_iterations, raced)
     if progress:
         progress(total, total)

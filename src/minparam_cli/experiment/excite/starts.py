@@ -7,6 +7,12 @@ limits, a box or collision shapes, ``feasible_centre`` picks a standing position
 them (the best of STATIC_SAMPLES fixed-seed positions; none: the limits are
 refused as infeasible), and ``feasible_start`` moves a series there and
 shrinks it until it meets them on the grid, so that SLSQP starts feasible.
+
+A closed chain's actuated joints reach only part of their limits' box (a parallel platform's
+workspace is a small part of it): ``closing_start`` moves each series to the reference (where the
+loops close) and shrinks it until they close, within the passive joints' limits and away from a
+singularity of the loops, at every grid time; the standing positions ``feasible_centre`` tries are
+then states of the loops' manifold.
 """
 
 from __future__ import annotations
@@ -43,8 +49,12 @@ def feasible_centre(chain: Chain, limits: cons.Limits, phi) -> np.ndarray:
     from minparam_cli.experiment.simulate import rigid_torque
 
     lo, hi = limits.shrunk_range()
-    u = np.random.default_rng(0).uniform(size=(STATIC_SAMPLES, limits.n))
-    q = np.vstack([(lo + hi) / 2.0, lo + u * (hi - lo)])
+    model = loops_of(chain)
+    if model is None:
+        u = np.random.default_rng(0).uniform(size=(STATIC_SAMPLES, limits.n))
+        q = np.vstack([(lo + hi) / 2.0, lo + u * (hi - lo)])
+    else:  # states of the loops' manifold: the loops close at every position tried
+        q = np.vstack([loop_centre(model, limits)[None, :], loop_states(model, lo, hi, STATIC_SAMPLES)[0]])
     badness = np.zeros(q.shape[0])
     if phi is not None:
         tau = np.abs(rigid_torque(chain, q, np.zeros_like(q), np.zeros_like(q), phi))
@@ -88,3 +98,77 @@ def feasible_start(chain, traj: FourierTrajectory, limits: cons.Limits, phi, cen
             break
         traj = cons.scaled(traj, START_SHRINK)
     return traj
+
+
+def loops_of(chain: Chain):
+    """The loops' model (``loops.model.ClosedModel``) when ``chain`` is a closed chain, else None."""
+    from minparam_cli.loops.coupling import ClosedCoupling
+
+    return chain.coupling.model if isinstance(chain.coupling, ClosedCoupling) else None
+
+
+CENTRE_SAMPLES = 512  # states a closed chain's standing position is chosen from
+
+
+def loop_states(model, lo, hi, count: int) -> tuple[np.ndarray, np.ndarray]:
+    """States of the loops' manifold with the actuated joints in the box [lo, hi]: its centre and ``count``
+    uniform draws (fixed seed), those where the loops close (``on_loops``), as (actuated coordinates,
+    every joint's coordinates)."""
+    from minparam_cli.loops.sample import assemble
+
+    u = np.random.default_rng(0).uniform(size=(count, len(lo)))
+    qa = np.vstack([(lo + hi) / 2.0, lo + u * (hi - lo)])
+    q, ok = assemble(model, qa)
+    return qa[ok], q[ok]
+
+
+def loop_centre(model, limits: cons.Limits) -> np.ndarray:
+    """Actuated coordinates of a standing position well inside the loops' workspace and the joints' ranges
+    less the margin: of ``loop_states``, the one whose joints, passive ones included, are farthest from
+    their limits (relative to each range) and whose loops are farthest from a singularity (σ_min / σ_max
+    of the closure's passive Jacobian), by the smaller of the two; an InputError when none closes."""
+    lo, hi = limits.shrunk_range()
+    qa, q = loop_states(model, lo, hi, CENTRE_SAMPLES)
+    if not len(qa):
+        raise InputError(f"{model.chain.source}: the loops close at none of {CENTRE_SAMPLES + 1} positions of the actuated "
+                         "joints inside their ranges less the margin: no standing position to design about")
+    score = np.full(len(q), 0.5)
+    for j, lim in enumerate(model.chain.limits or ()):
+        if lim is not None and lim[1] > lim[0]:
+            score = np.minimum(score, np.minimum(q[:, j] - lim[0], lim[1] - q[:, j]) / (lim[1] - lim[0]))
+    if model.closure_rank:
+        sv = np.linalg.svd(model.jacobian(q)[0][:, :, list(model.passive)], compute_uv=False)
+        score = np.minimum(score, sv[:, model.closure_rank - 1] / sv[:, 0])
+    return qa[int(np.argmax(score))]
+
+
+def on_loops(model, q_actuated: np.ndarray, min_ratio: float = 0.0) -> np.ndarray:
+    """(N,) whether the loops close at each row of actuated coordinates, with every passive joint within
+    its limits and away from a singularity of the loops (``loops.sample.assemble``; with ``min_ratio``,
+    σ_min / σ_max of the closure's passive Jacobian at least that)."""
+    from minparam_cli.loops.sample import assemble
+
+    q, ok = assemble(model, np.atleast_2d(q_actuated))
+    if min_ratio > 0.0 and model.closure_rank and ok.any():
+        sv = np.linalg.svd(model.jacobian(q[ok])[0][:, :, list(model.passive)], compute_uv=False)
+        ok[ok] = sv[:, model.closure_rank - 1] >= min_ratio * sv[:, 0]
+    return ok
+
+
+CLOSING_SHRINK_STEPS = 40  # START_SHRINK ** 40: 6e-7 of the series' first size
+# a start's states keep this σ_min / σ_max of the loops' passive Jacobian: well inside the workspace, where a
+# rounding of the series cannot tip a state past its edge (the design's checks only ask that the loops close)
+START_CONDITION = 1e-3
+
+
+def closing_start(model, traj: FourierTrajectory, limits: cons.Limits, centre, t) -> FourierTrajectory:
+    """``traj`` moved to ``centre``, scaled into the limits and shrunk about it until the loops of ``model``
+    close at every time of t (``on_loops``); an InputError when even the smallest series leaves them."""
+    traj = FourierTrajectory(traj.base_frequency, np.asarray(centre, dtype=float), traj.a, traj.b)
+    traj = cons.scaled(traj, cons.rigorous_scale(traj, limits))
+    for _ in range(CLOSING_SHRINK_STEPS):
+        if on_loops(model, traj.evaluate(t)[0], START_CONDITION).all():
+            return traj
+        traj = cons.scaled(traj, START_SHRINK)
+    raise InputError(f"{model.chain.source}: no motion about the standing position {np.round(centre, 4).tolist()} keeps the "
+                     "loops closed (within the passive joints' limits, away from a singularity of the loops)")
