@@ -55,6 +55,7 @@ from __future__ import annotations
 import gc
 import os
 import sys
+import threading
 
 M_TRIM_THRESHOLD = -1
 M_MMAP_THRESHOLD = -3
@@ -126,34 +127,39 @@ def freeze_before_exit() -> None:
 # first rows (``preload``); every other import of scipy in the pass waits for that thread first
 # (``await_preload``): two threads importing scipy's submodules at once can meet one partly initialised
 # (scipy's package imports itself in a circle; seen once in six runs of examples/identify_arrays.py:
-# "cannot import name 'PytestTester' from partially initialized module 'scipy._lib._testutils'")
-_PRELOADS: list = []
+# "cannot import name 'PytestTester' from partially initialized module 'scipy._lib._testutils'").
+# One lock, taken by ``preload`` before its thread starts and given back by that thread when its imports
+# are done: passes that run at once in one process (threads of a Dask worker, a user's pool) preload one
+# after the other, and ``await_preload`` returns only when no preload is under way.
+_IMPORTING = threading.Lock()
 
 
 def preload(*modules: str) -> None:
     """Import ``modules`` on a daemon thread (see ``await_preload``)."""
     import importlib
-    import threading
 
     def run() -> None:
-        for m in modules:
-            try:
-                importlib.import_module(m)
-            except ImportError:  # the caller's own import says what is missing
-                pass
+        try:
+            for m in modules:
+                try:
+                    importlib.import_module(m)
+                except ImportError:  # the caller's own import says what is missing
+                    pass
+        finally:
+            _IMPORTING.release()
 
-    t = threading.Thread(target=run, name="minparam-import", daemon=True)
-    _PRELOADS.append(t)
-    t.start()
+    _IMPORTING.acquire()
+    try:
+        threading.Thread(target=run, name="minparam-import", daemon=True).start()
+    except BaseException:
+        _IMPORTING.release()
+        raise
 
 
 def await_preload() -> None:
-    """Wait for the imports ``preload`` started (none: returns at once); call before importing scipy on
-    any thread while a pass may run."""
-    for t in list(_PRELOADS):
-        t.join()
-        if not t.is_alive() and t in _PRELOADS:
-            _PRELOADS.remove(t)
+    """Wait until no ``preload`` is importing; call before importing scipy on any thread while a pass may run."""
+    with _IMPORTING:
+        pass
 
 
 def workers(cap: int) -> int:

@@ -45,7 +45,17 @@ def stream(design: Design, sources: list[Source], n: int, data: DataOptions, dia
     # imported beside the readers' start, while this thread would only wait for the first rows (every
     # other scipy import of the pass waits for them: runtime.preload)
     preload("scipy.linalg.blas", "scipy.linalg.cython_blas", "scipy.linalg.cython_lapack", "scipy.special")
-    for piece, sub, rows in ahead(_rows(state, sources, n, data, slots, reports, spare), depth=ROWS_AHEAD):
+    try:
+        _fold(ahead(_rows(state, sources, n, data, slots, reports, spare), depth=ROWS_AHEAD), acc, grams, thin, motion,
+              data, keep, spare)
+    finally:
+        await_preload()  # (a pass that folded no rows, or failed) the caller may import scipy next
+    return acc, thin, motion, reports, state["design"]
+
+
+def _fold(items, acc, grams, thin, motion, data, keep, spare) -> None:
+    """``stream``'s consuming half: the rows into the factors, the samples into the motion and the thinned set."""
+    for piece, sub, rows in items:
         if rows is not None:  # sub: (the samples of the rows, their design, the file)
             sub, _, path = sub
             try:
@@ -65,8 +75,6 @@ def stream(design: Design, sources: list[Source], n: int, data: DataOptions, dia
             if keep and piece.part in thin:
                 thin[piece.part].add(sub)
         sub = rows = None  # not alive while the next rows are folded in
-    await_preload()  # (a pass that folded no rows) the diagnosis imports scipy after it
-    return acc, thin, motion, reports, state["design"]
 
 
 class _Spare:
