@@ -20,14 +20,11 @@ from minparam_cli.loops.sample import manifold_states
 
 
 RECENT = 4  # closures a ClosedCoupling keeps per thread
-# a state this close to a recent one's (rad, or fraction of the robot's size) closes from it: Newton from
-# the recent closure moved along its tangent.  Only excite's finite differences (steps of 1e-6) are that
-# close: they stay on the branch of the state they differ from, and any other state closes from the
-# reference, as on its first call, so that a state's closure does not depend on what came before
-WARM_STEP = 1e-4
-# per thread, per coupling, its last RECENT closures (actuated q, tree q, error): excite's finite differences
-# ask for the same states again and again, and for states a step of 1e-6 away (``ClosedCoupling._close``);
-# outside the (pickled, frozen) coupling itself
+# per thread, per coupling, its last RECENT closures (actuated q, tree q, error, tangent map): excite's criterion
+# asks for the same states again and again (``ClosedCoupling._close``); outside the (pickled, frozen)
+# coupling itself.  Only the same states are reused: a state near a recent one is closed from the reference
+# as any other, since where the reference lies far from the motion the two can end in different assembly
+# modes (the planar 3-RRR: docs/methods/closed_chains.md)
 _RECENT = threading.local()
 
 
@@ -44,28 +41,19 @@ class ClosedCoupling(Coupling):
 
     def _close(self, q: np.ndarray):
         """``model.close_from_reference(q)`` and, where every state closed, ``model.tangent_map`` there (else
-        None), or a recent call's: the same where q is the same, else Newton from it (moved along its
-        tangent) where every state moved by at most WARM_STEP of the robot's size or a radian, when that
-        closes every state (the same assembly mode, closed to the same tolerance)."""
+        None); for the same q as a recent call, copies of that call's."""
         model = self.model
         assert model is not None
         table = getattr(_RECENT, "table", None)
         if table is None:
             table = _RECENT.table = weakref.WeakKeyDictionary()
         recent = table.setdefault(self, [])
-        for q0, qt0, err0, maps in recent:
+        for q0, qt0, err0, maps0 in recent:
             if q0.shape == q.shape and np.array_equal(q0, q):
-                return qt0.copy(), err0.copy(), maps
-        for q0, qt0, _, maps0 in recent:
-            if maps0 is not None and q0.shape == q.shape and np.max(np.abs(q - q0)) <= WARM_STEP * max(1.0, model.chain.length_scale):
-                # predictor (the tangent at the recent closure) and Newton's corrector
-                qt, err = model.close(q, qt0 + np.einsum("snf,sf->sn", maps0[0], q - q0))
-                if np.all(err < CLOSED_RTOL * model.chain.length_scale):
-                    break
-        else:
-            qt, err = model.close_from_reference(q)
+                return qt0.copy(), err0.copy(), None if maps0 is None else (maps0[0].copy(), maps0[1].copy())
+        qt, err = model.close_from_reference(q)
         maps = model.tangent_map(qt) if np.all(err < CLOSED_RTOL * model.chain.length_scale) else None
-        recent.insert(0, (q.copy(), qt.copy(), err.copy(), maps))
+        recent.insert(0, (q.copy(), qt.copy(), err.copy(), None if maps is None else (maps[0].copy(), maps[1].copy())))
         del recent[RECENT:]
         return qt, err, maps
 

@@ -171,19 +171,28 @@ def sensitivities(chain: Chain, kept, q, qd, qdd, kind: str, phi=None, scaled: b
     # comes with the inertial columns' difference
     T, qd_joints = _coupling_tangent(chain, q, qd, qdd)
     Yq0, Gq = (Y0, Gi) if T is None else (Y, G)
+    extras = _extra_derivatives(chain, qd_joints)
+    # a closed chain's q̈ of joint k (a rotor inertia column's signal) carries the drift g_k(q, q̇), quadratic in q̇:
+    # its q̇-derivative comes from the central difference of the loops' q̈ (exact), weighted as the column is
+    drifting = [(col, kk, np.einsum("sf,sf->s", G[:, :, col], T[:, kk, :])) for col, kk, which, _ in extras
+                if which == "a" and T is not None and hasattr(chain.coupling, "tree_states")]
     for k in range(n):
         e = np.zeros(n)
         e[k] = 1.0
+        if drifting:
+            dg = (chain.coupling.tree_states(q, qd + e, qdd)[2] - chain.coupling.tree_states(q, qd - e, qdd)[2]) / 2.0  # type: ignore[union-attr]  # drifting: a closed chain's coupling
+            for _, kk, w in drifting:
+                out["v"][:, k] += w * dg[:, kk]
         # q: forward difference (first order, step Q_STEP); q̇: central (exact, Y is quadratic in q̇);
         # q̈: forward with a unit step (exact, Y is linear in q̈)
         dYq = (regressor(chain, q + Q_STEP * e, qd, qdd, include_extras=T is not None) - Yq0) / Q_STEP
         dYv = (regressor(chain, q, qd + e, qdd, include_extras=False) - regressor(chain, q, qd - e, qdd, include_extras=False)) / 2.0
         dYa = regressor(chain, q, qd, qdd + e, include_extras=False) - Y0
         for which, dY in (("q", dYq), ("v", dYv), ("a", dYa)):
-            out[which][:, k] = np.einsum("sic,sic->s", Gq if which == "q" else Gi, dY)
+            out[which][:, k] += np.einsum("sic,sic->s", Gq if which == "q" else Gi, dY)
             if dtau is not None:
                 dtau[which][:, :, k] = dY[:, :, :ni] @ phi
-    for col, k, which, values in _extra_derivatives(chain, qd_joints):
+    for col, k, which, values in extras:
         if T is None:
             out[which][:, k] += G[:, k, col] * values
         else:  # Y[s, f, col] = T[s, k, f]·x_k(s) with x_k's rate or acceleration = Σ_f' T[s, k, f']·(that of f')

@@ -286,6 +286,8 @@ def design(chain: Chain, base: BaseSet, options: ExciteOptions, limits: cons.Lim
             if loop_centre[0] is None:
                 loop_centre[0] = starts.loop_centre(loops, limits)
             start, in_rounds = starts.closing_start(loops, start, limits, loop_centre[0], tg), True
+        if loops is not None:
+            starts.refuse_mode_jumps(loops, start, cons.dense_times(start))
         if centre is not None:
             start = starts.feasible_start(chain, start, limits, phi if use_tau else None, centre, tg)
         x0 = start.matrix().ravel()
@@ -323,6 +325,8 @@ def design(chain: Chain, base: BaseSet, options: ExciteOptions, limits: cons.Lim
             broken += [f"passive joint {names[k % len(names)]} leaves its limits" for k in np.flatnonzero(low < 0)]
         if loops is not None and not starts.on_loops(loops, traj.evaluate(cons.dense_times(traj, t))[0]).all():
             broken.append("the loops do not close everywhere (a state past the workspace or near a singularity of the loops)")
+        elif loops is not None and starts.mode_jumps(loops, traj.evaluate(np.sort(cons.dense_times(traj)))[0]):
+            broken.append("the loops close in different assembly modes along the motion")
         if not broken:
             break
         failures.append(broken)

@@ -172,3 +172,33 @@ def closing_start(model, traj: FourierTrajectory, limits: cons.Limits, centre, t
         traj = cons.scaled(traj, START_SHRINK)
     raise InputError(f"{model.chain.source}: no motion about the standing position {np.round(centre, 4).tolist()} keeps the "
                      "loops closed (within the passive joints' limits, away from a singularity of the loops)")
+
+
+# between two samples of a motion (the dense check's times), a passive joint may move this much (rad, or this
+# fraction of the robot's size) beyond what the loops' tangent predicts; more: the two states closed in
+# different assembly modes (continuation from a reference far from the motion, docs/methods/closed_chains.md)
+MODE_JUMP = 0.1
+
+
+def mode_jumps(model, q_actuated: np.ndarray) -> int:
+    """Steps between consecutive rows of ``q_actuated`` (a motion, densely sampled; the loops closed at
+    each) where a passive joint jumps (``MODE_JUMP``)."""
+    from minparam_cli.chain import REVOLUTE
+
+    q, _ = model.close_from_reference(np.atleast_2d(q_actuated))
+    G, _ = model.tangent_map(q)
+    p = list(model.passive)
+    miss = (np.diff(q, axis=0) - np.einsum("snf,sf->sn", G[:-1], np.diff(q_actuated, axis=0)))[:, p]
+    revolute = np.array([model.chain.types[j] == REVOLUTE for j in p])
+    miss[:, revolute] = (miss[:, revolute] + np.pi) % (2 * np.pi) - np.pi
+    scale = np.where(revolute, 1.0, model.chain.length_scale)
+    return int(np.sum(np.any(np.abs(miss) > MODE_JUMP * scale, axis=1)))
+
+
+def refuse_mode_jumps(model, traj: FourierTrajectory, t) -> None:
+    """An InputError when the loops close in different assembly modes along ``traj`` (at times t)."""
+    count = mode_jumps(model, traj.evaluate(t)[0])
+    if count:
+        raise InputError(f"{model.chain.source}: along a start's motion the loops close in different assembly modes "
+                         f"({count} of {len(t) - 1} steps jump): they are closed by continuation from the description's "
+                         "reference configuration, which should lie in the workspace the robot moves in")
