@@ -282,11 +282,12 @@ def design(chain: Chain, base: BaseSet, options: ExciteOptions, limits: cons.Lim
 
     for child in _children(rng, options.starts):
         start = starts.random_start(limits, options, child)
-        if loops is not None and not starts.on_loops(loops, start.evaluate(tg)[0], starts.START_CONDITION).all():
-            if loop_centre[0] is None:
-                loop_centre[0] = starts.loop_centre(loops, limits)
-            start, in_rounds = starts.closing_start(loops, start, limits, loop_centre[0], tg), True
         if loops is not None:
+            closes = starts.on_loops(loops, start.evaluate(tg)[0], starts.START_CONDITION).all()
+            if not closes or centre is not None:  # (feasible_start below moves it to the centre: closed there)
+                if loop_centre[0] is None:
+                    loop_centre[0] = starts.loop_centre(loops, limits)
+                start, in_rounds = starts.closing_start(loops, start, limits, loop_centre[0], tg), in_rounds or not closes
             starts.refuse_mode_jumps(loops, start, cons.dense_times(start))
         if centre is not None:
             start = starts.feasible_start(chain, start, limits, phi if use_tau else None, centre, tg)
