@@ -42,17 +42,27 @@ def within_limits(model: ClosedModel, q: np.ndarray) -> np.ndarray:
     return ok
 
 
-def assemble(model: ClosedModel, q_a: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def passive_extremes(model: ClosedModel, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(σ_low, σ_max) (N,) of the loops' passive Jacobian at the configurations q (N, n): σ_low its
+    closure_rank-th singular value (σ_max itself without closure equations); their ratio falls to 0 at a
+    singularity of the loops."""
+    J, _ = model.jacobian(q)
+    sv = np.linalg.svd(J[:, :, list(model.passive)], compute_uv=False)
+    top = sv[:, 0]
+    return (sv[:, model.closure_rank - 1] if model.closure_rank else top), top
+
+
+def assemble(model: ClosedModel, q_a: np.ndarray, min_ratio: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
     """Configurations (N, n) with the actuated joints at ``q_a`` and the loops closed in the reference's
-    assembly mode (continuation), and whether each one closed, within the limits and away from a singularity."""
+    assembly mode (continuation), and whether each one closed, within the limits and away from a singularity
+    (σ_low / σ_max above 1 / MAX_CONDITION, and at least ``min_ratio``: ``passive_extremes``)."""
     q, err = model.close_from_reference(q_a)
     ok = (err < CLOSED_RTOL * model.chain.length_scale) & within_limits(model, q)
     if ok.any():
-        J, _ = model.jacobian(q)
-        sv = np.linalg.svd(J[:, :, list(model.passive)], compute_uv=False)
-        top = sv[:, 0]
-        low = sv[:, model.closure_rank - 1] if model.closure_rank else top
+        low, top = passive_extremes(model, q)
         ok &= low > top / MAX_CONDITION
+        if min_ratio > 0.0 and model.closure_rank:
+            ok &= low >= min_ratio * top
     return q, ok
 
 

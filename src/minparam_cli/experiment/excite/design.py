@@ -181,7 +181,7 @@ def design(chain: Chain, base: BaseSet, options: ExciteOptions, limits: cons.Lim
     centre = starts.feasible_centre(chain, limits, phi if use_tau else None) if (use_tau or limits.box is not None
                                                                                   or limits.collisions is not None) else None
     loops = starts.loops_of(chain)  # a closed chain: every start inside the loops' workspace
-    loop_centre: list = [centre]
+    standing = centre  # where a closed chain's start that leaves the loops is moved (chosen when first needed)
 
     cache: dict = {}
 
@@ -285,9 +285,9 @@ def design(chain: Chain, base: BaseSet, options: ExciteOptions, limits: cons.Lim
         if loops is not None:
             closes = starts.on_loops(loops, start.evaluate(tg)[0], starts.START_CONDITION).all()
             if not closes or centre is not None:  # (feasible_start below moves it to the centre: closed there)
-                if loop_centre[0] is None:
-                    loop_centre[0] = starts.loop_centre(loops, limits)
-                start, in_rounds = starts.closing_start(loops, start, limits, loop_centre[0], tg), in_rounds or not closes
+                if standing is None:
+                    standing = starts.loop_centre(loops, limits)
+                start, in_rounds = starts.closing_start(loops, start, limits, standing, tg), in_rounds or not closes
             starts.refuse_mode_jumps(loops, start, cons.dense_times(start))
         if centre is not None:
             start = starts.feasible_start(chain, start, limits, phi if use_tau else None, centre, tg)

@@ -9,10 +9,11 @@ refused as infeasible), and ``feasible_start`` moves a series there and
 shrinks it until it meets them on the grid, so that SLSQP starts feasible.
 
 A closed chain's actuated joints reach only part of their limits' box (a parallel platform's
-workspace is a small part of it): ``closing_start`` moves each series to the reference (where the
-loops close) and shrinks it until they close, within the passive joints' limits and away from a
-singularity of the loops, at every grid time; the standing positions ``feasible_centre`` tries are
-then states of the loops' manifold.
+workspace is a small part of it): ``closing_start`` moves a series that leaves it to a standing
+position inside it (``loop_centre``) and shrinks it until the loops close, within the passive joints'
+limits and away from a singularity of the loops, at every grid time; the standing positions
+``feasible_centre`` tries are then states of the loops' manifold; ``refuse_mode_jumps`` refuses a
+motion along which they close in different assembly modes.
 """
 
 from __future__ import annotations
@@ -127,6 +128,8 @@ def loop_centre(model, limits: cons.Limits) -> np.ndarray:
     less the margin: of ``loop_states``, the one whose joints, passive ones included, are farthest from
     their limits (relative to each range) and whose loops are farthest from a singularity (σ_min / σ_max
     of the closure's passive Jacobian), by the smaller of the two; an InputError when none closes."""
+    from minparam_cli.loops.sample import passive_extremes
+
     lo, hi = limits.shrunk_range()
     qa, q = loop_states(model, lo, hi, CENTRE_SAMPLES)
     if not len(qa):
@@ -137,8 +140,8 @@ def loop_centre(model, limits: cons.Limits) -> np.ndarray:
         if lim is not None and lim[1] > lim[0]:
             score = np.minimum(score, np.minimum(q[:, j] - lim[0], lim[1] - q[:, j]) / (lim[1] - lim[0]))
     if model.closure_rank:
-        sv = np.linalg.svd(model.jacobian(q)[0][:, :, list(model.passive)], compute_uv=False)
-        score = np.minimum(score, sv[:, model.closure_rank - 1] / sv[:, 0])
+        low, top = passive_extremes(model, q)
+        score = np.minimum(score, low / top)
     return qa[int(np.argmax(score))]
 
 
@@ -148,11 +151,7 @@ def on_loops(model, q_actuated: np.ndarray, min_ratio: float = 0.0) -> np.ndarra
     σ_min / σ_max of the closure's passive Jacobian at least that)."""
     from minparam_cli.loops.sample import assemble
 
-    q, ok = assemble(model, np.atleast_2d(q_actuated))
-    if min_ratio > 0.0 and model.closure_rank and ok.any():
-        sv = np.linalg.svd(model.jacobian(q[ok])[0][:, :, list(model.passive)], compute_uv=False)
-        ok[ok] = sv[:, model.closure_rank - 1] >= min_ratio * sv[:, 0]
-    return ok
+    return assemble(model, np.atleast_2d(q_actuated), min_ratio)[1]
 
 
 CLOSING_SHRINK_STEPS = 40  # START_SHRINK ** 40: 6e-7 of the series' first size
