@@ -130,12 +130,44 @@ def test_a_start_outside_the_workspace_is_moved_inside_it_and_shrunk(rrr):
 def test_excite_refuses_loops_that_close_in_different_assembly_modes():
     """The 3-RRR's reference lies outside its joints' ranges: continued from it, the loops close in other
     assembly modes from one sample of a motion to the next (passive joints jump), so no design is
-    offered (before: a one-line failure, the random starts outside the workspace)."""
-    import minparam
+    offered (before: a one-line failure, the random starts outside the workspace): one line, exit 2."""
+    from typer.testing import CliRunner
+
+    from minparam_cli.cli.app import app
+
+    r = CliRunner().invoke(app, ["excite", "robots/planar_3rrr.yaml", "--seed", "0", "--starts", "1",
+                                 "--max-iterations", "5", "--harmonics", "3"])
+    assert r.exit_code == 2, r.output
+    errors = [line for line in r.output.splitlines() if line.startswith("minparam: error:")]
+    assert len(errors) == 1 and "Traceback" not in r.output
+    assert "different assembly modes" in errors[0] and "reference configuration" in errors[0]
+
+
+def test_no_standing_position_inside_the_loops_is_one_line(rrr):
+    """Joint ranges (less the margin) where the loops close nowhere: no standing position to design about."""
     from minparam_cli.errors import InputError
 
-    with pytest.raises(InputError, match="different assembly modes .* reference configuration"):
-        minparam.excite("robots/planar_3rrr.yaml", seed=0, starts=1, max_iterations=5, harmonics=3)
+    limits = _limits(rrr)
+    far = np.array([3.0, -1.1, -5.3])  # the corner of the 3-RRR's box: the loops do not close near it
+    tight = type(limits)(lower=far - 1e-3, upper=far + 1e-3, velocity=limits.velocity, acceleration=limits.acceleration,
+                         effort=limits.effort, margin=limits.margin)
+    with pytest.raises(InputError, match="the loops close at none of 513 positions"):
+        starts.loop_centre(rrr.coupling.model, tight)
+
+
+def test_a_standing_position_that_does_not_close_is_one_line(rrr):
+    """closing_start about a position where the loops do not close: shrinking cannot help, one line."""
+    from minparam_cli.errors import InputError
+    from minparam_cli.experiment.excite.design import ExciteOptions
+
+    limits = _limits(rrr)
+    t = np.linspace(0.0, 10.0, 80, endpoint=False)
+    start = starts.random_start(limits, ExciteOptions(), np.random.default_rng(0))
+    lo, hi = limits.shrunk_range()
+    far = lo + 0.01 * (hi - lo)  # inside the ranges less the margin, where the loops do not close
+    assert not starts.on_loops(rrr.coupling.model, far[None, :]).any()
+    with pytest.raises(InputError, match="no motion about the standing position .* keeps the loops closed"):
+        starts.closing_start(rrr.coupling.model, start, limits, far, t)
 
 
 def test_excite_designs_the_delta_robot():
