@@ -8,17 +8,18 @@ function (the same on every joint: slot k of joint j is that function of joint
 j's signals), and the final design's factor follows from it by a linear map of
 the columns (``Accumulator.transform``), without reading the file again:
 
-* asymmetric Coulomb, viscous, offset, rotor inertia, spring, gravity error and drift
-  have slots of their own;
+* asymmetric Coulomb, viscous and offset have slots of their own;
 * Coulomb is the sum of the two asymmetric Coulomb slots (sign q̇ = [q̇>0] − [q̇<0]);
 * gain is the model torque X_j·θ_model, a combination of the base columns.
 
-Cogging and position error (59 orders each), Stribeck friction (7 grid values) and load-dependent
-Coulomb (|τ_model| is not linear in the columns) have no slot: a final design with one of them
-streams the file again.  Stribeck's seven columns on every joint cost about a sixth of the pass
-(the factor update's work grows with the square of a joint's columns) to spare a second pass
-only when the diagnosis names Stribeck friction, which neither real recording of the project did
-(docs/methods/streaming.md, "What was tried").
+Every other effect has no slot, and a final design with one of them streams the file again: cogging
+and position error (59 orders each), Stribeck friction (7 grid values), load-dependent Coulomb
+(|τ_model| is not linear in the columns), and rotor inertia, spring, gravity error and drift.  A
+slot column on every joint costs the factor update about 2·Σ_j c_j (it grows with the square of a
+joint's columns) on every run, to spare a second pass only on the runs whose final model names that
+effect and no effect without a slot.  The slots are the classic friction model (Coulomb, viscous,
+offset), the effects nearly every identification adds; both real recordings of the project took a
+second pass anyway (docs/methods/streaming.md, "What was tried").
 """
 
 from __future__ import annotations
@@ -29,7 +30,7 @@ from minparam_cli.measured.records import Block
 from minparam_cli.identify.passes.design import Design, Term
 from minparam_cli.dynamics.effects import EFFECTS, Signals, source_columns
 
-SLOTTED = ("asymmetric_coulomb", "viscous", "offset", "rotor_inertia", "spring", "gravity_error", "drift")
+SLOTTED = ("asymmetric_coulomb", "viscous", "offset")
 DERIVED = {"coulomb": "asymmetric_coulomb"}  # effect -> the slotted effect it is a combination of
 FROM_MODEL = ("gain",)
 
