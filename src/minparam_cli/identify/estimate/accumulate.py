@@ -70,11 +70,12 @@ def _fast(R: np.ndarray, A: np.ndarray, segments=None):
         M = np.zeros((B.shape[1], B.shape[1]))
         for G in parts:
             M += G
-    if len(low):
-        S = solve_right_upper(P, R)  # R P⁻¹
+    one = np.ones(len(M))
+    if len(low):  # S = R P⁻¹: R's rows are P's but in the floored rows, so S is the identity but in those
+        S = solve_right_upper(P, R[low])
         M += S.T @ S
-    else:
-        M[np.diag_indices_from(M)] += 1.0
+        one[low] = 0.0
+    M[np.diag_indices_from(M)] += one  # SᵀS's identity rows (0.0 where floored: exact, tiny entries keep their bits)
     if not np.all(np.isfinite(M)) or np.max(np.diagonal(M)) > LIMIT + 1.0:
         return None
     try:
