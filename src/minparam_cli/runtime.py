@@ -91,8 +91,10 @@ READ_AHEAD = 1
 ROWS_AHEAD = 2
 
 # samples of the thinned diagnosis sample factored at a time (its catalogue is ~180 columns a joint:
-# 2048 x 180 x 7 joints is 20 MB of rows)
-DIAGNOSIS_QR_ROWS = 2048
+# 1024 x 180 x 7 joints is 10 MB of rows, and as much again for the columns before they are joined). The
+# diagnosis runs while the test data are still being read (identify.passes.stream.Pass): with 2048 the
+# 1 M-sample Panda run peaked at 333 MB beside the pass's buffers, with 1024 at 268-283 MB
+DIAGNOSIS_QR_ROWS = 1024
 
 
 def single_thread_blas() -> None:

@@ -5,8 +5,8 @@ plus the slot columns of the effect library (training and held-out parts, see
 ``slots``), and a bounded, evenly thinned sample of at most ``diagnosis_cap``
 samples kept in memory for the diagnosis.  The final design's factors follow
 from the accumulated ones by a linear map of the columns; only a design with
-an effect that has no slot (cogging, load-dependent Coulomb) streams the data
-a second time.  Memory is bounded by the chunk size and the cap, not by the
+an effect that has no slot (``slots.SLOTTED``) streams the data a second time.
+The diagnosis runs while the test data are still being read (``stream.Pass``).  Memory is bounded by the chunk size and the cap, not by the
 file.  The pass itself is ``identify.stream``.
 """
 
@@ -33,7 +33,7 @@ from minparam_cli.identify.physical.report import PhysicalReport
 from minparam_cli.identify.assess.quality import COND_LIMIT, check_excitation, flags, keep_physical
 from minparam_cli.identify.passes.roles import DEFAULT_SPLIT, FIT, SELECTION, TEST, describe, plan
 from minparam_cli.identify.passes.slots import final_maps, slot_sources
-from minparam_cli.identify.passes.stream import stream
+from minparam_cli.identify.passes.stream import Pass, stream
 from minparam_cli.identify.assess.uncertainty import BlockGrams, Uncertainty, UncertaintyOptions, block_length, estimate, relative_percent
 from minparam_cli.identify.result import IdentifyResult
 
@@ -93,34 +93,38 @@ def _identify(chain: Chain, data_path: Path, opts: IdentifyOptions, progress) ->
 
     slots = slot_sources(opts.diagnosis.effects) if opts.diagnose else ()
     grams = BlockGrams(opts.uncertainty.block_s or block_length(opts.data.cutoff_hz))
-    acc_all, thin, motion, reports, design = stream(design, sources, n, opts.data, opts.diagnosis_cap, keep=opts.diagnose,
-                                                    slots=slots, grams=grams)
-    maps = None
+    running = Pass(design, sources, n, opts.data, opts.diagnosis_cap, opts.diagnose, slots, grams)
+    try:
+        acc_early, thin, motion, design = running.early()  # the test data are still being read
+        _enough(acc_early, design, data_path)
+        acc = {k: (a.restrict(list(range(design.p))) if slots else a) for k, a in acc_early.items()}
+        prior = opts.physical is not None and opts.physical.prior != "none"
+        # with a prior, the data need not inform every parameter: the prior holds the others (and says which)
+        cond_scaled = check_excitation(acc[FIT], design, motion, float("inf") if prior else opts.cond_limit)
+        fit0 = solve(acc[FIT], design.names, opts.weighted)
+        before = errors(acc[SELECTION], fit0.theta, fit0.columns)
+        design = replace(design, theta_model=full_theta(fit0, design.p))
+        d = None
+        if opts.diagnose:  # beside the reading of the test data, which it never sees
+            train, hold = thin[FIT].block(), thin[SELECTION].block()
+            diag_opts = replace(opts.diagnosis, weighted=opts.weighted, horizon_s=grams.length)  # σ's blocks: N_eff's lags
+            d = diagnose(design, train, hold, diag_opts, progress)
+        acc_all, _, _, reports, _ = running.result()
+    finally:
+        running.close()
+    _enough(acc_all, design, data_path)
     keys = list(acc_all)
-    for key in keys:
-        need = design.p if key == FIT else 0
-        if acc_all[key].rows.sum() <= need:
-            raise DataError(f"{data_path}: the {key} data have too few samples ({int(acc_all[key].rows[0])})"
-                            + (f" for {design.p} parameters" if key == FIT else ""))
-    acc = {k: (a.restrict(list(range(design.p))) if slots else a) for k, a in acc_all.items()}
-    prior = opts.physical is not None and opts.physical.prior != "none"
-    # with a prior, the data need not inform every parameter: the prior holds the others (and says which)
-    cond_scaled = check_excitation(acc[FIT], design, motion, float("inf") if prior else opts.cond_limit)
-    fit0 = solve(acc[FIT], design.names, opts.weighted)
-    before = errors(acc[SELECTION], fit0.theta, fit0.columns)
     test_keys = [k for k in keys if k not in (FIT, SELECTION)]
+    acc.update({k: (acc_all[k].restrict(list(range(design.p))) if slots else acc_all[k]) for k in test_keys})
     tests_rigid = {k: errors(acc[k], fit0.theta, fit0.columns) for k in test_keys}
-    design = replace(design, theta_model=full_theta(fit0, design.p))
 
+    maps = None
     steps_out = [Step(None, (), None, before)]
     stop_reason = "diagnosis off (--no-diagnose)"
     final_fit, after, final_design, acc_final = fit0, before, design, acc
     diag_info, rejected, diag_steps = {}, [], []
     artifacts = Artifacts()
-    if opts.diagnose:
-        train, hold = thin[FIT].block(), thin[SELECTION].block()
-        diag_opts = replace(opts.diagnosis, weighted=opts.weighted, horizon_s=grams.length)  # σ's blocks: N_eff's lags
-        d = diagnose(design, train, hold, diag_opts, progress)
+    if d is not None:
         diag_steps = d.steps
         stop_reason = d.stop_reason
         rejected = d.rejected
@@ -225,6 +229,15 @@ def _identify(chain: Chain, data_path: Path, opts: IdentifyOptions, progress) ->
 
         found.append(boundary_flag(list(physical.on_boundary), physical.margin_kg))
     return replace(result, flags=tuple(found), elapsed_s=round(time.perf_counter() - t_start, 4)), artifacts
+
+
+def _enough(accs: dict, design: Design, data_path: Path) -> None:
+    """Refuse a part with too few samples (the fit part: no more than the design's columns)."""
+    for key, acc in accs.items():
+        need = design.p if key == FIT else 0
+        if acc.rows.sum() <= need:
+            raise DataError(f"{data_path}: the {key} data have too few samples ({int(acc.rows[0])})"
+                            + (f" for {design.p} parameters" if key == FIT else ""))
 
 
 def _textbook(artifacts: Artifacts, fit) -> np.ndarray:

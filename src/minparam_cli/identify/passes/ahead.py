@@ -19,7 +19,7 @@ from __future__ import annotations
 import contextvars
 import queue
 import threading
-from collections.abc import Iterator
+from collections.abc import Generator, Iterator
 from typing import TypeVar
 
 T = TypeVar("T")
@@ -28,7 +28,7 @@ _END = object()
 POLL_S = 0.1  # how often a producer blocked on a full queue looks whether the consumer has gone
 
 
-def ahead(gen: Iterator[T], depth: int = 2) -> Iterator[T]:
+def ahead(gen: Iterator[T], depth: int = 2) -> Generator[T, None, None]:
     """The items of ``gen``, produced on a daemon thread up to ``depth`` items ahead."""
     q: queue.Queue = queue.Queue(maxsize=depth)
     stop = threading.Event()

@@ -22,41 +22,102 @@ from minparam_cli.measured.records import Block, DataOptions, DataReport
 from minparam_cli.runtime import READ_AHEAD, REGRESSOR_ROWS, ROWS_AHEAD, await_preload, preload
 
 
+EARLY = object()  # the rows' marker: every fit and selection sample comes before it
+
+
 def stream(design: Design, sources: list[Source], n: int, data: DataOptions, diagnosis_cap: int, keep: bool, slots=(),
            grams=None):
     """One pass over the data: per-joint factors of [design columns | slot columns | τ] for every part
     (fit, selection, test1, ...), the thinned diagnosis samples (fit and selection), the motion of
-    the fit part, the data reports, and the design with its drift origin set.
+    the fit part, the data reports, and the design with its drift origin set (``Pass.result``)."""
+    running = Pass(design, sources, n, data, diagnosis_cap, keep, slots, grams)
+    try:
+        return running.result()
+    finally:
+        running.close()
+
+
+class Pass:
+    """``stream`` on a thread of its own, so that the caller can go on as soon as the fit and selection
+    data are in (``early``) while the test data are still being read (``result``): identify's
+    diagnosis never sees the test data, and runs beside their reading.
 
     Three threads (``identify.ahead``): one reads and filters the file, one builds the rows of the
-    regressor and the slot columns, and this one folds them into the factors; the parser, the
-    kernel, numpy's ufuncs and BLAS release the GIL, so the three overlap on two cores.  The rows
-    reach the factors in the same order as on one thread, so every number is the same."""
-    from minparam_cli.identify.passes.ahead import ahead
+    regressor and the slot columns, and one folds them into the factors; the parser, the kernel,
+    numpy's ufuncs and BLAS release the GIL, so the three overlap on two cores.  The rows reach the
+    factors in the same order as on one thread, so every number is the same."""
 
-    width = source_columns(slots, design.p)[1]
-    acc = {k: Accumulator(n, width) for k in parts(sources)}
-    thin = {FIT: _Thinned(diagnosis_cap), SELECTION: _Thinned(diagnosis_cap // 2)}
-    motion = Motion(n)
-    reports: list[DataReport] = []
-    state = {"design": design}
-    spare = _Spare()
-    # the factor update's first call needs scipy.linalg (about 0.12 s to import), the diagnosis scipy.special:
-    # imported beside the readers' start, while this thread would only wait for the first rows (every
-    # other scipy import of the pass waits for them: runtime.preload)
-    preload("scipy.linalg.blas", "scipy.linalg.cython_blas", "scipy.linalg.cython_lapack", "scipy.special")
-    try:
-        _fold(ahead(_rows(state, sources, n, data, slots, reports, spare), depth=ROWS_AHEAD), acc, grams, thin, motion,
-              data, keep, spare)
-    finally:
-        await_preload()  # (a pass that folded no rows, or failed) the caller may import scipy next
-    return acc, thin, motion, reports, state["design"]
+    def __init__(self, design: Design, sources: list[Source], n: int, data: DataOptions, diagnosis_cap: int, keep: bool,
+                 slots=(), grams=None):
+        import contextvars
+        import threading
+
+        width = source_columns(slots, design.p)[1]
+        self.acc = {k: Accumulator(n, width) for k in parts(sources)}
+        self.thin = {FIT: _Thinned(diagnosis_cap), SELECTION: _Thinned(diagnosis_cap // 2)}
+        self.motion = Motion(n)
+        self.reports: list[DataReport] = []
+        self._state = {"design": design}
+        self._early, self._done, self._stop = threading.Event(), threading.Event(), threading.Event()
+        self._error: BaseException | None = None
+        args = (sources, n, data, keep, slots, grams)
+        # in a copy of the caller's context: the Python API's arrays registered by name (measured.arrays)
+        self._thread = threading.Thread(target=contextvars.copy_context().run, args=(self._run, *args),
+                                        name="minparam-pass", daemon=True)
+        self._thread.start()
+
+    def _run(self, sources, n, data, keep, slots, grams) -> None:
+        from minparam_cli.identify.passes.ahead import ahead
+
+        spare = _Spare()
+        # the factor update's first call needs scipy.linalg (about 0.12 s to import), the diagnosis
+        # scipy.special: imported beside the readers' start, while this thread would only wait for the
+        # first rows (every other scipy import of the pass waits for them: runtime.preload)
+        preload("scipy.linalg.blas", "scipy.linalg.cython_blas", "scipy.linalg.cython_lapack", "scipy.special")
+        try:
+            rows = ahead(_rows(self._state, sources, n, data, slots, self.reports, spare), depth=ROWS_AHEAD)
+            try:
+                _fold(rows, self.acc, grams, self.thin, self.motion, data, keep, spare, self._early.set, self._stop)
+            finally:
+                rows.close()
+        except BaseException as e:  # noqa: BLE001 - raised in the caller's thread by early() or result()
+            self._error = e
+        finally:
+            await_preload()  # (a pass that folded no rows, or failed) the caller may import scipy next
+            self._done.set()
+            self._early.set()
+
+    def early(self) -> tuple[dict, dict, Motion, Design]:
+        """(the fit and selection accumulators, the thinned samples, the motion, the design) once every
+        fit and selection sample is folded in; the test parts go on being read.  Raises the pass's
+        error if it failed before."""
+        self._early.wait()
+        if self._error is not None:
+            raise self._error
+        return {k: self.acc[k] for k in (FIT, SELECTION) if k in self.acc}, self.thin, self.motion, self._state["design"]
+
+    def result(self):
+        """(accumulators of every part, thinned samples, motion, data reports, design) once the pass has ended."""
+        self._done.wait()
+        self._thread.join()
+        if self._error is not None:
+            raise self._error
+        return self.acc, self.thin, self.motion, self.reports, self._state["design"]
+
+    def close(self) -> None:
+        """Stop the pass (when the caller gave up early) and wait for its threads."""
+        self._stop.set()
+        self._thread.join()
 
 
-def _fold(items, acc, grams, thin, motion, data, keep, spare) -> None:
+def _fold(items, acc, grams, thin, motion, data, keep, spare, on_early, stop) -> None:
     """``stream``'s consuming half: the rows into the factors, the samples into the motion and the thinned set."""
     for piece, sub, rows in items:
-        if rows is not None:  # sub: (the samples of the rows, their design, the file)
+        if stop.is_set():
+            return
+        if piece is EARLY:
+            on_early()
+        elif rows is not None:  # sub: (the samples of the rows, their design, the file)
             sub, _, path = sub
             try:
                 if grams is not None and piece.part == FIT:  # per time block, for σ with correlated residuals
@@ -113,7 +174,10 @@ def _rows(state: dict, sources: list[Source], n: int, data: DataOptions, slots, 
     b: Block | None
     sub_block: Block | None
     sub: Block | None
-    for src in sources:
+    last = max(((i, k) for i, src in enumerate(sources) for k, p in enumerate(src.pieces) if p.role in (FIT, SELECTION)),
+               default=(-1, -1))  # the last fit or selection piece
+    early = False
+    for i, src in enumerate(sources):
         rep = DataReport(str(src.path))
         cuts = src.cuts()
         for b in ahead(iter_blocks(src.path, n, data, rep), depth=READ_AHEAD):
@@ -123,9 +187,12 @@ def _rows(state: dict, sources: list[Source], n: int, data: DataOptions, slots, 
                 state["design"] = replace(state["design"], t0=float(b.t[0]))
             design = state["design"]
             edges = [0] + [int(np.searchsorted(b.t, c)) for c in cuts] + [len(b)]  # times increase
-            for piece, k0, k1 in zip(src.pieces, edges[:-1], edges[1:], strict=True):
+            for k, (piece, k0, k1) in enumerate(zip(src.pieces, edges[:-1], edges[1:], strict=True)):
                 if k1 <= k0:
                     continue
+                if not early and (i, k) > last:
+                    early = True
+                    yield EARLY, None, None
                 sub_block = b.take(slice(k0, k1))
                 yield piece, sub_block, None
                 for s0 in range(0, len(sub_block), REGRESSOR_ROWS):
@@ -138,6 +205,9 @@ def _rows(state: dict, sources: list[Source], n: int, data: DataOptions, slots, 
                     yield piece, (own, design, src.path), rows
             b = sub_block = sub = None  # not alive while the next block is read
         reports.append(rep)
+        if not early and i >= last[0]:
+            early = True
+            yield EARLY, None, None
 
 
 def _refuse_non_finite(rows: np.ndarray, b: Block, path: Path) -> None:
