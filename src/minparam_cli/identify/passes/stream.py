@@ -76,8 +76,9 @@ class Pass:
         preload("scipy.linalg.blas", "scipy.linalg.cython_blas", "scipy.linalg.cython_lapack", "scipy.special")
         try:
             rows = ahead(_rows(self._state, sources, n, data, slots, self.reports, spare), depth=ROWS_AHEAD)
-            try:
-                _fold(rows, self.acc, grams, self.thin, self.motion, data, keep, spare, self._early.set, self._stop)
+            try:  # numpy's floating-point warnings off on this thread, as on identify's (stage.identify)
+                with np.errstate(all="ignore"):
+                    _fold(rows, self.acc, grams, self.thin, self.motion, data, keep, spare, self._early.set, self._stop)
             finally:
                 rows.close()
         except BaseException as e:  # noqa: BLE001 - raised in the caller's thread by early() or result()
