@@ -118,17 +118,17 @@ def _fold(items, acc, grams, thin, motion, data, keep, spare, on_early, stop) ->
             return
         if piece is EARLY:
             on_early()
-        elif rows is not None:  # sub: (the samples of the rows, their design, the file)
-            sub, _, path = sub
+        elif rows is not None:  # sub: (the times of the rows' samples, the file)
+            t, path = sub
             try:
                 if grams is not None and piece.part == FIT:  # per time block, for σ with correlated residuals
-                    segments = grams.segments(sub.t)  # the update multiplies the rows once for both
+                    segments = grams.segments(t)  # the update multiplies the rows once for both
                     joint_grams = acc[FIT].add_columns(rows, [(s, e) for _, s, e in segments])
                     grams.add_parts(segments, joint_grams, rows.shape[1])
                 else:
                     acc[piece.part].add_columns(rows)
             except NonFiniteRows:
-                _refuse_non_finite(rows, sub, path)
+                _refuse_non_finite(rows, t, path)
             spare.give(rows)  # folded in: nothing keeps a reference to it
         else:  # a piece's samples, before its rows
             if piece.role == FIT:
@@ -136,7 +136,7 @@ def _fold(items, acc, grams, thin, motion, data, keep, spare, on_early, stop) ->
             motion.count_still(piece.part, sub, data.still_speed)
             if keep and piece.part in thin:
                 thin[piece.part].add(sub)
-        sub = rows = None  # not alive while the next rows are folded in
+        sub = rows = t = None  # not alive while the next rows are folded in
 
 
 class _Spare:
@@ -166,7 +166,7 @@ class _Spare:
 
 def _rows(state: dict, sources: list[Source], n: int, data: DataOptions, slots, reports: list, spare: _Spare):
     """The producing half of ``stream``: per piece of each block, (piece, its samples, None), then
-    (piece, (samples, design, path), rows) for its sub-blocks of REGRESSOR_ROWS samples (the full
+    (piece, (the samples' times, path), rows) for its sub-blocks of REGRESSOR_ROWS samples (the full
     regressor is n·10n numbers a sample), slot columns included.  The blocks are read, cleaned
     and filtered one block ahead on a thread of their own.  Sets state["design"]'s drift origin
     at the first sample."""
@@ -201,9 +201,9 @@ def _rows(state: dict, sources: list[Source], n: int, data: DataOptions, slots, 
                     shape = (n, source_columns(slots, design.p)[1] + 1, len(sub))
                     with np.errstate(over="ignore", invalid="ignore"):
                         rows = block_rows(design, slots, sub, out=spare.take(shape))
-                    # the samples copied: a view would keep the whole chunk alive while the rows wait
-                    own = Block(*(np.array(getattr(sub, k)) for k in ("t", "q", "dq", "ddq", "tau")))
-                    yield piece, (own, design, src.path), rows
+                    # the times copied (all the fold needs of the samples): a view would keep the whole chunk
+                    # alive while the rows wait
+                    yield piece, (np.array(sub.t), src.path), rows
             b = sub_block = sub = None  # not alive while the next block is read
         reports.append(rep)
         if not early and i >= last[0]:
@@ -211,7 +211,7 @@ def _rows(state: dict, sources: list[Source], n: int, data: DataOptions, slots, 
             yield EARLY, None, None
 
 
-def _refuse_non_finite(rows: np.ndarray, b: Block, path: Path) -> None:
+def _refuse_non_finite(rows: np.ndarray, t: np.ndarray, path: Path) -> None:
     """The DataError for rows that made a factor non-finite, with the time of the first sample whose
     row is not finite: a finite but huge value (a corrupt dq of 1e200, say) overflows in the row."""
     with np.errstate(over="ignore", invalid="ignore"):
@@ -221,6 +221,6 @@ def _refuse_non_finite(rows: np.ndarray, b: Block, path: Path) -> None:
         big = np.abs(rows).max(axis=(0, 1))
         i = int(np.argmax(big))
     raise DataError(
-        f"{path}: the sample at t = {b.t[i]:.6g} s gives a non-finite regressor row "
+        f"{path}: the sample at t = {t[i]:.6g} s gives a non-finite regressor row "
         "(a value of q, dq, ddq or tau there is too large to use)"
     )
