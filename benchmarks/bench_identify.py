@@ -10,8 +10,8 @@ fit over the full parameters, on the accumulated triangular factors: its
 program does not grow with the samples); the table then adds the solver's own
 time from the report [issue 13 target: <= 5 s for the convex solve].
 
-Each size is run with identify's two CSV readers (pyarrow's, the [arrow] extra,
-and numpy's loadtxt, forced with MINPARAM_CSV_READER=numpy) [issue 20 target:
+Each size is run with identify's two CSV readers (pyarrow's, part of the install since issue 34,
+and numpy's loadtxt, the fallback, forced with MINPARAM_CSV_READER=numpy) [issue 20 target:
 1 M samples x 7 joints <= 6 s end to end, peak <= 300 MB], and the table of
 parse throughput compares the readers alone (in this process, MB/s of CSV).
 A CPU calibration (a fixed numpy + Python loop, in s) is printed with the
@@ -107,7 +107,7 @@ def main() -> None:
     ap = argparse.ArgumentParser()
     ap.add_argument("--sizes", default="100000,300000,1000000")
     ap.add_argument("--physical", action="store_true", help="also time identify --physical")
-    ap.add_argument("--readers", default="pyarrow,numpy", help="CSV readers to compare (pyarrow needs the [arrow] extra)")
+    ap.add_argument("--readers", default="pyarrow,numpy", help="CSV readers to compare (numpy: the fallback reader, forced)")
     ap.add_argument("--repeats", type=int, default=3, help="rounds of the commands, run in turn (median wall time)")
     ap.add_argument("--cpus", default="", help="run every command on these CPUs (taskset -c, e.g. 0,1: a 2-core machine)")
     ap.add_argument("--data-dir", default="", help="keep the data files in this folder and reuse them (same seed: same file)")

@@ -38,7 +38,7 @@ STAGES = (
     ("factor updates", "the per-joint triangular factors: fast update, Householder QR, column bookkeeping",
      ("identify/estimate/accumulate.py",)),
     ("σ time blocks and HAC", "the time blocks' Grams and the Newey-West σ", ("identify/assess/uncertainty.py",)),
-    ("slot columns", "the effects' columns carried through the pass (Stribeck, gravity error, ...)",
+    ("slot columns", "the effects' columns carried through the pass (asymmetric Coulomb, viscous, offset)",
      ("identify/passes/slots.py", "dynamics/effects.py")),
     ("base regressor", "the base columns (compiled kernel and its wrapper)", ("dynamics/regressor.py", "dynamics/_rnea",
                                                                              "identify/passes/design.py")),
@@ -54,8 +54,15 @@ STAGES = (
 OTHER = "imports, start-up, the rest"
 
 
+# minparam's own wrappers of library calls (BLAS and LAPACK without the GIL): their time goes to their callers,
+# as a library's does
+LIBRARY = ("identify/estimate/nogil_lapack.py",)
+
+
 def stage_of_file(filename: str) -> str | None:
     f = filename.replace("\\", "/")
+    if any(frag in f for frag in LIBRARY):
+        return None
     for stage, _, frags in STAGES:
         if any(frag in f for frag in frags):
             return stage
@@ -109,9 +116,11 @@ def main() -> None:
     os.environ["MINPARAM_CSV_READER"] = args.reader
 
     import minparam_cli.identify.passes.ahead as ahead_module
+    import minparam_cli.identify.passes.stream as stream_module
     from minparam_cli.cli.app import entry
 
     ahead_module.ahead = lambda gen, depth=2: gen  # the pass on one thread: same items, same order
+    stream_module.OWN_THREAD = False  # and that thread the caller's
     load0 = load_average()
     with tempfile.TemporaryDirectory() as tmp:
         sys.argv = ["minparam", "identify", str(ROOT / args.robot), args.data, "--format", "json", "-q", "-o",

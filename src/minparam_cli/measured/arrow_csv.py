@@ -1,4 +1,5 @@
-"""The fast CSV path of ``identify``: pyarrow's C++ CSV parser (optional extra ``minparam[arrow]``).
+"""The fast CSV path of ``identify``: pyarrow's C++ CSV parser (a core dependency since issue 34; numpy
+reads where pyarrow cannot be imported).
 
 numpy's loadtxt parses about 45 MB/s; pyarrow's streaming reader several times that.  It is only a
 faster way to the same numbers: its rows fill tables of exactly ``rows`` lines (the chunks numpy's
@@ -23,7 +24,7 @@ ENV = "MINPARAM_CSV_READER"  # "numpy" forces the numpy reader (benchmarks, test
 
 
 def pyarrow_csv():
-    """pyarrow.csv, or None when pyarrow (the [arrow] extra) is not installed."""
+    """pyarrow.csv, or None when pyarrow cannot be imported (an install without its dependencies)."""
     try:
         import pyarrow.csv as pacsv
     except ImportError:

@@ -1,4 +1,4 @@
-"""Parquet recordings (``*.parquet``, the [arrow] extra): columns named as in a CSV file (t, q1.., tau1..,
+"""Parquet recordings (``*.parquet``, read by pyarrow): columns named as in a CSV file (t, q1.., tau1..,
 or as ``--columns`` says), read batch by batch, only the used columns; a null is NaN (the row is
 dropped and counted as a CSV row with a NaN).  The same tables as ``measured.reading.raw_chunks``."""
 

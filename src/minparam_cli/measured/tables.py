@@ -1,5 +1,5 @@
 """Tables of measured data, read chunk by chunk from a file or from arrays: the layout of the used
-columns, CSV (pyarrow's streaming reader, the [arrow] extra, or numpy's loadtxt; without pyarrow, a
+columns, CSV (pyarrow's streaming reader, or numpy's loadtxt where pyarrow cannot be imported; then a
 file larger than BACKGROUND_BYTES is parsed by a second process one chunk ahead), .npz and arrays in
 memory, the checks on a data file, and the one-line errors of a bad header or row.  Below every
 reader (``measured/reading.py`` dispatches by format, ``measured/*`` reads the other formats): it

@@ -23,6 +23,7 @@ from minparam_cli.runtime import READ_AHEAD, REGRESSOR_ROWS, ROWS_AHEAD, await_p
 
 
 EARLY = object()  # the rows' marker: every fit and selection sample comes before it
+OWN_THREAD = True  # False: the pass runs on the caller's thread, before Pass() returns (benchmarks/profile_identify.py)
 
 
 def stream(design: Design, sources: list[Source], n: int, data: DataOptions, diagnosis_cap: int, keep: bool, slots=(),
@@ -64,7 +65,10 @@ class Pass:
         # in a copy of the caller's context: the Python API's arrays registered by name (measured.arrays)
         self._thread = threading.Thread(target=contextvars.copy_context().run, args=(self._run, *args),
                                         name="minparam-pass", daemon=True)
-        self._thread.start()
+        if OWN_THREAD:
+            self._thread.start()
+        else:
+            self._run(*args)
 
     def _run(self, sources, n, data, keep, slots, grams) -> None:
         from minparam_cli.identify.passes.ahead import ahead
@@ -100,7 +104,7 @@ class Pass:
     def result(self):
         """(accumulators of every part, thinned samples, motion, data reports, design) once the pass has ended."""
         self._done.wait()
-        self._thread.join()
+        self._join()
         if self._error is not None:
             raise self._error
         return self.acc, self.thin, self.motion, self.reports, self._state["design"]
@@ -108,7 +112,11 @@ class Pass:
     def close(self) -> None:
         """Stop the pass (when the caller gave up early) and wait for its threads."""
         self._stop.set()
-        self._thread.join()
+        self._join()
+
+    def _join(self) -> None:
+        if self._thread.is_alive() or self._thread.ident is not None:
+            self._thread.join()
 
 
 def _fold(items, acc, grams, thin, motion, data, keep, spare, on_early, stop) -> None:
