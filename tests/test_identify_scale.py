@@ -299,3 +299,41 @@ def test_workers_are_the_machines_and_bounded():
 
     cpus = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count() or 1
     assert workers(1) == 1 and workers(0) == 1 and workers(10_000) == cpus and workers(2) == min(2, cpus)
+
+
+@pytest.mark.parametrize("nudge, replaced", [(0.0, True), (1e-10, True), (1e-3, False)])
+def test_a_simpler_term_spanning_the_same_columns_replaces_the_larger_one_whatever_the_rounding(
+        panda_setup, monkeypatch, nudge, replaced):
+    """Asymmetric Coulomb beside an offset spans what Coulomb and the offset span (wherever q̇ ≠ 0), so the
+    two models score the same up to rounding. The tie goes to the simpler model, whatever the sign of the
+    rounding (``nudge``: added to the simpler model's score; on the real Panda recording the choice had
+    followed the sign of a rounding error, ΔBIC_eff -0.0, which moved with the slots); a simpler model that
+    scores worse (1e-3 relative) does not replace the larger one."""
+    from minparam_cli.identify.diagnosis import simplify as simplify_module
+    from minparam_cli.identify.diagnosis.steps import Diagnosis
+
+    design, _, thin, _, _, _ = panda_setup
+    train, hold = thin["fit"].block(), thin["selection"].block()
+    assert np.all(train.dq != 0) and np.all(hold.dq != 0)  # the spans are equal exactly
+    joints = tuple(range(design.chain.dof))
+    model = design.with_term(Term("asymmetric_coulomb", joints)).with_term(Term("offset", joints))
+    real = simplify_module.selection_score
+
+    def nudged(data, d, sigma, n_eff):
+        score, *rest = real(data, d, sigma, n_eff)
+        if any(t.effect == "coulomb" for t in d.terms):
+            score += nudge if nudge < 1e-6 else nudge * abs(score)
+        return (score, *rest)
+
+    monkeypatch.setattr(simplify_module, "selection_score", nudged)
+    data = Compressed.of(model, train, hold, EFFECT_IDS)
+    out = Diagnosis(design=model)
+    simplify_module.simplify(out, data, True, lambda d, sigma: float(data.Nh * data.n))
+    effects = [t.effect for t in out.design.terms]
+    if replaced:
+        assert "coulomb" in effects and "asymmetric_coulomb" not in effects, effects
+        step = out.steps[0].statistic
+        assert step["replaces"] == "asymmetric_coulomb (joints 1,2,3,4,5,6,7)"
+        assert abs(step["delta_bic_eff"]) < 1e-6  # a tie, not evidence
+    else:
+        assert "asymmetric_coulomb" in effects and "coulomb" not in effects, effects

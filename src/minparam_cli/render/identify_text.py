@@ -80,7 +80,8 @@ def _evidence(st) -> str:
     value = st.get("delta_bic_eff", st.get("delta_bic_selection"))
     if "replaces" in st or "drops" in st:
         how = "replaces" if "replaces" in st else "drops"
-        return f"{how} {st.get('replaces') or st.get('drops')}: {bic} {value:.1f}"
+        # a tie (the simpler model spans the same columns) is 0 up to rounding: "0.0", never "-0.0"
+        return f"{how} {st.get('replaces') or st.get('drops')}: {bic} {round(value, 1) + 0.0:.1f}"
     if "removed" in st:
         return str(st["why"])
     if value is None:

@@ -86,8 +86,12 @@ def simplify(out: Diagnosis, data: Compressed, weighted: bool, n_eff_of) -> None
                 rest = out.design.terms[:i] + ((new,) if new is not None else ()) + out.design.terms[i + 1 :]
                 cand = replace(out.design, terms=rest)
                 score_, plain, theta, errs, physical = selection_score(data, cand, sigma, n_eff)
-                # a term inside another adds no rank: its removal scores the same (up to rounding)
-                better = score_ <= current + 1e-9 * abs(current) if how == "covered" else score_ < current
+                # a term inside another adds no rank: its removal scores the same (up to rounding); and a
+                # simpler term that spans what the larger one did (asymmetric Coulomb beside a constant, which
+                # sign q̇ and the constant span as well) scores the same too: a tie goes to the simpler model,
+                # not to the last bit of rounding (a drop must still score better)
+                tie = how in ("covered", "replaces")
+                better = score_ <= current + 1e-9 * abs(current) if tie else score_ < current
                 if better and physical and plain <= plain0 * (1 + SIMPLER_TOLERANCE) ** 2:
                     out.design = cand
                     if how == "covered":
