@@ -139,3 +139,73 @@ def test_a_pass_given_up_stops_its_threads(panda):
     for t in left:  # the reader and rows threads end with the pass (a daemon import thread may still finish)
         t.join(5.0)
     assert not [t for t in left if t.is_alive() and t.name != "minparam-import"]
+
+
+def test_a_pass_that_fails_at_its_start_raises_instead_of_hanging(panda, monkeypatch):
+    """(The review's case: a failure before the pass's own try, a thread that cannot start, left early()
+    waiting for ever.)"""
+    chain, design, path = panda
+    opts = stage.IdentifyOptions()
+    sources = plan(path, None, (), opts.split, time_span(path, opts.data))
+
+    def refuse(*modules):
+        raise RuntimeError("can't start new thread")
+
+    monkeypatch.setattr(stream_module, "preload", refuse)
+    got: list = []
+    running = Pass(design, sources, chain.dof, opts.data, opts.diagnosis_cap, True)
+
+    def wait():
+        try:
+            running.early()
+        except RuntimeError as e:
+            got.append(e)
+
+    waiter = threading.Thread(target=wait, daemon=True)
+    waiter.start()
+    waiter.join(20.0)
+    running.close()
+    assert not waiter.is_alive() and len(got) == 1 and "new thread" in str(got[0])
+
+
+def test_an_error_after_the_fit_and_selection_data_comes_from_result_whatever_the_timing(panda, tmp_path):
+    """A test file with a bad header: the reader fails while (or before) the fold reaches the marker, but the
+    marker comes first in the rows, so early() hands over the fit and selection data and result() raises."""
+    chain, design, path = panda
+    data, test = _split_file(path, tmp_path, (0.8, 0.2))
+    lines = test.read_text().splitlines()
+    test.write_text("\n".join(["t;q1"] + lines[1:]) + "\n")
+    opts = stage.IdentifyOptions()
+    sources = plan(data, None, (test,), opts.split, time_span(data, opts.data))
+    for _ in range(3):
+        running = Pass(design, sources, chain.dof, opts.data, opts.diagnosis_cap, True)
+        try:
+            running._done.wait(20.0)  # the reader has failed by now: early() must still not raise
+            acc, _, _, _ = running.early()
+            assert acc[FIT].rows.sum() > 0
+            with pytest.raises(DataError, match="part1.csv"):
+                running.result()
+        finally:
+            running.close()
+
+
+def test_a_bad_test_row_is_reported_before_an_error_of_the_diagnosis(panda, tmp_path, monkeypatch):
+    """The diagnosis runs while the test data are read. When both fail, the data error is the one reported
+    (with the other as its cause), as when the pass ran before anything else."""
+    chain, _, path = panda
+    data, test = _split_file(path, tmp_path, (0.8, 0.2))
+    lines = test.read_text().splitlines()
+    lines[-3] = lines[-3].replace(",", ",x", 1)
+    test.write_text("\n".join(lines) + "\n")
+
+    def fails(*args, **kwargs):
+        raise RuntimeError("the diagnosis failed")
+
+    monkeypatch.setattr(stage, "diagnose", fails)
+    opts = stage.IdentifyOptions(tests=(str(test),))
+    with pytest.raises(DataError, match="part1.csv") as err:
+        stage.identify(chain, data, opts)
+    assert isinstance(err.value.__cause__, RuntimeError)
+    test.write_text("\n".join(lines[:-3] + lines[-2:]) + "\n")  # the test file mended: the diagnosis's error
+    with pytest.raises(RuntimeError, match="the diagnosis failed"):
+        stage.identify(chain, data, opts)

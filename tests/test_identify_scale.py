@@ -301,14 +301,17 @@ def test_workers_are_the_machines_and_bounded():
     assert workers(1) == 1 and workers(0) == 1 and workers(10_000) == cpus and workers(2) == min(2, cpus)
 
 
-@pytest.mark.parametrize("nudge, replaced", [(0.0, True), (1e-10, True), (1e-3, False)])
+@pytest.mark.parametrize("nudge, replaced, near_zero", [(0.0, True, False), (1e-10, True, False), (1e-3, False, False),
+                                                       (1e-10, True, True)])
 def test_a_simpler_term_spanning_the_same_columns_replaces_the_larger_one_whatever_the_rounding(
-        panda_setup, monkeypatch, nudge, replaced):
+        panda_setup, monkeypatch, nudge, replaced, near_zero):
     """Asymmetric Coulomb beside an offset spans what Coulomb and the offset span (wherever q̇ ≠ 0), so the
     two models score the same up to rounding. The tie goes to the simpler model, whatever the sign of the
     rounding (``nudge``: added to the simpler model's score; on the real Panda recording the choice had
     followed the sign of a rounding error, ΔBIC_eff -0.0, which moved with the slots); a simpler model that
-    scores worse (1e-3 relative) does not replace the larger one."""
+    scores worse (1e-3 relative) does not replace the larger one.  ``near_zero``: every score shifted so
+    that the current model's is 0 (an unweighted score in N·m² can be), where a tolerance relative to the
+    score alone would vanish."""
     from minparam_cli.identify.diagnosis import simplify as simplify_module
     from minparam_cli.identify.diagnosis.steps import Diagnosis
 
@@ -319,14 +322,17 @@ def test_a_simpler_term_spanning_the_same_columns_replaces_the_larger_one_whatev
     model = design.with_term(Term("asymmetric_coulomb", joints)).with_term(Term("offset", joints))
     real = simplify_module.selection_score
 
+    data = Compressed.of(model, train, hold, EFFECT_IDS)
+    shift = real(data, model, data.joint_sigma(data.selection(model), True), float(data.Nh * data.n))[0] if near_zero else 0.0
+
     def nudged(data, d, sigma, n_eff):
         score, *rest = real(data, d, sigma, n_eff)
+        score -= shift
         if any(t.effect == "coulomb" for t in d.terms):
             score += nudge if nudge < 1e-6 else nudge * abs(score)
         return (score, *rest)
 
     monkeypatch.setattr(simplify_module, "selection_score", nudged)
-    data = Compressed.of(model, train, hold, EFFECT_IDS)
     out = Diagnosis(design=model)
     simplify_module.simplify(out, data, True, lambda d, sigma: float(data.Nh * data.n))
     effects = [t.effect for t in out.design.terms]

@@ -109,9 +109,13 @@ def _identify(chain: Chain, data_path: Path, opts: IdentifyOptions, progress) ->
             train, hold = thin[FIT].block(), thin[SELECTION].block()
             diag_opts = replace(opts.diagnosis, weighted=opts.weighted, horizon_s=grams.length)  # σ's blocks: N_eff's lags
             d = diagnose(design, train, hold, diag_opts, progress)
-        acc_all, _, _, reports, _ = running.result()
-    finally:
+    except BaseException as e:
+        first = running.outcome(e)  # the pass's error (a bad test row) before ours, as when it ran first
         running.close()
+        if first is e:
+            raise
+        raise first from e
+    acc_all, _, _, reports, _ = running.result()
     _enough(acc_all, design, data_path)
     keys = list(acc_all)
     test_keys = [k for k in keys if k not in (FIT, SELECTION)]

@@ -89,9 +89,11 @@ def simplify(out: Diagnosis, data: Compressed, weighted: bool, n_eff_of) -> None
                 # a term inside another adds no rank: its removal scores the same (up to rounding); and a
                 # simpler term that spans what the larger one did (asymmetric Coulomb beside a constant, which
                 # sign q̇ and the constant span as well) scores the same too: a tie goes to the simpler model,
-                # not to the last bit of rounding (a drop must still score better)
+                # not to the last bit of rounding (a drop must still score better). The score's rounding is
+                # about n_eff·ε·(the residual's condition), whatever the score's own size, which can be near
+                # zero (unweighted, in N·m²): hence the tolerance's floor of 1e-9·n_eff
                 tie = how in ("covered", "replaces")
-                better = score_ <= current + 1e-9 * abs(current) if tie else score_ < current
+                better = score_ <= current + 1e-9 * max(abs(current), n_eff) if tie else score_ < current
                 if better and physical and plain <= plain0 * (1 + SIMPLER_TOLERANCE) ** 2:
                     out.design = cand
                     if how == "covered":

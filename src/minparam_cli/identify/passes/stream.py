@@ -61,6 +61,7 @@ class Pass:
         self._state = {"design": design}
         self._early, self._done, self._stop = threading.Event(), threading.Event(), threading.Event()
         self._error: BaseException | None = None
+        self._late = False
         args = (sources, n, data, keep, slots, grams)
         # in a copy of the caller's context: the Python API's arrays registered by name (measured.arrays)
         self._thread = threading.Thread(target=contextvars.copy_context().run, args=(self._run, *args),
@@ -71,14 +72,14 @@ class Pass:
             self._run(*args)
 
     def _run(self, sources, n, data, keep, slots, grams) -> None:
-        from minparam_cli.identify.passes.ahead import ahead
-
-        spare = _Spare()
-        # the factor update's first call needs scipy.linalg (about 0.12 s to import), the diagnosis
-        # scipy.special: imported beside the readers' start, while this thread would only wait for the
-        # first rows (every other scipy import of the pass waits for them: runtime.preload)
-        preload("scipy.linalg.blas", "scipy.linalg.cython_blas", "scipy.linalg.cython_lapack", "scipy.special")
         try:
+            from minparam_cli.identify.passes.ahead import ahead
+
+            spare = _Spare()
+            # the factor update's first call needs scipy.linalg (about 0.12 s to import), the diagnosis
+            # scipy.special: imported beside the readers' start, while this thread would only wait for the
+            # first rows (every other scipy import of the pass waits for them: runtime.preload)
+            preload("scipy.linalg.blas", "scipy.linalg.cython_blas", "scipy.linalg.cython_lapack", "scipy.special")
             rows = ahead(_rows(self._state, sources, n, data, slots, self.reports, spare), depth=ROWS_AHEAD)
             try:  # numpy's floating-point warnings off on this thread, as on identify's (stage.identify)
                 with np.errstate(all="ignore"):
@@ -86,6 +87,7 @@ class Pass:
             finally:
                 rows.close()
         except BaseException as e:  # noqa: BLE001 - raised in the caller's thread by early() or result()
+            self._late = self._early.is_set()  # after the fit and selection data: result() raises it, not early()
             self._error = e
         finally:
             await_preload()  # (a pass that folded no rows, or failed) the caller may import scipy next
@@ -95,19 +97,32 @@ class Pass:
     def early(self) -> tuple[dict, dict, Motion, Design]:
         """(the fit and selection accumulators, the thinned samples, the motion, the design) once every
         fit and selection sample is folded in; the test parts go on being read.  Raises the pass's
-        error if it failed before."""
-        self._early.wait()
-        if self._error is not None:
+        error if it failed before that point (a later one comes from ``result``, whatever the timing)."""
+        _wait(self._early)
+        if self._error is not None and not self._late:
             raise self._error
         return {k: self.acc[k] for k in (FIT, SELECTION) if k in self.acc}, self.thin, self.motion, self._state["design"]
 
     def result(self):
         """(accumulators of every part, thinned samples, motion, data reports, design) once the pass has ended."""
-        self._done.wait()
+        _wait(self._done)
         self._join()
         if self._error is not None:
             raise self._error
         return self.acc, self.thin, self.motion, self.reports, self._state["design"]
+
+    def outcome(self, error: BaseException) -> BaseException:
+        """What the caller should raise when it failed with ``error`` between ``early`` and ``result``:
+        the pass's own error if it has one (a bad row in a test file, reported first, as when the
+        whole pass ran before anything else; the caller raises it from ``error``), else ``error``.
+        Waits for the pass to end, unless ``error`` is an interrupt."""
+        if isinstance(error, (KeyboardInterrupt, SystemExit)) or error is self._error:
+            return error
+        try:
+            self.result()
+        except Exception as mine:  # noqa: BLE001 - the pass's error, handed back to be raised
+            return mine
+        return error
 
     def close(self) -> None:
         """Stop the pass (when the caller gave up early) and wait for its threads."""
@@ -117,6 +132,12 @@ class Pass:
     def _join(self) -> None:
         if self._thread.is_alive() or self._thread.ident is not None:
             self._thread.join()
+
+
+def _wait(event) -> None:
+    """``event.wait()`` in steps, so that Ctrl-C interrupts it on every platform."""
+    while not event.wait(0.1):
+        pass
 
 
 def _fold(items, acc, grams, thin, motion, data, keep, spare, on_early, stop) -> None:
