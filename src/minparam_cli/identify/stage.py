@@ -6,8 +6,9 @@ plus the slot columns of the effect library (training and held-out parts, see
 samples kept in memory for the diagnosis.  The final design's factors follow
 from the accumulated ones by a linear map of the columns; only a design with
 an effect that has no slot (``slots.SLOTTED``) streams the data a second time.
-The diagnosis runs while the test data are still being read (``stream.Pass``).  Memory is bounded by the chunk size and the cap, not by the
-file.  The pass itself is ``identify.stream``.
+The diagnosis runs while the test data are still being read (``stream.Pass``).
+Memory is bounded by the chunk size and the cap, not by the file.  The pass
+itself is ``identify.stream``.
 """
 
 from __future__ import annotations
@@ -94,10 +95,14 @@ def _identify(chain: Chain, data_path: Path, opts: IdentifyOptions, progress) ->
     slots = slot_sources(opts.diagnosis.effects) if opts.diagnose else ()
     grams = BlockGrams(opts.uncertainty.block_s or block_length(opts.data.cutoff_hz))
     running = Pass(design, sources, n, opts.data, opts.diagnosis_cap, opts.diagnose, slots, grams)
+
+    def declared(a):  # the design's own columns of an accumulator that also carries the slots
+        return a.restrict(list(range(design.p))) if slots else a
+
     try:
         acc_early, thin, motion, design = running.early()  # the test data are still being read
         _enough(acc_early, design, data_path)
-        acc = {k: (a.restrict(list(range(design.p))) if slots else a) for k, a in acc_early.items()}
+        acc = {k: declared(a) for k, a in acc_early.items()}
         prior = opts.physical is not None and opts.physical.prior != "none"
         # with a prior, the data need not inform every parameter: the prior holds the others (and says which)
         cond_scaled = check_excitation(acc[FIT], design, motion, float("inf") if prior else opts.cond_limit)
@@ -116,10 +121,10 @@ def _identify(chain: Chain, data_path: Path, opts: IdentifyOptions, progress) ->
             raise
         raise first from e
     acc_all, _, _, reports, _ = running.result()
-    _enough(acc_all, design, data_path)
     keys = list(acc_all)
     test_keys = [k for k in keys if k not in (FIT, SELECTION)]
-    acc.update({k: (acc_all[k].restrict(list(range(design.p))) if slots else acc_all[k]) for k in test_keys})
+    _enough({k: acc_all[k] for k in test_keys}, design, data_path)
+    acc.update({k: declared(acc_all[k]) for k in test_keys})
     tests_rigid = {k: errors(acc[k], fit0.theta, fit0.columns) for k in test_keys}
 
     maps = None

@@ -130,7 +130,7 @@ class Pass:
         self._join()
 
     def _join(self) -> None:
-        if self._thread.is_alive() or self._thread.ident is not None:
+        if self._thread.ident is not None:  # started (not with OWN_THREAD off)
             self._thread.join()
 
 
